@@ -1,0 +1,16 @@
+// gaussmesh simplify: not written yet; the subcommand exists so that usage is stable.
+#include "cli/commands.h"
+
+namespace gaussmesh::cli {
+
+void register_simplify(CLI::App& app, Runner& run) {
+  CLI::App* sub = app.add_subcommand("simplify", "(not implemented yet)");
+  sub->allow_extras();
+  sub->callback([&run] {
+    run = [] {
+      return report_error(format::Status::error(format::Code::kUsage, "simplify", "not implemented yet"));
+    };
+  });
+}
+
+}  // namespace gaussmesh::cli

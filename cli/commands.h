@@ -1,0 +1,28 @@
+// Subcommand registration: each cmd_*.cpp adds its subcommand and sets `run` when chosen.
+#pragma once
+
+#include <functional>
+
+#include <CLI/CLI.hpp>
+
+#include "format/status.h"
+
+namespace gaussmesh::cli {
+
+// Returns the process exit code (format::Code values; 0 on success).
+using Runner = std::function<int()>;
+
+void register_info(CLI::App& app, Runner& run);
+void register_sample(CLI::App& app, Runner& run);
+void register_simplify(CLI::App& app, Runner& run);
+void register_compare(CLI::App& app, Runner& run);
+void register_segment(CLI::App& app, Runner& run);
+
+// Prints "gaussmesh: <where>: <message>" on stderr and returns the exit code for status.
+int report_error(const format::Status& status);
+
+// Global verbosity: -q sets 0, default 1, -v sets 2.
+int verbosity();
+void set_verbosity(int level);
+
+}  // namespace gaussmesh::cli

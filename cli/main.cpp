@@ -1,0 +1,60 @@
+// gaussmesh: command-line entry point. Exit codes: 0 ok, 1 usage, 2 bad input,
+// 3 processing, 4 output/temp write, 5 resources (docs/cli.md).
+#include <cstdio>
+#include <exception>
+#include <new>
+
+#include <CLI/CLI.hpp>
+
+#include "cli/commands.h"
+#include "format/temp_registry.h"
+
+namespace gaussmesh::cli {
+namespace {
+int g_verbosity = 1;
+}
+
+int verbosity() { return g_verbosity; }
+void set_verbosity(int level) { g_verbosity = level; }
+
+int report_error(const format::Status& status) {
+  std::fprintf(stderr, "gaussmesh: %s\n", status.to_string().c_str());
+  return static_cast<int>(status.code());
+}
+
+}  // namespace gaussmesh::cli
+
+int main(int argc, char** argv) {
+  using namespace gaussmesh;
+  format::install_signal_cleanup();
+  CLI::App app{"gaussmesh: feature-sensitive simplification of meshes larger than memory"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "gaussmesh 0.1.0");
+  cli::Runner run;
+  cli::register_info(app, run);
+  cli::register_sample(app, run);
+  cli::register_simplify(app, run);
+  cli::register_compare(app, run);
+  cli::register_segment(app, run);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "gaussmesh: usage: %s\n", e.what());
+    return static_cast<int>(format::Code::kUsage);
+  }
+  try {
+    return run ? run() : static_cast<int>(format::Code::kUsage);
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "gaussmesh: out of memory\n");
+    return static_cast<int>(format::Code::kResources);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "gaussmesh: internal error: %s\n", e.what());
+    return static_cast<int>(format::Code::kProcessing);
+  }
+}

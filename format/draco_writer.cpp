@@ -1,0 +1,1 @@
+// draco_writer: not written yet.

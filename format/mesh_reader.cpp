@@ -1,0 +1,1 @@
+// mesh_reader: not written yet.

@@ -1,0 +1,41 @@
+// Streaming mesh input: format detection from content and dispatch to the per-format readers.
+#pragma once
+
+#include <string>
+#include <string_view>
+
+#include "format/byte_source.h"
+#include "format/mesh_sink.h"
+
+namespace gaussmesh::format {
+
+struct ReadOptions {
+  // kUnknown: detect from the content (works on stdin). Anything else forces that reader.
+  MeshFormat format = MeshFormat::kUnknown;
+  // Vertices / triangles per sink call.
+  size_t batch_size = size_t{1} << 16;
+};
+
+// Looks at the first bytes (without consuming them) and names the format, or kUnknown.
+// PLY: "ply" magic; OFF: "OFF"/"NOFF"/"COFF"/...; STL: binary size check or "solid" + "facet";
+// OBJ: recognised statements. Draco: "DRACO" magic.
+Result<MeshFormat> detect_format(ByteSource& source);
+
+// "ply", "off", "obj", "stl", "drc"/"draco" (case-insensitive) -> format, or kUnknown.
+MeshFormat parse_format_name(std::string_view name);
+// Format named by a path's extension, or kUnknown.
+MeshFormat format_from_extension(std::string_view path);
+
+// Reads the whole input into sink, detecting the format unless options.format says.
+// Errors name source.name() and the byte offset or line.
+Status read_mesh(ByteSource& source, const ReadOptions& options, MeshSink& sink);
+// Opens path ("-" for stdin) and reads it.
+Status read_mesh_file(const std::string& path, const ReadOptions& options, MeshSink& sink);
+
+// Per-format readers (ply_reader.cpp, off_reader.cpp, obj_reader.cpp, stl_reader.cpp).
+Status read_ply(ByteSource& source, const ReadOptions& options, MeshSink& sink);
+Status read_off(ByteSource& source, const ReadOptions& options, MeshSink& sink);
+Status read_obj(ByteSource& source, const ReadOptions& options, MeshSink& sink);
+Status read_stl(ByteSource& source, const ReadOptions& options, MeshSink& sink);
+
+}  // namespace gaussmesh::format

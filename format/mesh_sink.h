@@ -1,0 +1,39 @@
+// The event interface every streaming reader drives: header, then batches of vertices and
+// triangles. Readers never hold the whole mesh; a sink decides what to keep.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <span>
+
+#include "format/mesh_types.h"
+#include "format/status.h"
+
+namespace gaussmesh::format {
+
+struct MeshHeader {
+  MeshFormat format = MeshFormat::kUnknown;
+  // Counts as the file declares them (PLY, OFF, binary STL), or empty when the format has
+  // none (OBJ, ascii STL). Untrusted: a sink must never size an allocation by them alone.
+  std::optional<std::uint64_t> declared_vertices;
+  std::optional<std::uint64_t> declared_faces;  // polygons, before fan triangulation
+};
+
+// Contract a reader keeps:
+//  - on_header once, first; on_end once, last, only after the input was read completely;
+//  - vertices are numbered in delivery order from 0 across batches;
+//  - every triangle delivered refers only to vertices already delivered;
+//  - polygons are fan-triangulated (v0 v1 v2, v0 v2 v3, ...); triangles may be degenerate
+//    (repeated index, zero area): the reader passes them on unchanged;
+//  - a batch's span is valid only during the call.
+// A sink returning an error stops the reader, which returns that error.
+class MeshSink {
+ public:
+  virtual ~MeshSink() = default;
+  virtual Status on_header(const MeshHeader& /*header*/) { return {}; }
+  virtual Status on_vertices(std::span<const Vec3f> batch) = 0;
+  virtual Status on_triangles(std::span<const Triangle> batch) = 0;
+  virtual Status on_end() { return {}; }
+};
+
+}  // namespace gaussmesh::format

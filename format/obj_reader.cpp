@@ -1,0 +1,1 @@
+// obj_reader: not written yet.

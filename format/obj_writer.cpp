@@ -1,0 +1,1 @@
+// obj_writer: not written yet.

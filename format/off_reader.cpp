@@ -1,0 +1,1 @@
+// off_reader: not written yet.

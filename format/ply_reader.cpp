@@ -1,0 +1,1 @@
+// ply_reader: not written yet.

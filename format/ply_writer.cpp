@@ -1,0 +1,1 @@
+// ply_writer: not written yet.

@@ -1,0 +1,1 @@
+// stl_reader: not written yet.

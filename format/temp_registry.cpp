@@ -1,0 +1,99 @@
+// Signal-time cleanup of temporary files and directories. Everything the handler touches is
+// preallocated and every call it makes is async-signal-safe (open, getdents64, unlinkat, rmdir).
+#include "format/temp_registry.h"
+
+#include <dirent.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstring>
+#include <mutex>
+
+namespace gaussmesh::format {
+namespace {
+
+constexpr int kSlots = 64;
+constexpr size_t kPathMax = 4096;
+
+struct Slot {
+  std::atomic<int> state{0};  // 0 free, 1 filling, 2 file, 3 directory
+  char path[kPathMax];
+};
+
+Slot g_slots[kSlots];
+std::mutex g_mutex;
+char g_dirent_buffer[8192];
+
+// Layout of struct linux_dirent64 (getdents64(2)): the name starts at byte 19.
+constexpr size_t kDirentReclenOffset = 16;
+constexpr size_t kDirentNameOffset = 19;
+
+void remove_directory_contents(const char* path) {
+  int dir = ::open(path, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir < 0) return;
+  for (;;) {
+    long got = ::syscall(SYS_getdents64, dir, g_dirent_buffer, sizeof g_dirent_buffer);
+    if (got <= 0) break;
+    for (long pos = 0; pos < got;) {
+      const char* entry = g_dirent_buffer + pos;
+      unsigned short reclen;
+      std::memcpy(&reclen, entry + kDirentReclenOffset, sizeof reclen);
+      const char* name = entry + kDirentNameOffset;
+      pos += reclen;
+      if (std::strcmp(name, ".") == 0 || std::strcmp(name, "..") == 0) continue;
+      ::unlinkat(dir, name, 0);
+    }
+  }
+  ::close(dir);
+}
+
+void remove_all_registered() {
+  for (Slot& slot : g_slots) {
+    int state = slot.state.load();
+    if (state == 2) {
+      ::unlink(slot.path);
+    } else if (state == 3) {
+      remove_directory_contents(slot.path);
+      ::rmdir(slot.path);
+    }
+  }
+}
+
+void on_signal(int sig) {
+  remove_all_registered();
+  ::signal(sig, SIG_DFL);
+  ::raise(sig);
+}
+
+}  // namespace
+
+void install_signal_cleanup() {
+  struct sigaction action {};
+  action.sa_handler = on_signal;
+  sigemptyset(&action.sa_mask);
+  for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGPIPE}) ::sigaction(sig, &action, nullptr);
+}
+
+int register_temp_path(const std::string& path, bool is_directory) {
+  if (path.size() + 1 > kPathMax) return -1;
+  std::lock_guard<std::mutex> lock(g_mutex);
+  for (int i = 0; i < kSlots; ++i) {
+    int expected = 0;
+    if (g_slots[i].state.compare_exchange_strong(expected, 1)) {
+      std::memcpy(g_slots[i].path, path.c_str(), path.size() + 1);
+      g_slots[i].state.store(is_directory ? 3 : 2);
+      return i;
+    }
+  }
+  return -1;
+}
+
+void unregister_temp_path(int slot) {
+  if (slot < 0 || slot >= kSlots) return;
+  g_slots[slot].state.store(0);
+}
+
+}  // namespace gaussmesh::format

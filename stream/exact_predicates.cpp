@@ -1,0 +1,1 @@
+// exact_predicates: not written yet.

@@ -1,0 +1,1 @@
+// gauss_sphere: not written yet.

@@ -1,0 +1,43 @@
+// The in-memory mesh the in-core algorithms work on: flat arrays at module boundaries.
+// OpenMesh is used inside stream/ .cpp files where half-edge navigation pays off; it never
+// appears in a public header (docs/architecture.md explains the choice).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "format/mesh_reader.h"
+#include "format/mesh_sink.h"
+#include "format/mesh_types.h"
+
+namespace gaussmesh::stream {
+
+using format::MeshView;
+using format::Triangle;
+using format::Vec3f;
+
+struct Mesh {
+  std::vector<Vec3f> positions;
+  std::vector<Triangle> triangles;
+  MeshView view() const { return {positions, triangles}; }
+};
+
+// A MeshSink that keeps everything. Grows with what is actually delivered, never by the
+// header's declared counts.
+class MeshBuilder final : public format::MeshSink {
+ public:
+  format::Status on_header(const format::MeshHeader& header) override;
+  format::Status on_vertices(std::span<const Vec3f> batch) override;
+  format::Status on_triangles(std::span<const Triangle> batch) override;
+  const format::MeshHeader& header() const { return header_; }
+  Mesh take() { return std::move(mesh_); }
+
+ private:
+  format::MeshHeader header_;
+  Mesh mesh_;
+};
+
+// Reads a whole mesh file ("-" for stdin) into memory.
+format::Result<Mesh> load_mesh(const std::string& path, const format::ReadOptions& options = {});
+
+}  // namespace gaussmesh::stream

@@ -1,0 +1,1 @@
+// mesh_distance: not written yet.

@@ -1,0 +1,1 @@
+// mesh_topology: not written yet.
