@@ -1,1 +1,389 @@
-// stl_reader: not written yet.
+// Streaming STL reader, binary (80-byte header, uint32 count, 50-byte records) and ascii
+// (solid / facet normal / outer loop / vertex / endloop / endfacet / endsolid). STL repeats
+// each corner position in every facet, so vertices are welded by exact position in a hash
+// table: the one reader whose memory grows with the mesh (unique vertices). docs/formats.md.
+#include "format/stl_reader.h"
+
+#include <bit>
+#include <cstring>
+#include <new>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "format/mesh_batcher.h"
+#include "format/mesh_reader.h"
+#include "format/text_scan.h"
+
+namespace gaussmesh::format {
+namespace {
+
+using text::LineScanner;
+using text::NumberError;
+
+constexpr size_t kHeaderBytes = 84;  // 80-byte header + uint32 triangle count
+constexpr size_t kRecordBytes = 50;  // normal, 3 corners (12 floats), uint16 attribute
+constexpr size_t kSniffBytes = 4096;
+constexpr size_t kRecordsPerRefill = 4096;
+
+uint32_t load_u32_le(const char* p) {
+  uint32_t v;
+  std::memcpy(&v, p, 4);
+  if constexpr (std::endian::native == std::endian::big) {
+    v = (v >> 24) | ((v >> 8) & 0xFF00u) | ((v << 8) & 0xFF0000u) | (v << 24);
+  }
+  return v;
+}
+
+float load_f32_le(const char* p) { return std::bit_cast<float>(load_u32_le(p)); }
+
+bool starts_with_nocase(std::string_view s, std::string_view prefix) {
+  return s.size() >= prefix.size() && text::equals_nocase(s.substr(0, prefix.size()), prefix);
+}
+
+bool contains_nocase(std::string_view s, std::string_view needle) {
+  for (size_t i = 0; i + needle.size() <= s.size(); ++i) {
+    if (text::equals_nocase(s.substr(i, needle.size()), needle)) return true;
+  }
+  return false;
+}
+
+// Welds positions by exact value: bitwise-equal coordinates (with -0.0 taken as 0.0) are one
+// vertex. Open addressing with linear probing, load <= 0.7: about 23-46 bytes per unique
+// vertex.
+class VertexWelder {
+ public:
+  static constexpr uint32_t kEmpty = 0xFFFFFFFFu;  // never a vertex index (< kMaxVertices)
+
+  VertexWelder() { slots_.assign(kInitialSlots, Slot{}); }
+
+  size_t size() const { return size_; }
+
+  // The index of p: existing, or next_index (then inserted). Fails only on memory.
+  Result<uint32_t> find_or_insert(const Vec3f& p, uint32_t next_index) {
+    Key key{bits(p.x), bits(p.y), bits(p.z)};
+    size_t mask = slots_.size() - 1;
+    for (size_t i = hash(key) & mask;; i = (i + 1) & mask) {
+      Slot& s = slots_[i];
+      if (s.index == kEmpty) {
+        s.key = key;
+        s.index = next_index;
+        ++size_;
+        if (size_ * 10 > slots_.size() * 7) GM_RETURN_IF_ERROR(grow());
+        return next_index;
+      }
+      if (s.key.x == key.x && s.key.y == key.y && s.key.z == key.z) return s.index;
+    }
+  }
+
+ private:
+  static constexpr size_t kInitialSlots = size_t{1} << 16;
+  struct Key {
+    uint32_t x = 0, y = 0, z = 0;
+  };
+  struct Slot {
+    Key key;
+    uint32_t index = kEmpty;
+  };
+
+  static uint32_t bits(float f) {
+    uint32_t b = std::bit_cast<uint32_t>(f);
+    return b == 0x80000000u ? 0u : b;  // -0.0 == 0.0
+  }
+  static size_t hash(const Key& k) {
+    uint64_t h = (uint64_t{k.x} * 0x9E3779B97F4A7C15ull) ^ (uint64_t{k.y} * 0xC2B2AE3D27D4EB4Full) ^
+                 (uint64_t{k.z} * 0x165667B19E3779F9ull);
+    h ^= h >> 29;
+    h *= 0xBF58476D1CE4E5B9ull;
+    h ^= h >> 32;
+    return static_cast<size_t>(h);
+  }
+
+  Status grow() {
+    std::vector<Slot> bigger;
+    try {
+      bigger.assign(slots_.size() * 2, Slot{});
+    } catch (const std::bad_alloc&) {
+      return Status::error(Code::kResources, "",
+                           "out of memory welding STL vertices (" + std::to_string(size_) +
+                               " unique so far)");
+    }
+    size_t mask = bigger.size() - 1;
+    for (const Slot& s : slots_) {
+      if (s.index == kEmpty) continue;
+      size_t i = hash(s.key) & mask;
+      while (bigger[i].index != kEmpty) i = (i + 1) & mask;
+      bigger[i] = s;
+    }
+    slots_.swap(bigger);
+    return {};
+  }
+
+  std::vector<Slot> slots_;
+  size_t size_ = 0;
+};
+
+// Shared by both encodings: welds a corner and hands out its index.
+class StlCorners {
+ public:
+  StlCorners(MeshBatcher& batcher) : batcher_(batcher) {}
+
+  Result<VertexIndex> corner(const Vec3f& p) {
+    uint64_t next = batcher_.vertex_count();
+    if (next >= kMaxVertices) {
+      return Status::error(Code::kResources, "",
+                           "more than " + std::to_string(kMaxVertices) + " unique vertices are not supported");
+    }
+    Result<uint32_t> index = welder_.find_or_insert(p, static_cast<uint32_t>(next));
+    if (!index.is_ok()) return index.status();
+    if (*index == next) GM_RETURN_IF_ERROR(batcher_.add_vertex(p));
+    return *index;
+  }
+
+ private:
+  MeshBatcher& batcher_;
+  VertexWelder welder_;
+};
+
+// Puts a "where" on a located-elsewhere error (the welder does not know the position).
+Status locate(Status s, const std::string& where) {
+  if (s.is_ok() || !s.where().empty()) return s;
+  return Status::error(s.code(), where, s.message());
+}
+
+Status read_binary_stl(ByteSource& source, const ReadOptions& options, MeshSink& sink) {
+  Result<size_t> got = source.ensure(kHeaderBytes);
+  GM_RETURN_IF_ERROR(got.status());
+  if (*got < kHeaderBytes) {
+    return Status::error(Code::kBadInput, source.at_byte(source.offset() + *got),
+                         "file ends inside the 84-byte binary STL header");
+  }
+  uint64_t count = load_u32_le(source.cursor() + 80);
+  source.advance(kHeaderBytes);
+  if (std::optional<uint64_t> size = source.total_size(); size && *size >= kHeaderBytes) {
+    uint64_t body = *size - kHeaderBytes;
+    uint64_t need = count * kRecordBytes;
+    // Writers that cannot seek back leave the count 0; the size then tells it.
+    if (count == 0 && body > 0 && body % kRecordBytes == 0) {
+      count = body / kRecordBytes;
+    } else if (need > body) {
+      return Status::error(Code::kBadInput, source.at_byte(80),
+                           "declares " + std::to_string(count) + " triangles (" +
+                               std::to_string(kHeaderBytes + need) + " bytes) but the file has " +
+                               std::to_string(*size) + " bytes (truncated file or wrong count)");
+    }
+  }
+  MeshHeader header;
+  header.format = MeshFormat::kStl;
+  header.declared_faces = count;
+  GM_RETURN_IF_ERROR(sink.on_header(header));
+
+  MeshBatcher batcher(sink, options.batch_size);
+  StlCorners corners(batcher);
+  uint64_t done = 0;
+  while (done < count) {
+    uint64_t want = std::min<uint64_t>(count - done, kRecordsPerRefill);
+    got = source.ensure(static_cast<size_t>(want) * kRecordBytes);
+    GM_RETURN_IF_ERROR(got.status());
+    uint64_t records = std::min<uint64_t>(want, *got / kRecordBytes);
+    if (records == 0) {
+      return Status::error(Code::kBadInput, source.at_byte(source.offset() + *got),
+                           "file ends after " + std::to_string(done) + " of " +
+                               std::to_string(count) + " triangles");
+    }
+    const char* p = source.cursor();
+    for (uint64_t r = 0; r < records; ++r, p += kRecordBytes) {
+      VertexIndex v[3];
+      for (int k = 0; k < 3; ++k) {
+        const char* c = p + 12 + 12 * k;
+        Vec3f position{load_f32_le(c), load_f32_le(c + 4), load_f32_le(c + 8)};
+        if (!std::isfinite(position.x) || !std::isfinite(position.y) || !std::isfinite(position.z)) {
+          return Status::error(Code::kBadInput, source.at_byte(source.offset() + (c - source.cursor())),
+                               "triangle " + std::to_string(done + r) + " has a coordinate that is not a finite number");
+        }
+        Result<VertexIndex> index = corners.corner(position);
+        if (!index.is_ok()) {
+          return locate(index.status(), source.at_byte(source.offset() + (c - source.cursor())));
+        }
+        v[k] = *index;
+      }
+      GM_RETURN_IF_ERROR(batcher.add_triangle(v[0], v[1], v[2]));
+    }
+    source.advance(static_cast<size_t>(records * kRecordBytes));
+    done += records;
+  }
+  // Bytes after the last declared record (padding some writers add) are ignored.
+  GM_RETURN_IF_ERROR(batcher.finish());
+  return sink.on_end();
+}
+
+class AsciiStlReader {
+ public:
+  AsciiStlReader(ByteSource& source, const ReadOptions& options, MeshSink& sink)
+      : source_(source), sink_(sink), batcher_(sink, options.batch_size), corners_(batcher_) {}
+
+  Status run() {
+    MeshHeader header;
+    header.format = MeshFormat::kStl;
+    GM_RETURN_IF_ERROR(sink_.on_header(header));
+    for (;;) {
+      Result<std::optional<std::string_view>> line = source_.next_line();
+      GM_RETURN_IF_ERROR(line.status());
+      if (!line->has_value()) break;
+      LineScanner scan(**line);
+      std::string_view keyword = scan.token();
+      if (keyword.empty()) continue;
+      GM_RETURN_IF_ERROR(statement(keyword, scan));
+    }
+    if (state_ != State::kOutside) {
+      return source_.bad_at_line(std::string("file ends inside a solid (") + expected() + ")");
+    }
+    if (solids_ == 0) {
+      return Status::error(Code::kBadInput, source_.name(), "file is empty: no 'solid'");
+    }
+    GM_RETURN_IF_ERROR(batcher_.finish());
+    return sink_.on_end();
+  }
+
+ private:
+  enum class State { kOutside, kInSolid, kInFacet, kInLoop, kAfterLoop };
+
+  const char* expected() const {
+    switch (state_) {
+      case State::kOutside: return "expected 'solid'";
+      case State::kInSolid: return "expected 'facet' or 'endsolid'";
+      case State::kInFacet: return "expected 'outer loop'";
+      case State::kInLoop: return "expected 'vertex' or 'endloop'";
+      case State::kAfterLoop: return "expected 'endfacet'";
+    }
+    return "";
+  }
+
+  Status unexpected(std::string_view keyword) const {
+    return source_.bad_at_line("unexpected " + text::quote(keyword) + ": " + expected());
+  }
+
+  Status statement(std::string_view keyword, LineScanner& scan) {
+    using text::equals_nocase;
+    switch (state_) {
+      case State::kOutside:
+        if (!equals_nocase(keyword, "solid")) return unexpected(keyword);
+        ++solids_;
+        state_ = State::kInSolid;  // the rest of the line is the solid's name
+        return {};
+      case State::kInSolid:
+        if (equals_nocase(keyword, "endsolid")) {
+          state_ = State::kOutside;
+          return {};
+        }
+        if (!equals_nocase(keyword, "facet")) return unexpected(keyword);
+        state_ = State::kInFacet;  // "normal nx ny nz" follows: recomputed downstream, ignored
+        return {};
+      case State::kInFacet:
+        if (!equals_nocase(keyword, "outer") || !equals_nocase(scan.token(), "loop")) {
+          return unexpected(keyword);
+        }
+        state_ = State::kInLoop;
+        loop_corners_ = 0;
+        return {};
+      case State::kInLoop:
+        if (equals_nocase(keyword, "vertex")) return vertex(scan);
+        if (!equals_nocase(keyword, "endloop")) return unexpected(keyword);
+        if (loop_corners_ < 3) {
+          return source_.bad_at_line("facet loop has " + std::to_string(loop_corners_) +
+                                     " vertices; a facet needs at least 3");
+        }
+        state_ = State::kAfterLoop;
+        return {};
+      case State::kAfterLoop:
+        if (!equals_nocase(keyword, "endfacet")) return unexpected(keyword);
+        state_ = State::kInSolid;
+        return {};
+    }
+    return {};
+  }
+
+  // Loops with more than three corners (some writers emit polygons) are fan-triangulated.
+  Status vertex(LineScanner& scan) {
+    float c[3];
+    for (int k = 0; k < 3; ++k) {
+      NumberError e = scan.read_float(c[k]);
+      if (e != NumberError::kOk) {
+        static constexpr const char* kAxis[3] = {"x", "y", "z"};
+        return source_.bad_at_line(
+            text::number_problem(e, std::string("vertex ") + kAxis[k], scan.last_token()));
+      }
+    }
+    Result<VertexIndex> index = corners_.corner(Vec3f{c[0], c[1], c[2]});
+    if (!index.is_ok()) return locate(index.status(), source_.at_line());
+    if (loop_corners_ == 0) {
+      first_ = *index;
+    } else if (loop_corners_ >= 2) {
+      GM_RETURN_IF_ERROR(batcher_.add_triangle(first_, previous_, *index));
+    }
+    previous_ = *index;
+    ++loop_corners_;
+    return {};
+  }
+
+  ByteSource& source_;
+  MeshSink& sink_;
+  MeshBatcher batcher_;
+  StlCorners corners_;
+  State state_ = State::kOutside;
+  uint64_t solids_ = 0;
+  uint64_t loop_corners_ = 0;
+  VertexIndex first_ = 0, previous_ = 0;
+};
+
+}  // namespace
+
+bool looks_binary(std::string_view head) {
+  for (char ch : head) {
+    unsigned char c = static_cast<unsigned char>(ch);
+    if (c < 0x09 || (c > 0x0D && c < 0x20) || c == 0x7F) return true;
+  }
+  return false;
+}
+
+Result<StlEncoding> sniff_stl(ByteSource& source) {
+  Result<size_t> got = source.ensure(kSniffBytes);
+  GM_RETURN_IF_ERROR(got.status());
+  std::string_view head(source.cursor(), *got);
+  bool size_matches = false;
+  if (std::optional<uint64_t> size = source.total_size(); size && head.size() >= kHeaderBytes) {
+    uint64_t count = load_u32_le(head.data() + 80);
+    size_matches = kHeaderBytes + count * kRecordBytes == *size;
+  }
+  size_t lead = 0;
+  while (lead < head.size() && (text::is_space(head[lead]) || head[lead] == '\n')) ++lead;
+  std::string_view rest = head.substr(lead);
+  bool solid = starts_with_nocase(rest, "solid") &&
+               (rest.size() == 5 || text::is_space(rest[5]) || rest[5] == '\n');
+  bool text_like = !looks_binary(head);
+  if (solid) {
+    // Many binary writers start the 80-byte header with "solid" too: text with STL keywords
+    // is ascii, anything with binary bytes (the count and floats nearly always have some) or
+    // an exactly matching size is binary.
+    bool keywords = text_like && (contains_nocase(rest, "facet") || contains_nocase(rest, "endsolid"));
+    if (keywords) return StlEncoding::kAscii;
+    if (size_matches || !text_like) return StlEncoding::kBinary;
+    return StlEncoding::kAscii;  // a (truncated) text file that starts with "solid"
+  }
+  return size_matches ? StlEncoding::kBinary : StlEncoding::kNotStl;
+}
+
+Status read_stl(ByteSource& source, const ReadOptions& options, MeshSink& sink) {
+  Result<size_t> got = source.ensure(1);
+  GM_RETURN_IF_ERROR(got.status());
+  if (*got == 0) return Status::error(Code::kBadInput, source.name(), "file is empty: no STL data");
+  Result<StlEncoding> encoding = sniff_stl(source);
+  GM_RETURN_IF_ERROR(encoding.status());
+  if (*encoding == StlEncoding::kAscii) {
+    AsciiStlReader reader(source, options, sink);
+    return reader.run();
+  }
+  return read_binary_stl(source, options, sink);
+}
+
+}  // namespace gaussmesh::format

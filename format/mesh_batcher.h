@@ -1,0 +1,74 @@
+// Collects a reader's vertices and triangles into fixed-size batches for a MeshSink, keeping
+// the sink contract (format/mesh_sink.h) that a triangle arrives only after its vertices.
+// Internal to format/: used by the OFF, OBJ and STL readers.
+#pragma once
+
+#include <algorithm>
+#include <cassert>
+#include <cstdint>
+#include <vector>
+
+#include "format/mesh_sink.h"
+
+namespace gaussmesh::format {
+
+class MeshBatcher {
+ public:
+  // Memory: batch_size vertices and batch_size triangles, whatever the input.
+  MeshBatcher(MeshSink& sink, size_t batch_size)
+      : sink_(sink), batch_size_(std::max<size_t>(batch_size, 1)) {
+    vertices_.reserve(batch_size_);
+    triangles_.reserve(batch_size_);
+  }
+
+  // Vertices added so far (delivered or pending); the next vertex gets this index.
+  uint64_t vertex_count() const { return delivered_vertices_ + vertices_.size(); }
+  uint64_t triangle_count() const { return delivered_triangles_ + triangles_.size(); }
+
+  Status add_vertex(const Vec3f& p) {
+    vertices_.push_back(p);
+    if (vertices_.size() >= batch_size_) return flush_vertices();
+    return {};
+  }
+
+  // Precondition: every index < vertex_count(). Pending vertices that the triangle uses are
+  // delivered first.
+  Status add_triangle(VertexIndex a, VertexIndex b, VertexIndex c) {
+    assert(a < vertex_count() && b < vertex_count() && c < vertex_count());
+    VertexIndex top = std::max(a, std::max(b, c));
+    if (top >= delivered_vertices_) GM_RETURN_IF_ERROR(flush_vertices());
+    triangles_.push_back(Triangle{{a, b, c}});
+    if (triangles_.size() >= batch_size_) return flush_triangles();
+    return {};
+  }
+
+  Status flush_vertices() {
+    if (vertices_.empty()) return {};
+    Status s = sink_.on_vertices(vertices_);
+    delivered_vertices_ += vertices_.size();
+    vertices_.clear();
+    return s;
+  }
+  Status flush_triangles() {
+    if (triangles_.empty()) return {};
+    Status s = sink_.on_triangles(triangles_);
+    delivered_triangles_ += triangles_.size();
+    triangles_.clear();
+    return s;
+  }
+  // Delivers everything pending (vertices first); the reader then calls sink.on_end().
+  Status finish() {
+    GM_RETURN_IF_ERROR(flush_vertices());
+    return flush_triangles();
+  }
+
+ private:
+  MeshSink& sink_;
+  size_t batch_size_;
+  std::vector<Vec3f> vertices_;
+  std::vector<Triangle> triangles_;
+  uint64_t delivered_vertices_ = 0;
+  uint64_t delivered_triangles_ = 0;
+};
+
+}  // namespace gaussmesh::format
