@@ -1,1 +1,296 @@
-// gauss_sphere: not written yet.
+// The tessellated Gaussian sphere G (paper §3.1 "iterated regular subdivision of the faces of a
+// regular polyhedron", §4.1 orientation; DESIGN §1): construction, ids, adjacency, location.
+#include "stream/gauss_sphere.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <string>
+
+namespace gaussmesh::stream {
+namespace {
+
+using format::Code;
+using format::Status;
+
+std::uint64_t splitmix64(std::uint64_t& state) {
+  std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+double unit_double(std::uint64_t& state) {
+  return static_cast<double>(splitmix64(state) >> 11) * 0x1.0p-53;
+}
+
+Vec3d normalized(const Vec3d& v) {
+  const double len = std::sqrt(dot(v, v));
+  return len > 0 ? (1.0 / len) * v : v;
+}
+
+// Vertices of the regular base polyhedra, on the unit sphere after normalization.
+std::vector<Vec3d> base_polyhedron_vertices(GaussBase base) {
+  switch (base) {
+    case GaussBase::kTetrahedron:
+      return {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
+    case GaussBase::kOctahedron:
+      return {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    case GaussBase::kIcosahedron: {
+      const double p = std::numbers::phi;
+      std::vector<Vec3d> v;
+      for (double s : {-1.0, 1.0}) {
+        for (double t : {-1.0, 1.0}) {
+          v.push_back({0, s, t * p});
+          v.push_back({s, t * p, 0});
+          v.push_back({t * p, 0, s});
+        }
+      }
+      return v;
+    }
+  }
+  return {};
+}
+
+// Faces of a regular polyhedron: the triples of vertices that are pairwise at the shortest
+// vertex distance, oriented counter-clockwise seen from outside.
+std::vector<std::array<std::uint32_t, 3>> base_polyhedron_faces(const std::vector<Vec3d>& v) {
+  const std::uint32_t n = static_cast<std::uint32_t>(v.size());
+  double shortest = 1e300;
+  for (std::uint32_t i = 0; i < n; ++i)
+    for (std::uint32_t j = i + 1; j < n; ++j) shortest = std::min(shortest, dot(v[i] - v[j], v[i] - v[j]));
+  auto is_edge = [&](std::uint32_t i, std::uint32_t j) {
+    return dot(v[i] - v[j], v[i] - v[j]) < shortest * 1.01;
+  };
+  std::vector<std::array<std::uint32_t, 3>> faces;
+  for (std::uint32_t i = 0; i < n; ++i)
+    for (std::uint32_t j = i + 1; j < n; ++j)
+      for (std::uint32_t k = j + 1; k < n; ++k)
+        if (is_edge(i, j) && is_edge(j, k) && is_edge(i, k)) {
+          if (dot(cross(v[j] - v[i], v[k] - v[i]), v[i]) > 0) faces.push_back({i, j, k});
+          else faces.push_back({i, k, j});
+        }
+  return faces;
+}
+
+}  // namespace
+
+const char* gauss_base_name(GaussBase base) {
+  switch (base) {
+    case GaussBase::kTetrahedron: return "tetra";
+    case GaussBase::kOctahedron: return "octa";
+    case GaussBase::kIcosahedron: return "icosa";
+  }
+  return "?";
+}
+
+std::array<double, 4> gauss_rotation_from_seed(std::uint64_t seed) {
+  std::uint64_t state = seed;
+  const double u1 = unit_double(state), u2 = unit_double(state), u3 = unit_double(state);
+  const double two_pi = 2 * std::numbers::pi;
+  const double a = std::sqrt(1 - u1), b = std::sqrt(u1);
+  return {b * std::cos(two_pi * u3), a * std::sin(two_pi * u2), a * std::cos(two_pi * u2),
+          b * std::sin(two_pi * u3)};
+}
+
+format::Result<GaussSphere> GaussSphere::create(const GaussSphereOptions& options) {
+  const std::uint32_t f = options.frequency;
+  if (f < 1 || f > kMaxGaussFrequency) {
+    return Status::error(Code::kUsage, "gauss sphere",
+                         "frequency must be between 1 and " + std::to_string(kMaxGaussFrequency) +
+                             ", got " + std::to_string(f));
+  }
+  auto q = options.rotation;
+  const double qlen = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  if (!std::isfinite(qlen) || qlen < 1e-12) {
+    return Status::error(Code::kUsage, "gauss sphere", "rotation quaternion must be finite and non-zero");
+  }
+  for (double& c : q) c /= qlen;
+
+  GaussSphere g;
+  g.options_ = options;
+  g.options_.rotation = q;
+  g.frequency_ = f;
+  const double w = q[0], x = q[1], y = q[2], z = q[3];
+  const double r[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)},
+                          {2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)},
+                          {2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)}};
+  std::copy(&r[0][0], &r[0][0] + 9, &g.rotation_[0][0]);
+  auto rotate = [&](const Vec3d& p) {
+    return Vec3d{r[0][0] * p.x + r[0][1] * p.y + r[0][2] * p.z,
+                 r[1][0] * p.x + r[1][1] * p.y + r[1][2] * p.z,
+                 r[2][0] * p.x + r[2][1] * p.y + r[2][2] * p.z};
+  };
+
+  g.base_vertices_ = base_polyhedron_vertices(options.base);
+  for (Vec3d& v : g.base_vertices_) v = normalized(v);
+  g.base_faces_ = base_polyhedron_faces(g.base_vertices_);
+  const auto& bv = g.base_vertices_;
+  for (const auto& face : g.base_faces_) {
+    const Vec3d& a = bv[face[0]];
+    const Vec3d& b = bv[face[1]];
+    const Vec3d& c = bv[face[2]];
+    g.base_centers_.push_back(normalized(a + b + c));
+    g.base_bary_.push_back({cross(b, c), cross(c, a), cross(a, b)});
+  }
+
+  // Base edges, numbered in order of their sorted endpoint pairs.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> base_edges;
+  for (const auto& face : g.base_faces_)
+    for (int i = 0; i < 3; ++i)
+      base_edges.emplace_back(std::min(face[i], face[(i + 1) % 3]), std::max(face[i], face[(i + 1) % 3]));
+  std::sort(base_edges.begin(), base_edges.end());
+  base_edges.erase(std::unique(base_edges.begin(), base_edges.end()), base_edges.end());
+  auto edge_index = [&](std::uint32_t a, std::uint32_t b) {
+    const auto key = std::make_pair(std::min(a, b), std::max(a, b));
+    return static_cast<std::uint32_t>(std::lower_bound(base_edges.begin(), base_edges.end(), key) -
+                                      base_edges.begin());
+  };
+
+  const std::uint32_t nb = static_cast<std::uint32_t>(bv.size());
+  const std::uint32_t ne = static_cast<std::uint32_t>(base_edges.size());
+  const std::uint32_t nf = static_cast<std::uint32_t>(g.base_faces_.size());
+  const std::uint32_t interior_per_face = f >= 3 ? (f - 1) * (f - 2) / 2 : 0;
+  const std::uint32_t vertex_total = nb + ne * (f - 1) + nf * interior_per_face;
+  g.vertices_.assign(vertex_total, Vec3d{});
+  std::vector<bool> placed(vertex_total, false);
+
+  // Grid point (a, b) of a face (A, B, C) is ((f-a-b) A + a B + b C) / f, a, b >= 0, a+b <= f.
+  const std::uint32_t grid_size = (f + 1) * (f + 2) / 2;
+  std::vector<std::uint32_t> grid(grid_size);
+  auto grid_slot = [f](std::uint32_t a, std::uint32_t b) { return b * (f + 1) - b * (b - 1) / 2 + a; };
+  auto edge_vertex = [&](std::uint32_t from, std::uint32_t to, std::uint32_t t) {
+    // t-th point (0 < t < f) from base vertex `from` towards `to`.
+    const std::uint32_t e = edge_index(from, to);
+    const std::uint32_t along = from < to ? t : f - t;
+    return nb + e * (f - 1) + (along - 1);
+  };
+  g.triangle_vertices_.reserve(static_cast<std::size_t>(nf) * f * f);
+  for (std::uint32_t fi = 0; fi < nf; ++fi) {
+    const auto& face = g.base_faces_[fi];
+    const Vec3d& va = bv[face[0]];
+    const Vec3d& vb = bv[face[1]];
+    const Vec3d& vc = bv[face[2]];
+    std::uint32_t interior = 0;
+    for (std::uint32_t b = 0; b <= f; ++b) {
+      for (std::uint32_t a = 0; a + b <= f; ++a) {
+        const std::uint32_t c = f - a - b;
+        std::uint32_t id;
+        if (a == 0 && b == 0) id = face[0];
+        else if (a == f) id = face[1];
+        else if (b == f) id = face[2];
+        else if (b == 0) id = edge_vertex(face[0], face[1], a);
+        else if (a == 0) id = edge_vertex(face[0], face[2], b);
+        else if (c == 0) id = edge_vertex(face[1], face[2], b);
+        else id = nb + ne * (f - 1) + fi * interior_per_face + interior++;
+        grid[grid_slot(a, b)] = id;
+        if (!placed[id]) {
+          placed[id] = true;
+          g.vertices_[id] = rotate(normalized(static_cast<double>(c) * va + static_cast<double>(a) * vb +
+                                              static_cast<double>(b) * vc));
+        }
+      }
+    }
+    // Row b holds up cells a = 0..f-1-b and down cells a = 0..f-2-b, interleaved (2a + down).
+    for (std::uint32_t b = 0; b < f; ++b) {
+      for (std::uint32_t a = 0; a + b < f; ++a) {
+        g.triangle_vertices_.push_back({grid[grid_slot(a, b)], grid[grid_slot(a + 1, b)], grid[grid_slot(a, b + 1)]});
+        if (a + b + 2 <= f) {
+          g.triangle_vertices_.push_back(
+              {grid[grid_slot(a + 1, b)], grid[grid_slot(a + 1, b + 1)], grid[grid_slot(a, b + 1)]});
+        }
+      }
+    }
+  }
+
+  // Edge adjacency: sort directed edges and pair each with its reverse.
+  const std::size_t nt = g.triangle_vertices_.size();
+  struct DirectedEdge {
+    std::uint64_t key;  // from << 32 | to
+    std::uint32_t slot;  // 3 t + i
+  };
+  std::vector<DirectedEdge> edges;
+  edges.reserve(3 * nt);
+  for (std::size_t t = 0; t < nt; ++t)
+    for (int i = 0; i < 3; ++i) {
+      const std::uint64_t from = g.triangle_vertices_[t][i], to = g.triangle_vertices_[t][(i + 1) % 3];
+      edges.push_back({from << 32 | to, static_cast<std::uint32_t>(3 * t + i)});
+    }
+  std::sort(edges.begin(), edges.end(), [](const DirectedEdge& l, const DirectedEdge& r) { return l.key < r.key; });
+  g.triangle_neighbors_.assign(nt, {kNone, kNone, kNone});
+  for (const DirectedEdge& e : edges) {
+    const std::uint64_t reverse = (e.key << 32) | (e.key >> 32);
+    auto it = std::lower_bound(edges.begin(), edges.end(), reverse,
+                               [](const DirectedEdge& l, std::uint64_t k) { return l.key < k; });
+    if (it != edges.end() && it->key == reverse) g.triangle_neighbors_[e.slot / 3][e.slot % 3] = it->slot / 3;
+  }
+
+  // Vertex-triangle incidence, counter-clockwise: from a triangle with corner v, the next one
+  // counter-clockwise is the neighbour across the edge (prev, v).
+  g.vertex_offsets_.assign(vertex_total + 1, 0);
+  for (const auto& tv : g.triangle_vertices_)
+    for (std::uint32_t v : tv) ++g.vertex_offsets_[v + 1];
+  for (std::uint32_t v = 0; v < vertex_total; ++v) g.vertex_offsets_[v + 1] += g.vertex_offsets_[v];
+  std::vector<std::uint32_t> first(vertex_total, kNone);
+  for (std::size_t t = 0; t < nt; ++t)
+    for (std::uint32_t v : g.triangle_vertices_[t])
+      if (first[v] == kNone) first[v] = static_cast<std::uint32_t>(t);
+  g.vertex_triangles_.assign(g.vertex_offsets_[vertex_total], kNone);
+  for (std::uint32_t v = 0; v < vertex_total; ++v) {
+    std::uint32_t t = first[v];
+    for (std::uint32_t k = g.vertex_offsets_[v]; k < g.vertex_offsets_[v + 1]; ++k) {
+      g.vertex_triangles_[k] = t;
+      const auto& tv = g.triangle_vertices_[t];
+      const int i = tv[0] == v ? 0 : (tv[1] == v ? 1 : 2);
+      t = g.triangle_neighbors_[t][(i + 2) % 3];
+    }
+  }
+
+  g.centers_.resize(nt);
+  g.cap_cos_.resize(nt);
+  for (std::size_t t = 0; t < nt; ++t) {
+    const auto& tv = g.triangle_vertices_[t];
+    const Vec3d c = normalized(g.vertices_[tv[0]] + g.vertices_[tv[1]] + g.vertices_[tv[2]]);
+    g.centers_[t] = c;
+    g.cap_cos_[t] = std::min({dot(c, g.vertices_[tv[0]]), dot(c, g.vertices_[tv[1]]), dot(c, g.vertices_[tv[2]])});
+  }
+  return g;
+}
+
+std::uint32_t GaussSphere::locate(const Vec3d& n) const {
+  // m = Rᵀ n.
+  const auto& r = rotation_;
+  const Vec3d m{r[0][0] * n.x + r[1][0] * n.y + r[2][0] * n.z, r[0][1] * n.x + r[1][1] * n.y + r[2][1] * n.z,
+                r[0][2] * n.x + r[1][2] * n.y + r[2][2] * n.z};
+  // All face planes are at the same distance from the centre, so the ray leaves the base
+  // polyhedron through the face whose centre direction is most aligned with it.
+  std::uint32_t face = 0;
+  double best = dot(m, base_centers_[0]);
+  const std::uint32_t nf = static_cast<std::uint32_t>(base_centers_.size());
+  for (std::uint32_t i = 1; i < nf; ++i) {
+    const double d = dot(m, base_centers_[i]);
+    if (d > best) {
+      best = d;
+      face = i;
+    }
+  }
+  const auto& k = base_bary_[face];
+  const double la = dot(m, k[0]), lb = dot(m, k[1]), lc = dot(m, k[2]);
+  const double s = la + lb + lc;
+  const std::uint32_t f = frequency_;
+  const double fd = static_cast<double>(f);
+  double u = s > 0 ? fd * lb / s : 0, v = s > 0 ? fd * lc / s : 0;
+  u = std::clamp(u, 0.0, fd);
+  v = std::clamp(v, 0.0, fd);
+  std::uint32_t a = std::min(static_cast<std::uint32_t>(u), f - 1);
+  std::uint32_t b = std::min(static_cast<std::uint32_t>(v), f - 1);
+  if (a + b > f - 1) {
+    // Rounding pushed the point past the face's far edge: take the nearest cell on it.
+    if (u - a > v - b) b = f - 1 - a;
+    else a = f - 1 - b;
+  }
+  const bool down = a + b + 2 <= f && (u - a) + (v - b) > 1.0;
+  return face * f * f + b * (2 * f - b) + 2 * a + (down ? 1 : 0);
+}
+
+}  // namespace gaussmesh::stream
