@@ -424,9 +424,9 @@ class PlyReader {
     }
     if (e == header_.face_element) {
       const Property& list = element.properties[header_.face_list];
-      if (!kSwap && element.properties.size() == 1 && list.count_type == Scalar::kUint8 &&
+      if (element.properties.size() == 1 && list.count_type == Scalar::kUint8 &&
           (list.type == Scalar::kInt32 || list.type == Scalar::kUint32)) {
-        GM_RETURN_IF_ERROR(read_common_faces(element));
+        GM_RETURN_IF_ERROR(read_common_faces<kSwap>(element));
       } else {
         GM_RETURN_IF_ERROR(read_general_records<kSwap>(element, e));
       }
@@ -491,8 +491,9 @@ class PlyReader {
     return {};
   }
 
-  // The common face layout "property list uchar int|uint vertex_indices", native byte order:
+  // The common face layout "property list uchar int|uint vertex_indices" and nothing else:
   // triangles are parsed straight from the window; any other record goes one at a time.
+  template <bool kSwap>
   Status read_common_faces(const Element& element) {
     const bool is_signed = element.properties[0].type == Scalar::kInt32;
     // Unsigned compare: a negative int32 becomes >= 2^31 and fails against this limit.
@@ -511,8 +512,7 @@ class PlyReader {
       Triangle* out = triangles_.data() + triangle_fill_;
       size_t n = 0;
       while (n < room && end - p >= 13 && static_cast<uint8_t>(*p) == 3) {
-        uint32_t v[3];
-        std::memcpy(v, p + 1, 12);
+        const uint32_t v[3] = {load<uint32_t, kSwap>(p + 1), load<uint32_t, kSwap>(p + 5), load<uint32_t, kSwap>(p + 9)};
         if (v[0] >= limit || v[1] >= limit || v[2] >= limit) break;
         out[n++] = Triangle{{v[0], v[1], v[2]}};
         p += 13;
@@ -523,7 +523,7 @@ class PlyReader {
       if (triangle_fill_ == batch_size_) GM_RETURN_IF_ERROR(flush_triangles());
       if (n < room && done < element.count) {
         // Not a triangle, a bad index, or a record split by the window: the general path.
-        GM_RETURN_IF_ERROR(read_record<false>(element, header_.face_element, done));
+        GM_RETURN_IF_ERROR(read_record<kSwap>(element, header_.face_element, done));
         ++done;
       }
     }
