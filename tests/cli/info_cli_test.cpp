@@ -163,8 +163,8 @@ long long summary_count(const std::string& out, const std::string& label) {
   return std::stoll(digits);
 }
 
-std::string quoted(const std::string& path) { return "'" + path + "'"; }
-std::string info_command() { return quoted(gaussmesh_binary()) + " info"; }
+std::string shell_quoted(const std::string& path) { return "'" + path + "'"; }
+std::string info_command() { return shell_quoted(gaussmesh_binary()) + " info"; }
 
 std::size_t line_count(const std::string& text) {
   std::size_t lines = 0;
@@ -181,8 +181,8 @@ class InfoCli : public ::testing::Test {
   void expect_counts(const std::string& path, long long vertices, long long faces) {
     for (bool from_stdin : {false, true}) {
       SCOPED_TRACE(path + (from_stdin ? " via stdin" : " as a file"));
-      std::string command = from_stdin ? "cat " + quoted(path) + " | " + info_command() + " -"
-                                       : info_command() + " " + quoted(path);
+      std::string command = from_stdin ? "cat " + shell_quoted(path) + " | " + info_command() + " -"
+                                       : info_command() + " " + shell_quoted(path);
       CommandResult r = run_command(command);
       ASSERT_EQ(r.exit_code, 0) << r.err;
       EXPECT_EQ(summary_count(r.out, "vertices"), vertices) << r.out;
@@ -198,7 +198,7 @@ PlainMesh* InfoCli::cow_ = nullptr;
 
 TEST_F(InfoCli, CowOff) {
   expect_counts(fixture("real/cow.off"), 2904, 5804);
-  CommandResult r = run_command(info_command() + " " + quoted(fixture("real/cow.off")));
+  CommandResult r = run_command(info_command() + " " + shell_quoted(fixture("real/cow.off")));
   EXPECT_EQ(summary_count(r.out, "genus"), 0) << r.out;
   EXPECT_EQ(summary_count(r.out, "components"), 1) << r.out;
   EXPECT_EQ(summary_count(r.out, "non-manifold edges"), 0) << r.out;
@@ -261,10 +261,10 @@ TEST_F(InfoCli, CowStlAscii) {
 }
 
 TEST_F(InfoCli, ForcedInputFormat) {
-  CommandResult ok = run_command(info_command() + " --input-format off " + quoted(fixture("real/cow.off")));
+  CommandResult ok = run_command(info_command() + " --input-format off " + shell_quoted(fixture("real/cow.off")));
   EXPECT_EQ(ok.exit_code, 0) << ok.err;
   EXPECT_EQ(summary_count(ok.out, "faces"), 5804);
-  CommandResult bad = run_command(info_command() + " --input-format xyz " + quoted(fixture("real/cow.off")));
+  CommandResult bad = run_command(info_command() + " --input-format xyz " + shell_quoted(fixture("real/cow.off")));
   EXPECT_EQ(bad.exit_code, 1);
   EXPECT_EQ(bad.out, "");
 }
@@ -274,13 +274,13 @@ TEST_F(InfoCli, BadFixturesExitTwoWithOneLine) {
                            "malformed.obj", "malformed2.obj"}) {
     SCOPED_TRACE(name);
     std::string path = fixture(std::string("bad/") + name);
-    CommandResult r = run_command(info_command() + " " + quoted(path));
+    CommandResult r = run_command(info_command() + " " + shell_quoted(path));
     EXPECT_EQ(r.exit_code, 2) << r.err;
     EXPECT_EQ(r.out, "");
     EXPECT_EQ(line_count(r.err), 1u) << r.err;
     EXPECT_NE(r.err.find(name), std::string::npos) << r.err;
 
-    CommandResult piped = run_command("cat " + quoted(path) + " | " + info_command() + " -");
+    CommandResult piped = run_command("cat " + shell_quoted(path) + " | " + info_command() + " -");
     EXPECT_EQ(piped.exit_code, 2) << piped.err;
     EXPECT_EQ(piped.out, "");
     EXPECT_EQ(line_count(piped.err), 1u) << piped.err;
@@ -290,7 +290,7 @@ TEST_F(InfoCli, BadFixturesExitTwoWithOneLine) {
 
 TEST_F(InfoCli, MissingFileExitsTwo) {
   std::string path = dir_.file("no-such-mesh.off");
-  CommandResult r = run_command(info_command() + " " + quoted(path));
+  CommandResult r = run_command(info_command() + " " + shell_quoted(path));
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(r.out, "");
   EXPECT_EQ(line_count(r.err), 1u) << r.err;
@@ -298,7 +298,7 @@ TEST_F(InfoCli, MissingFileExitsTwo) {
 }
 
 TEST_F(InfoCli, UnknownFlagExitsOne) {
-  CommandResult r = run_command(info_command() + " --no-such-flag " + quoted(fixture("real/cow.off")));
+  CommandResult r = run_command(info_command() + " --no-such-flag " + shell_quoted(fixture("real/cow.off")));
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(r.out, "");
   EXPECT_NE(r.err, "");
@@ -306,8 +306,8 @@ TEST_F(InfoCli, UnknownFlagExitsOne) {
 
 TEST_F(InfoCli, ReportJson) {
   std::string report = dir_.file("info.json");
-  CommandResult r = run_command(info_command() + " --report " + quoted(report) + " " +
-                                quoted(fixture("real/mech-holes-shark.off")));
+  CommandResult r = run_command(info_command() + " --report " + shell_quoted(report) + " " +
+                                shell_quoted(fixture("real/mech-holes-shark.off")));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   nlohmann::json j = nlohmann::json::parse(read_file(report), nullptr, false);
   ASSERT_FALSE(j.is_discarded());
@@ -331,7 +331,7 @@ TEST_F(InfoCli, ReportJson) {
   EXPECT_EQ(summary_count(r.out, "vertices"), 5246);  // the summary still goes to stdout
 
   // --report - puts only the JSON on stdout.
-  CommandResult piped = run_command("cat " + quoted(fixture("real/cow.off")) + " | " +
+  CommandResult piped = run_command("cat " + shell_quoted(fixture("real/cow.off")) + " | " +
                                     info_command() + " - --report -");
   ASSERT_EQ(piped.exit_code, 0) << piped.err;
   nlohmann::json k = nlohmann::json::parse(piped.out, nullptr, false);
@@ -345,7 +345,7 @@ TEST_F(InfoCli, NonManifoldGenusIsNull) {
   std::string path = dir_.file("bowtie.off");
   write_file(path, "OFF\n5 2 0\n0 0 0\n1 0 0\n1 1 0\n-1 0 0\n-1 -1 0\n3 0 1 2\n3 0 3 4\n");
   std::string report = dir_.file("bowtie.json");
-  CommandResult r = run_command(info_command() + " --report " + quoted(report) + " " + quoted(path));
+  CommandResult r = run_command(info_command() + " --report " + shell_quoted(report) + " " + shell_quoted(path));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   nlohmann::json j = nlohmann::json::parse(read_file(report), nullptr, false);
   ASSERT_FALSE(j.is_discarded());
