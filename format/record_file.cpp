@@ -1,0 +1,252 @@
+// Record files: fixed-size records in checksummed zstd frames with a trailing seek table.
+#include "format/record_file.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zstd.h>
+
+#include <bit>
+#include <cerrno>
+#include <cstring>
+
+namespace gaussmesh::format {
+namespace {
+
+static_assert(std::endian::native == std::endian::little, "record files are little-endian");
+
+constexpr char kMagic[8] = {'G', 'M', 'R', 'E', 'C', 'O', 'R', 'D'};
+constexpr char kSeekMagic[8] = {'G', 'M', 'R', 'S', 'E', 'E', 'K', '1'};
+constexpr std::size_t kHeaderBytes = 32;
+constexpr std::size_t kFrameHeaderBytes = 8;
+constexpr std::size_t kFooterBytes = 24;
+
+template <class T>
+void put(std::byte* at, T value) {
+  std::memcpy(at, &value, sizeof value);
+}
+template <class T>
+T get(const std::byte* at) {
+  T value;
+  std::memcpy(&value, at, sizeof value);
+  return value;
+}
+
+std::string errno_text() { return std::strerror(errno); }
+
+bool pread_all(int fd, void* out, std::size_t size, std::uint64_t offset) {
+  auto* bytes = static_cast<char*>(out);
+  while (size > 0) {
+    ssize_t got = ::pread(fd, bytes, size, static_cast<off_t>(offset));
+    if (got < 0 && errno == EINTR) continue;
+    if (got <= 0) return false;
+    bytes += got;
+    size -= static_cast<std::size_t>(got);
+    offset += static_cast<std::uint64_t>(got);
+  }
+  return true;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+Result<std::unique_ptr<RecordWriter>> RecordWriter::create(const std::string& path, std::uint32_t kind,
+                                                           std::uint32_t record_size, int level,
+                                                           std::size_t frame_bytes) {
+  if (record_size == 0 || record_size > kMaxRecordFrameBytes) {
+    return Status::error(Code::kProcessing, path, "record size " + std::to_string(record_size) + " out of range");
+  }
+  std::unique_ptr<RecordWriter> writer(new RecordWriter());
+  writer->path_ = path;
+  writer->record_size_ = record_size;
+  std::size_t limit = std::min(std::max<std::size_t>(frame_bytes, record_size), kMaxRecordFrameBytes);
+  writer->frame_limit_ = limit - limit % record_size;
+  writer->fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+  if (writer->fd_ < 0) return Status::error(Code::kOutput, path, "cannot create record file: " + errno_text());
+  ZSTD_CCtx* cctx = ZSTD_createCCtx();
+  if (cctx == nullptr) return Status::error(Code::kResources, path, "cannot create a zstd context");
+  writer->cctx_ = cctx;
+  ZSTD_CCtx_setParameter(cctx, ZSTD_c_compressionLevel, level);
+  ZSTD_CCtx_setParameter(cctx, ZSTD_c_checksumFlag, 1);
+  writer->pending_.reserve(writer->frame_limit_);
+  std::byte header[kHeaderBytes] = {};
+  std::memcpy(header, kMagic, sizeof kMagic);
+  put<std::uint32_t>(header + 8, kRecordFileVersion);
+  put<std::uint32_t>(header + 12, kind);
+  put<std::uint32_t>(header + 16, record_size);
+  GM_RETURN_IF_ERROR(writer->write_raw(header, sizeof header));
+  return writer;
+}
+
+RecordWriter::~RecordWriter() {
+  if (fd_ >= 0) ::close(fd_);
+  ZSTD_freeCCtx(static_cast<ZSTD_CCtx*>(cctx_));
+}
+
+Status RecordWriter::write_raw(const void* data, std::size_t size) {
+  const char* bytes = static_cast<const char*>(data);
+  while (size > 0) {
+    ssize_t put_bytes = ::write(fd_, bytes, size);
+    if (put_bytes < 0 && errno == EINTR) continue;
+    if (put_bytes < 0) {
+      failed_ = true;
+      return Status::error(Code::kOutput, path_, "write failed: " + errno_text());
+    }
+    bytes += put_bytes;
+    size -= static_cast<std::size_t>(put_bytes);
+    file_bytes_ += static_cast<std::uint64_t>(put_bytes);
+  }
+  return {};
+}
+
+Status RecordWriter::flush_frame() {
+  if (pending_.empty()) return {};
+  compressed_.resize(kFrameHeaderBytes + ZSTD_compressBound(pending_.size()));
+  std::size_t size = ZSTD_compress2(static_cast<ZSTD_CCtx*>(cctx_), compressed_.data() + kFrameHeaderBytes,
+                                    compressed_.size() - kFrameHeaderBytes, pending_.data(), pending_.size());
+  if (ZSTD_isError(size)) {
+    failed_ = true;
+    return Status::error(Code::kProcessing, path_, std::string("zstd: ") + ZSTD_getErrorName(size));
+  }
+  put<std::uint32_t>(compressed_.data(), static_cast<std::uint32_t>(size));
+  put<std::uint32_t>(compressed_.data() + 4, static_cast<std::uint32_t>(pending_.size()));
+  frame_offsets_.push_back(file_bytes_);
+  GM_RETURN_IF_ERROR(write_raw(compressed_.data(), kFrameHeaderBytes + size));
+  pending_.clear();
+  return {};
+}
+
+Status RecordWriter::append(std::span<const std::byte> bytes) {
+  if (failed_ || finished_) return Status::error(Code::kProcessing, path_, "append after finish or failure");
+  if (bytes.size() % record_size_ != 0) {
+    return Status::error(Code::kProcessing, path_, "append of a partial record");
+  }
+  records_ += bytes.size() / record_size_;
+  while (!bytes.empty()) {
+    std::size_t room = frame_limit_ - pending_.size();
+    std::size_t take = std::min(room, bytes.size());
+    pending_.insert(pending_.end(), bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(take));
+    bytes = bytes.subspan(take);
+    if (pending_.size() == frame_limit_) GM_RETURN_IF_ERROR(flush_frame());
+  }
+  return {};
+}
+
+Status RecordWriter::finish() {
+  if (finished_) return {};
+  GM_RETURN_IF_ERROR(flush_frame());
+  std::vector<std::byte> table(frame_offsets_.size() * 8 + kFooterBytes);
+  for (std::size_t i = 0; i < frame_offsets_.size(); ++i) put<std::uint64_t>(table.data() + 8 * i, frame_offsets_[i]);
+  std::byte* footer = table.data() + frame_offsets_.size() * 8;
+  put<std::uint64_t>(footer, records_);
+  put<std::uint32_t>(footer + 8, static_cast<std::uint32_t>(frame_offsets_.size()));
+  put<std::uint32_t>(footer + 12, 0);
+  std::memcpy(footer + 16, kSeekMagic, sizeof kSeekMagic);
+  GM_RETURN_IF_ERROR(write_raw(table.data(), table.size()));
+  if (::close(fd_) != 0) {
+    fd_ = -1;
+    failed_ = true;
+    return Status::error(Code::kOutput, path_, "close failed: " + errno_text());
+  }
+  fd_ = -1;
+  finished_ = true;
+  std::vector<std::byte>().swap(pending_);
+  std::vector<std::byte>().swap(compressed_);
+  return {};
+}
+
+// ---------------------------------------------------------------------------------------------
+
+Status RecordReader::fail(std::uint64_t offset, const std::string& message) const {
+  return Status::error(Code::kBadInput, path_ + ": byte " + std::to_string(offset), message);
+}
+
+Result<std::unique_ptr<RecordReader>> RecordReader::open(const std::string& path, std::uint32_t kind,
+                                                         std::uint32_t record_size) {
+  std::unique_ptr<RecordReader> reader(new RecordReader());
+  reader->path_ = path;
+  reader->record_size_ = record_size;
+  reader->fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (reader->fd_ < 0) return Status::error(Code::kBadInput, path, "cannot open record file: " + errno_text());
+  struct stat st {};
+  if (::fstat(reader->fd_, &st) != 0) return Status::error(Code::kBadInput, path, "cannot stat: " + errno_text());
+  const auto size = static_cast<std::uint64_t>(st.st_size);
+  if (size < kHeaderBytes + kFooterBytes) return reader->fail(0, "record file too short (" + std::to_string(size) + " bytes)");
+  std::byte header[kHeaderBytes];
+  if (!pread_all(reader->fd_, header, sizeof header, 0)) return reader->fail(0, "cannot read header");
+  if (std::memcmp(header, kMagic, sizeof kMagic) != 0) return reader->fail(0, "not a gaussmesh record file");
+  if (get<std::uint32_t>(header + 8) != kRecordFileVersion) {
+    return reader->fail(8, "record file version " + std::to_string(get<std::uint32_t>(header + 8)) +
+                               ", expected " + std::to_string(kRecordFileVersion));
+  }
+  if (get<std::uint32_t>(header + 12) != kind) return reader->fail(12, "record kind " + std::to_string(get<std::uint32_t>(header + 12)) + ", expected " + std::to_string(kind));
+  if (get<std::uint32_t>(header + 16) != record_size) return reader->fail(16, "record size " + std::to_string(get<std::uint32_t>(header + 16)) + ", expected " + std::to_string(record_size));
+  std::byte footer[kFooterBytes];
+  const std::uint64_t footer_at = size - kFooterBytes;
+  if (!pread_all(reader->fd_, footer, sizeof footer, footer_at)) return reader->fail(footer_at, "cannot read seek table");
+  if (std::memcmp(footer + 16, kSeekMagic, sizeof kSeekMagic) != 0) {
+    return reader->fail(footer_at, "seek table missing (file truncated or not finished)");
+  }
+  reader->records_ = get<std::uint64_t>(footer);
+  const std::uint64_t frames = get<std::uint32_t>(footer + 8);
+  if (frames * 8 > footer_at - kHeaderBytes) return reader->fail(footer_at, "seek table claims " + std::to_string(frames) + " frames, more than the file holds");
+  reader->data_end_ = footer_at - frames * 8;
+  reader->frame_offsets_.resize(frames);  // bounded by the file's real size, checked above
+  if (frames > 0 && !pread_all(reader->fd_, reader->frame_offsets_.data(), frames * 8, reader->data_end_)) {
+    return reader->fail(reader->data_end_, "cannot read seek table");
+  }
+  std::uint64_t previous = kHeaderBytes;
+  for (std::size_t i = 0; i < frames; ++i) {
+    std::uint64_t at = reader->frame_offsets_[i];
+    bool first_ok = i > 0 || at == kHeaderBytes;
+    if (!first_ok || at < previous || at + kFrameHeaderBytes > reader->data_end_ || (i > 0 && at == previous)) {
+      return reader->fail(reader->data_end_ + 8 * i, "seek table entry " + std::to_string(i) + " is out of order or out of range");
+    }
+    previous = at;
+  }
+  if (frames == 0 && reader->data_end_ != kHeaderBytes) return reader->fail(kHeaderBytes, "data without frames");
+  if (frames == 0 && reader->records_ != 0) return reader->fail(footer_at, "records claimed without frames");
+  ZSTD_DCtx* dctx = ZSTD_createDCtx();
+  if (dctx == nullptr) return Status::error(Code::kResources, path, "cannot create a zstd context");
+  reader->dctx_ = dctx;
+  return reader;
+}
+
+RecordReader::~RecordReader() {
+  if (fd_ >= 0) ::close(fd_);
+  ZSTD_freeDCtx(static_cast<ZSTD_DCtx*>(dctx_));
+}
+
+Result<std::span<const std::byte>> RecordReader::next() {
+  if (next_frame_ >= frame_offsets_.size()) {
+    if (records_read_ != records_) {
+      return fail(data_end_, "seek table claims " + std::to_string(records_) + " records, frames hold " +
+                                 std::to_string(records_read_));
+    }
+    return std::span<const std::byte>();
+  }
+  const std::uint64_t at = frame_offsets_[next_frame_];
+  const std::uint64_t end = next_frame_ + 1 < frame_offsets_.size() ? frame_offsets_[next_frame_ + 1] : data_end_;
+  std::byte frame_header[kFrameHeaderBytes];
+  if (!pread_all(fd_, frame_header, sizeof frame_header, at)) return fail(at, "cannot read frame header");
+  const std::uint64_t compressed = get<std::uint32_t>(frame_header);
+  const std::uint64_t plain = get<std::uint32_t>(frame_header + 4);
+  const std::string frame = "frame " + std::to_string(next_frame_) + ": ";
+  if (at + kFrameHeaderBytes + compressed != end) return fail(at, frame + "compressed size does not match the seek table");
+  if (plain == 0 || plain > kMaxRecordFrameBytes || plain % record_size_ != 0) {
+    return fail(at + 4, frame + "uncompressed size " + std::to_string(plain) + " is not a whole number of records within the limit");
+  }
+  if (compressed > ZSTD_compressBound(kMaxRecordFrameBytes)) return fail(at, frame + "compressed size out of range");
+  compressed_.resize(compressed);
+  if (!pread_all(fd_, compressed_.data(), compressed, at + kFrameHeaderBytes)) return fail(at, frame + "cannot read frame");
+  plain_.resize(plain);
+  std::size_t got = ZSTD_decompressDCtx(static_cast<ZSTD_DCtx*>(dctx_), plain_.data(), plain_.size(), compressed_.data(), compressed_.size());
+  if (ZSTD_isError(got)) return fail(at + kFrameHeaderBytes, frame + "corrupt (" + ZSTD_getErrorName(got) + ")");
+  if (got != plain) return fail(at + kFrameHeaderBytes, frame + "decompressed to " + std::to_string(got) + " bytes, expected " + std::to_string(plain));
+  ++next_frame_;
+  records_read_ += plain / record_size_;
+  return std::span<const std::byte>(plain_.data(), plain_.size());
+}
+
+}  // namespace gaussmesh::format

@@ -1,0 +1,86 @@
+// Record files between the out-of-core passes: fixed-size records in independent zstd frames
+// (content checksums on), a versioned header and a seek table at the end, modelled on zstd's
+// seekable format. docs/records.md gives the byte layout. Everything read back is untrusted:
+// every size is bounds-checked before it is used, and a damaged file is a kBadInput error
+// naming the file, the frame and the byte offset.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "format/status.h"
+
+namespace gaussmesh::format {
+
+inline constexpr std::uint32_t kRecordFileVersion = 1;
+// Largest uncompressed frame; writers cut frames at whole records below it.
+inline constexpr std::size_t kMaxRecordFrameBytes = std::size_t{4} << 20;
+
+class RecordWriter {
+ public:
+  // Creates path (truncating it). kind names what the records are (readers check it);
+  // record_size in 1..kMaxRecordFrameBytes; level is zstd's (1 = fastest).
+  static Result<std::unique_ptr<RecordWriter>> create(const std::string& path, std::uint32_t kind,
+                                                      std::uint32_t record_size, int level = 1,
+                                                      std::size_t frame_bytes = std::size_t{1} << 20);
+  ~RecordWriter();
+  RecordWriter(const RecordWriter&) = delete;
+  RecordWriter& operator=(const RecordWriter&) = delete;
+
+  // Appends whole records: bytes.size() must be a multiple of record_size (kProcessing if not).
+  Status append(std::span<const std::byte> bytes);
+  // Writes the last frame and the seek table, and closes the file. Required for a valid file.
+  Status finish();
+  std::uint64_t records() const { return records_; }
+  std::uint64_t bytes_written() const { return file_bytes_; }  // compressed, on disk
+
+ private:
+  RecordWriter() = default;
+  Status flush_frame();
+  Status write_raw(const void* data, std::size_t size);
+
+  int fd_ = -1;
+  std::string path_;
+  std::uint32_t record_size_ = 0;
+  std::size_t frame_limit_ = 0;
+  void* cctx_ = nullptr;  // ZSTD_CCtx
+  std::vector<std::byte> pending_, compressed_;
+  std::vector<std::uint64_t> frame_offsets_;
+  std::uint64_t records_ = 0, file_bytes_ = 0;
+  bool finished_ = false, failed_ = false;
+};
+
+class RecordReader {
+ public:
+  // Opens path and checks header, version, kind, record size and seek table.
+  static Result<std::unique_ptr<RecordReader>> open(const std::string& path, std::uint32_t kind,
+                                                    std::uint32_t record_size);
+  ~RecordReader();
+  RecordReader(const RecordReader&) = delete;
+  RecordReader& operator=(const RecordReader&) = delete;
+
+  std::size_t frame_count() const { return frame_offsets_.size(); }
+  std::uint64_t records() const { return records_; }
+  // Decompresses the next frame's records into a reused buffer; an empty span at the end.
+  // The span is valid until the next call.
+  Result<std::span<const std::byte>> next();
+
+ private:
+  RecordReader() = default;
+  Status fail(std::uint64_t offset, const std::string& message) const;
+
+  int fd_ = -1;
+  std::string path_;
+  std::uint32_t record_size_ = 0;
+  void* dctx_ = nullptr;  // ZSTD_DCtx
+  std::vector<std::uint64_t> frame_offsets_;
+  std::uint64_t data_end_ = 0, records_ = 0, records_read_ = 0;
+  std::size_t next_frame_ = 0;
+  std::vector<std::byte> compressed_, plain_;
+};
+
+}  // namespace gaussmesh::format

@@ -1,0 +1,137 @@
+// Tests of the record files between passes: round trip, frame cutting, and that every kind of
+// damage (truncation, flipped bytes, wrong kind/size/version) is one clean kBadInput error.
+#include "format/record_file.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include "tests/support/test_util.h"
+
+namespace gaussmesh::format {
+namespace {
+
+struct Item {
+  std::uint64_t id;
+  float xyz[3];
+  std::uint32_t label;
+};
+static_assert(sizeof(Item) == 24);
+
+std::vector<Item> make_items(size_t n) {
+  std::vector<Item> items(n);
+  for (size_t i = 0; i < n; ++i) items[i] = {i * 7919 + 3, {float(i), float(i) * 0.5f, -float(i)}, std::uint32_t(i % 20)};
+  return items;
+}
+
+Status write_items(const std::string& path, const std::vector<Item>& items, size_t frame_bytes = 1 << 20) {
+  auto writer = RecordWriter::create(path, 42, sizeof(Item), 1, frame_bytes);
+  if (!writer) return writer.status();
+  // Append in uneven pieces to exercise frame cutting.
+  size_t at = 0, piece = 1;
+  while (at < items.size()) {
+    size_t take = std::min(piece, items.size() - at);
+    GM_RETURN_IF_ERROR((*writer)->append(std::as_bytes(std::span(items.data() + at, take))));
+    at += take;
+    piece = piece * 3 + 1;
+  }
+  return (*writer)->finish();
+}
+
+Result<std::vector<Item>> read_items(const std::string& path) {
+  auto reader = RecordReader::open(path, 42, sizeof(Item));
+  if (!reader) return reader.status();
+  std::vector<Item> items;
+  for (;;) {
+    auto block = (*reader)->next();
+    if (!block) return block.status();
+    if (block->empty()) break;
+    size_t n = block->size() / sizeof(Item);
+    size_t old = items.size();
+    items.resize(old + n);
+    std::memcpy(items.data() + old, block->data(), block->size());
+  }
+  return items;
+}
+
+TEST(RecordFile, RoundTripAcrossManyFrames) {
+  testing::ScratchDir dir;
+  auto items = make_items(100000);
+  ASSERT_TRUE(write_items(dir.file("r.bin"), items, 4096).is_ok());
+  auto reader = RecordReader::open(dir.file("r.bin"), 42, sizeof(Item));
+  ASSERT_TRUE(reader.is_ok());
+  EXPECT_GT((*reader)->frame_count(), 100u);
+  EXPECT_EQ((*reader)->records(), items.size());
+  auto back = read_items(dir.file("r.bin"));
+  ASSERT_TRUE(back.is_ok()) << back.status().to_string();
+  ASSERT_EQ(back->size(), items.size());
+  EXPECT_EQ(std::memcmp(back->data(), items.data(), items.size() * sizeof(Item)), 0);
+}
+
+TEST(RecordFile, EmptyFileIsValid) {
+  testing::ScratchDir dir;
+  ASSERT_TRUE(write_items(dir.file("e.bin"), {}).is_ok());
+  auto back = read_items(dir.file("e.bin"));
+  ASSERT_TRUE(back.is_ok()) << back.status().to_string();
+  EXPECT_TRUE(back->empty());
+}
+
+TEST(RecordFile, WrongKindRecordSizeAndPartialRecordsAreRefused) {
+  testing::ScratchDir dir;
+  ASSERT_TRUE(write_items(dir.file("r.bin"), make_items(10)).is_ok());
+  auto wrong_kind = RecordReader::open(dir.file("r.bin"), 43, sizeof(Item));
+  ASSERT_FALSE(wrong_kind.is_ok());
+  EXPECT_NE(wrong_kind.status().message().find("kind"), std::string::npos);
+  auto wrong_size = RecordReader::open(dir.file("r.bin"), 42, 16);
+  ASSERT_FALSE(wrong_size.is_ok());
+  auto writer = RecordWriter::create(dir.file("p.bin"), 1, 24);
+  ASSERT_TRUE(writer.is_ok());
+  std::byte partial[10] = {};
+  EXPECT_EQ((*writer)->append(partial).code(), Code::kProcessing);
+}
+
+TEST(RecordFile, EveryTruncationIsACleanError) {
+  testing::ScratchDir dir;
+  ASSERT_TRUE(write_items(dir.file("r.bin"), make_items(3000), 8192).is_ok());
+  std::string bytes = testing::read_file(dir.file("r.bin"));
+  for (size_t length = 0; length < bytes.size(); length += 1 + length / 50) {
+    testing::write_file(dir.file("t.bin"), bytes.substr(0, length));
+    auto back = read_items(dir.file("t.bin"));
+    ASSERT_FALSE(back.is_ok()) << "prefix of " << length << " bytes read as valid";
+    EXPECT_EQ(back.status().code(), Code::kBadInput);
+    EXPECT_EQ(back.status().to_string().find('\n'), std::string::npos);
+    EXPECT_NE(back.status().to_string().find("t.bin"), std::string::npos);
+  }
+}
+
+TEST(RecordFile, FlippedBytesAreDetected) {
+  testing::ScratchDir dir;
+  ASSERT_TRUE(write_items(dir.file("r.bin"), make_items(3000), 8192).is_ok());
+  std::string bytes = testing::read_file(dir.file("r.bin"));
+  const std::uint32_t seed = 20261122;
+  std::mt19937 rng(seed);
+  size_t detected = 0, trials = 300;
+  auto original = make_items(3000);
+  for (size_t trial = 0; trial < trials; ++trial) {
+    std::string damaged = bytes;
+    size_t at = rng() % damaged.size();
+    damaged[at] = static_cast<char>(damaged[at] ^ (1 + rng() % 255));
+    testing::write_file(dir.file("d.bin"), damaged);
+    auto back = read_items(dir.file("d.bin"));
+    if (!back.is_ok()) {
+      ++detected;
+      EXPECT_EQ(back.status().code(), Code::kBadInput);
+    } else {
+      // A flip that goes unnoticed must not have changed what is read back.
+      ASSERT_EQ(back->size(), original.size()) << "seed " << seed << " trial " << trial << " byte " << at;
+      EXPECT_EQ(std::memcmp(back->data(), original.data(), original.size() * sizeof(Item)), 0)
+          << "seed " << seed << " trial " << trial << " byte " << at << ": silent corruption";
+    }
+  }
+  EXPECT_GT(detected, trials * 9 / 10);
+}
+
+}  // namespace
+}  // namespace gaussmesh::format
