@@ -2,6 +2,7 @@
 // it works on stdin), format names and extensions, and dispatch to the per-format readers.
 #include "format/mesh_reader.h"
 
+#include <algorithm>
 #include <string>
 
 #include "format/stl_reader.h"
@@ -62,7 +63,9 @@ Status unknown_format(const ByteSource& source) {
 Result<MeshFormat> detect_format(ByteSource& source) {
   Result<size_t> got = source.ensure(kDetectBytes);
   GM_RETURN_IF_ERROR(got.status());
-  std::string_view head(source.cursor(), *got);
+  // Only the first kDetectBytes count, however much is buffered: the answer must not depend
+  // on how the input arrives (file, pipe).
+  std::string_view head(source.cursor(), std::min(*got, kDetectBytes));
   if (head.empty()) return MeshFormat::kUnknown;
   if (starts_with(head, "DRACO")) return MeshFormat::kDraco;
   if (starts_with(head, "ply") && head.size() > 3 && (head[3] == '\n' || head[3] == '\r')) {

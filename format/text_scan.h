@@ -85,9 +85,13 @@ class LineScanner {
     const char* b = p_;
     if (*b == '+') ++b;
     auto [ptr, ec] = std::from_chars(b, end_, out);
-    last_ = std::string_view(p_, static_cast<size_t>((ec == std::errc() ? ptr : b) - p_));
-    if (ec == std::errc::result_out_of_range) return NumberError::kOutOfRange;
-    if (ec != std::errc()) return NumberError::kMalformed;
+    if (ec != std::errc()) {
+      const char* e = p_;
+      while (e != end_ && !is_space(*e)) ++e;
+      last_ = std::string_view(p_, static_cast<size_t>(e - p_));
+      return ec == std::errc::result_out_of_range ? NumberError::kOutOfRange : NumberError::kMalformed;
+    }
+    last_ = std::string_view(p_, static_cast<size_t>(ptr - p_));
     p_ = ptr;
     return NumberError::kOk;
   }
