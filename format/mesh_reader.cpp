@@ -114,7 +114,7 @@ Status read_mesh(ByteSource& source, const ReadOptions& options, MeshSink& sink)
     format = *detected;
     if (format == MeshFormat::kUnknown) {
       if (source.at_end()) {
-        return Status::error(Code::kBadInput, source.name(), "file is empty: no mesh data");
+        return Status::error(Code::kBadInput, source.name(), "input is empty: no mesh data");
       }
       // Content did not tell (e.g. an OBJ opening with a very long comment): trust the name.
       format = format_from_extension(source.name());

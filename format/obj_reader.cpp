@@ -39,7 +39,7 @@ class ObjReader {
     }
     if (batcher_.vertex_count() == 0) {
       if (source_.line_number() == 0) {
-        return Status::error(Code::kBadInput, source_.name(), "file is empty: no OBJ data");
+        return Status::error(Code::kBadInput, source_.name(), "input is empty: no OBJ data");
       }
       return Status::error(Code::kBadInput, source_.name(), "no vertices ('v' statements) found");
     }

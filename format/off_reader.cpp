@@ -70,7 +70,7 @@ class OffReader {
     Result<std::optional<std::string_view>> line = next();
     GM_RETURN_IF_ERROR(line.status());
     if (!line->has_value()) {
-      return Status::error(Code::kBadInput, source_.name(), "file is empty: no OFF header");
+      return Status::error(Code::kBadInput, source_.name(), "input is empty: no OFF header");
     }
     LineScanner scan(**line);
     std::string_view keyword = scan.token();

@@ -239,7 +239,7 @@ class AsciiStlReader {
       return source_.bad_at_line(std::string("file ends inside a solid (") + expected() + ")");
     }
     if (solids_ == 0) {
-      return Status::error(Code::kBadInput, source_.name(), "file is empty: no 'solid'");
+      return Status::error(Code::kBadInput, source_.name(), "input is empty: no 'solid'");
     }
     GM_RETURN_IF_ERROR(batcher_.finish());
     return sink_.on_end();
@@ -376,7 +376,7 @@ Result<StlEncoding> sniff_stl(ByteSource& source) {
 Status read_stl(ByteSource& source, const ReadOptions& options, MeshSink& sink) {
   Result<size_t> got = source.ensure(1);
   GM_RETURN_IF_ERROR(got.status());
-  if (*got == 0) return Status::error(Code::kBadInput, source.name(), "file is empty: no STL data");
+  if (*got == 0) return Status::error(Code::kBadInput, source.name(), "input is empty: no STL data");
   Result<StlEncoding> encoding = sniff_stl(source);
   GM_RETURN_IF_ERROR(encoding.status());
   if (*encoding == StlEncoding::kAscii) {
