@@ -1,1 +1,500 @@
-// sampler: not written yet.
+// Memoryless Gauss mesh sampling (paper §4 "Sampling Manifold Meshes", §4.1 noise; DESIGN §1):
+// face normals and labels, feature edges, candidates, non-sample filter, represented Gaussian
+// vertex, curvature characteristic, and the exact sample test (winding numbers with exact
+// orientation signs); sample_mesh() chains them with the patch filters.
+#include "stream/sampler.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "stream/exact_predicates.h"
+#include "stream/patch_filters.h"
+
+namespace gaussmesh::stream {
+namespace {
+
+using format::Vec3f;
+
+constexpr double kDegenerateRatio = 1e-7;  // |cross| <= this × sum of squared edge lengths
+constexpr double kHemisphereMargin = 1e-3;  // polygon vertices and g must have n·c above this
+
+Vec3d to_d(const Vec3f& v) { return {v.x, v.y, v.z}; }
+
+Vec3f unit_f(const Vec3d& v) {
+  const double len = std::sqrt(dot(v, v));
+  if (!(len > 0)) return {};
+  const double s = 1.0 / len;
+  return {static_cast<float>(v.x * s), static_cast<float>(v.y * s), static_cast<float>(v.z * s)};
+}
+
+// Winding number, around unit-ish direction g, of the closed spherical polygon poly (great arcs
+// between consecutive normals, the last joined to the first). Precondition: every poly[i] and g
+// lie in the open hemisphere around some direction c. Central projection onto the plane tangent
+// at c maps the arcs to segments and keeps every orientation sign, so this is the plane
+// crossing-number rule (upward crossing with g on the left: +1, downward with g on the right:
+// -1) with "up" measured by the exact sign of det[p, g, d] for a fixed d not parallel to g.
+int winding_number(const std::vector<Vec3d>& poly, const Vec3d& g) {
+  const double ax = std::abs(g.x), ay = std::abs(g.y), az = std::abs(g.z);
+  const Vec3d d = ax <= ay && ax <= az ? Vec3d{1, 0, 0} : (ay <= az ? Vec3d{0, 1, 0} : Vec3d{0, 0, 1});
+  const std::size_t k = poly.size();
+  int w = 0;
+  bool above_first = orientation_sign(poly[0], g, d) > 0;
+  bool above_a = above_first;
+  for (std::size_t i = 0; i < k; ++i) {
+    const Vec3d& a = poly[i];
+    const Vec3d& b = poly[(i + 1) % k];
+    const bool above_b = i + 1 == k ? above_first : orientation_sign(b, g, d) > 0;
+    if (!above_a && above_b) {
+      if (orientation_sign(a, b, g) > 0) ++w;
+    } else if (above_a && !above_b) {
+      if (orientation_sign(a, b, g) < 0) --w;
+    }
+    above_a = above_b;
+  }
+  return w;
+}
+
+// Characteristic from a winding number and the side of the neighbours (sum of (p_w - p_v)·g).
+Characteristic classify(int winding, double neighbour_side) {
+  if (winding == 0) return Characteristic::kNone;
+  if (winding < 0) return Characteristic::kSaddle;
+  return neighbour_side < 0 ? Characteristic::kConvex : Characteristic::kConcave;
+}
+
+// Scratch buffers reused across vertices (no per-vertex allocation).
+struct Scratch {
+  std::vector<std::uint32_t> labels;    // fan-ordered labels of the current fan
+  std::vector<std::uint32_t> distinct;  // distinct labels of the vertex
+  std::vector<Vec3d> poly;
+  std::vector<std::uint32_t> visited;   // Gaussian triangles of the cap search
+  std::vector<std::uint32_t> gauss;     // Gaussian vertices to test
+};
+
+// The Gaussian vertices that a polygon inside the cap (c, cos_theta) may enclose: corners of
+// the Gaussian triangles that meet the cap, found by a walk from the triangle holding c.
+void gauss_vertices_in_cap(const GaussSphere& gauss, const Vec3d& c, double cos_theta, Scratch& s) {
+  const double theta = std::acos(std::clamp(cos_theta, -1.0, 1.0));
+  s.visited.clear();
+  s.gauss.clear();
+  s.visited.push_back(gauss.locate(c));
+  for (std::size_t k = 0; k < s.visited.size() && s.visited.size() < 4096; ++k) {
+    const std::uint32_t t = s.visited[k];
+    for (std::uint32_t g : gauss.triangle_vertices(t)) {
+      const double gc = dot(gauss.vertex(g), c);
+      if (gc > kHemisphereMargin && std::acos(std::min(gc, 1.0)) <= theta + 1e-9 &&
+          std::find(s.gauss.begin(), s.gauss.end(), g) == s.gauss.end()) {
+        s.gauss.push_back(g);
+      }
+    }
+    for (std::uint32_t n : gauss.triangle_neighbors(t)) {
+      if (std::find(s.visited.begin(), s.visited.end(), n) != s.visited.end()) continue;
+      const double reach = theta + std::acos(std::clamp(gauss.triangle_cap_cos(n), -1.0, 1.0)) + 1e-9;
+      if (std::acos(std::clamp(dot(gauss.triangle_center(n), c), -1.0, 1.0)) <= reach) s.visited.push_back(n);
+    }
+  }
+  std::sort(s.gauss.begin(), s.gauss.end());
+}
+
+// Closes the polygon of a fan's own normals and checks it lies in an open hemisphere; returns
+// false (no verdict) otherwise. On success c is the hemisphere's pole.
+bool fan_polygon(const std::vector<Vec3d>& poly, Vec3d& c, double& cos_theta) {
+  c = {};
+  for (const Vec3d& n : poly) c = c + n;
+  const double len = std::sqrt(dot(c, c));
+  if (!(len > 0)) return false;
+  c = (1.0 / len) * c;
+  cos_theta = 1.0;
+  for (const Vec3d& n : poly) cos_theta = std::min(cos_theta, dot(n, c));
+  return cos_theta > kHemisphereMargin;
+}
+
+}  // namespace
+
+const char* sample_test_name(SampleTest test) { return test == SampleTest::kExact ? "exact" : "paper"; }
+
+const char* characteristic_name(Characteristic c) {
+  switch (c) {
+    case Characteristic::kNone: return "none";
+    case Characteristic::kConvex: return "convex";
+    case Characteristic::kConcave: return "concave";
+    case Characteristic::kSaddle: return "saddle";
+  }
+  return "?";
+}
+
+FaceNormals compute_face_normals(format::MeshView mesh, const MeshAdjacency& adjacency,
+                                 std::uint32_t smooth_iterations) {
+  const std::size_t nf = mesh.triangles.size();
+  FaceNormals out;
+  out.normal.resize(nf);
+  out.degenerate.assign(nf, 0);
+  std::vector<float> area(nf);
+  const Vec3f* pos = mesh.positions.data();
+  for (std::size_t f = 0; f < nf; ++f) {
+    const auto& t = mesh.triangles[f];
+    const Vec3d p0 = to_d(pos[t.v[0]]), p1 = to_d(pos[t.v[1]]), p2 = to_d(pos[t.v[2]]);
+    const Vec3d e1 = p1 - p0, e2 = p2 - p0, e3 = p2 - p1;
+    const Vec3d n = cross(e1, e2);
+    const double len = std::sqrt(dot(n, n));
+    if (!(len > kDegenerateRatio * (dot(e1, e1) + dot(e2, e2) + dot(e3, e3)))) {
+      out.degenerate[f] = 1;
+      ++out.degenerate_count;
+      area[f] = 0;
+      out.normal[f] = {};
+      continue;
+    }
+    const double s = 1.0 / len;
+    out.normal[f] = {static_cast<float>(n.x * s), static_cast<float>(n.y * s), static_cast<float>(n.z * s)};
+    area[f] = static_cast<float>(0.5 * len);
+  }
+  const auto& nb = adjacency.edge_neighbor;
+  // Degenerate faces inherit the area-weighted mean of their edge neighbours' own normals.
+  if (out.degenerate_count > 0) {
+    std::vector<Vec3f> inherited(out.normal);
+    for (std::size_t f = 0; f < nf; ++f) {
+      if (!out.degenerate[f]) continue;
+      Vec3d sum{};
+      for (int i = 0; i < 3; ++i) {
+        const std::uint32_t g = nb[3 * f + i];
+        if (g == MeshAdjacency::kNoFace || out.degenerate[g]) continue;
+        sum = sum + static_cast<double>(area[g]) * to_d(out.normal[g]);
+      }
+      inherited[f] = unit_f(sum);
+    }
+    out.normal.swap(inherited);
+  }
+  std::vector<Vec3f> next(nf);
+  for (std::uint32_t it = 0; it < smooth_iterations; ++it) {
+    for (std::size_t f = 0; f < nf; ++f) {
+      Vec3d sum = static_cast<double>(area[f]) * to_d(out.normal[f]);
+      for (int i = 0; i < 3; ++i) {
+        const std::uint32_t g = nb[3 * f + i];
+        if (g != MeshAdjacency::kNoFace) sum = sum + static_cast<double>(area[g]) * to_d(out.normal[g]);
+      }
+      const Vec3f u = unit_f(sum);
+      next[f] = (u.x == 0 && u.y == 0 && u.z == 0) ? out.normal[f] : u;
+    }
+    out.normal.swap(next);
+  }
+  return out;
+}
+
+std::vector<std::uint32_t> compute_face_labels(const FaceNormals& normals, const GaussSphere& gauss) {
+  const std::size_t nf = normals.normal.size();
+  std::vector<std::uint32_t> labels(nf);
+  for (std::size_t f = 0; f < nf; ++f) {
+    const Vec3f& n = normals.normal[f];
+    labels[f] = (n.x == 0 && n.y == 0 && n.z == 0) ? kNoLabel : gauss.locate(to_d(n));
+  }
+  return labels;
+}
+
+std::vector<std::uint8_t> compute_feature_edges(const MeshAdjacency& adjacency,
+                                                const std::vector<std::uint32_t>& labels) {
+  const std::size_t nf = labels.size();
+  std::vector<std::uint8_t> feature(nf);
+  const std::uint32_t* nb = adjacency.edge_neighbor.data();
+  for (std::size_t f = 0; f < nf; ++f) {
+    const std::uint32_t l = labels[f];
+    std::uint8_t bits = 0;
+    for (int i = 0; i < 3; ++i) {
+      const std::uint32_t g = nb[3 * f + i];
+      if (g == MeshAdjacency::kNoFace || labels[g] != l) bits |= static_cast<std::uint8_t>(1u << i);
+    }
+    feature[f] = bits;
+  }
+  return feature;
+}
+
+void evaluate_vertices(format::MeshView mesh, const MeshAdjacency& adjacency, const FaceNormals& normals,
+                       const std::vector<std::uint32_t>& labels, const std::vector<std::uint8_t>& feature,
+                       const GaussSphere& gauss, bool run_exact_test, std::uint32_t begin, std::uint32_t end,
+                       std::vector<VertexRecord>& out) {
+  Scratch s;
+  const auto* tris = mesh.triangles.data();
+  const std::uint32_t* corners = adjacency.vertex_corners.data();
+  const std::uint8_t* flags = adjacency.slot_flags.data();
+  const std::uint32_t* nb = adjacency.edge_neighbor.data();
+  for (std::uint32_t v = begin; v < end; ++v) {
+    const std::uint32_t sb = adjacency.star_begin(v), se = adjacency.star_end(v);
+    if (sb == se) continue;
+    // Fast path: feature edges and whether the star carries more than one label.
+    std::uint32_t feature_count = 0;
+    const std::uint32_t first_label = labels[corners[sb] / 3];
+    bool several_labels = false;
+    for (std::uint32_t k = sb; k < se; ++k) {
+      const std::uint32_t c = corners[k], f = c / 3, i = c % 3;
+      feature_count += feature[f] >> i & 1;
+      feature_count += nb[3 * f + (i + 2) % 3] == MeshAdjacency::kNoFace;
+      several_labels |= labels[f] != first_label;
+    }
+    const bool is_candidate = feature_count >= 3;
+    const bool test_exact = run_exact_test && several_labels;
+    if (!is_candidate && !test_exact) continue;
+
+    VertexRecord r;
+    r.vertex = v;
+    r.feature_edges = static_cast<std::uint16_t>(std::min<std::uint32_t>(feature_count, 0xFFFF));
+    r.is_candidate = is_candidate;
+    const Vec3d pv = to_d(mesh.positions[v]);
+    auto neighbour_side = [&](const Vec3d& g) {
+      double side = 0;
+      for (std::uint32_t k = sb; k < se; ++k) {
+        const std::uint32_t c = corners[k];
+        side += dot(to_d(mesh.positions[tris[c / 3].v[(c % 3 + 1) % 3]]) - pv, g);
+      }
+      return side;
+    };
+
+    // Distinct labels of the whole star.
+    s.distinct.clear();
+    for (std::uint32_t k = sb; k < se; ++k) {
+      const std::uint32_t l = labels[corners[k] / 3];
+      if (std::find(s.distinct.begin(), s.distinct.end(), l) == s.distinct.end()) s.distinct.push_back(l);
+    }
+    const bool has_unlabelled = std::find(s.distinct.begin(), s.distinct.end(), kNoLabel) != s.distinct.end();
+
+    if (is_candidate) {
+      // Non-sample filter, fan by fan: consecutive labels equal or edge-adjacent, and the fan's
+      // distinct labels a tree in G's dual graph.
+      bool all_trees = !has_unlabelled;
+      for (std::uint32_t k = sb; k < se && all_trees;) {
+        std::uint32_t fan_end = k + 1;
+        while (fan_end < se && !(flags[fan_end] & MeshAdjacency::kFanStart)) ++fan_end;
+        s.labels.clear();
+        for (std::uint32_t j = k; j < fan_end; ++j) s.labels.push_back(labels[corners[j] / 3]);
+        const std::size_t m = s.labels.size();
+        for (std::size_t j = 0; j < m && all_trees; ++j) {
+          const std::uint32_t a = s.labels[j], b = s.labels[(j + 1) % m];
+          if (a != b && !gauss.are_edge_adjacent(a, b)) all_trees = false;
+        }
+        if (all_trees) {
+          std::sort(s.labels.begin(), s.labels.end());
+          s.labels.erase(std::unique(s.labels.begin(), s.labels.end()), s.labels.end());
+          // A set of triangles whose adjacency graph has |L| - 1 edges and is connected; with
+          // consecutive labels adjacent the set is connected, so count the edges.
+          std::size_t edges = 0;
+          for (std::size_t x = 0; x < s.labels.size(); ++x)
+            for (std::size_t y = x + 1; y < s.labels.size(); ++y) edges += gauss.are_edge_adjacent(s.labels[x], s.labels[y]);
+          if (edges + 1 != s.labels.size()) all_trees = false;
+        }
+        k = fan_end;
+      }
+      r.is_tree = all_trees;
+
+      // Represented Gaussian vertex: the one corner every label is incident on.
+      if (!has_unlabelled) {
+        std::uint32_t found = kNoGaussVertex, count = 0;
+        for (std::uint32_t g : gauss.triangle_vertices(s.distinct[0])) {
+          bool on_all = true;
+          for (std::uint32_t l : s.distinct) on_all = on_all && gauss.triangle_has_vertex(l, g);
+          if (on_all) {
+            found = g;
+            ++count;
+          }
+        }
+        if (count == 1) {
+          r.gauss_vertex = found;
+          const auto around = gauss.vertex_triangles(found);
+          for (std::uint32_t l : s.distinct)
+            for (std::size_t k = 0; k < around.size() && k < 8; ++k)
+              if (around[k] == l) r.cover_mask |= static_cast<std::uint8_t>(1u << k);
+        }
+      }
+    }
+
+    // Windings fan by fan, over each fan's own (non-degenerate) normals.
+    const Vec3d vg = r.gauss_vertex != kNoGaussVertex ? gauss.vertex(r.gauss_vertex) : Vec3d{};
+    int winding_vg = 0;
+    int exact_first = 0;
+    std::uint32_t exact_g = kNoGaussVertex;
+    std::uint32_t enclosed = 0;
+    bool exact_fallback = false;
+    for (std::uint32_t k = sb; k < se;) {
+      std::uint32_t fan_end = k + 1;
+      while (fan_end < se && !(flags[fan_end] & MeshAdjacency::kFanStart)) ++fan_end;
+      s.poly.clear();
+      for (std::uint32_t j = k; j < fan_end; ++j) {
+        const std::uint32_t f = corners[j] / 3;
+        if (!normals.degenerate[f]) s.poly.push_back(to_d(normals.normal[f]));
+      }
+      k = fan_end;
+      if (s.poly.size() < 3) continue;
+      Vec3d c;
+      double cos_theta;
+      if (!fan_polygon(s.poly, c, cos_theta)) {
+        exact_fallback = true;
+        continue;
+      }
+      if (r.gauss_vertex != kNoGaussVertex && dot(vg, c) > kHemisphereMargin) winding_vg += winding_number(s.poly, vg);
+      if (test_exact) {
+        gauss_vertices_in_cap(gauss, c, cos_theta, s);
+        for (std::uint32_t g : s.gauss) {
+          const int w = winding_number(s.poly, gauss.vertex(g));
+          if (w == 0) continue;
+          ++enclosed;
+          if (exact_g == kNoGaussVertex || g < exact_g) {
+            exact_g = g;
+            exact_first = w;
+          }
+        }
+      }
+    }
+    if (r.gauss_vertex != kNoGaussVertex) {
+      r.winding = static_cast<std::int8_t>(std::clamp(winding_vg, -127, 127));
+      r.characteristic = classify(winding_vg, neighbour_side(vg));
+    }
+    if (test_exact) {
+      // A fan whose normals do not fit in an open hemisphere has no exact verdict: it is a
+      // sample when the vertex is a candidate (documented fallback).
+      r.is_exact_sample = enclosed > 0 || (exact_fallback && is_candidate);
+      r.enclosed = static_cast<std::uint8_t>(std::min<std::uint32_t>(enclosed, 255));
+      if (exact_g != kNoGaussVertex) {
+        r.exact_gauss_vertex = exact_g;
+        r.exact_winding = static_cast<std::int8_t>(std::clamp(exact_first, -127, 127));
+        r.exact_characteristic = classify(exact_first, neighbour_side(gauss.vertex(exact_g)));
+      }
+    }
+    if (r.is_candidate || r.is_exact_sample) out.push_back(r);
+  }
+}
+
+format::Result<SamplingResult> sample_mesh(format::MeshView mesh, const GaussSphere& gauss,
+                                           const SamplerOptions& options) {
+  auto adjacency_or = build_mesh_adjacency(mesh);
+  if (!adjacency_or) return adjacency_or.status();
+  const MeshAdjacency& adj = *adjacency_or;
+  const std::uint32_t nv = static_cast<std::uint32_t>(mesh.positions.size());
+  const std::size_t nf = mesh.triangles.size();
+  const bool exact = options.sample_test == SampleTest::kExact;
+
+  SamplingResult result;
+  const FaceNormals normals = compute_face_normals(mesh, adj, options.smooth_iterations);
+  std::vector<std::uint32_t> labels = compute_face_labels(normals, gauss);
+  std::vector<std::uint8_t> feature = compute_feature_edges(adj, labels);
+  std::vector<VertexRecord> records;
+  evaluate_vertices(mesh, adj, normals, labels, feature, gauss, exact, 0, nv, records);
+
+  result.stats.degenerate_faces = normals.degenerate_count;
+  result.stats.unlabelled_faces = static_cast<std::size_t>(std::count(labels.begin(), labels.end(), kNoLabel));
+  result.stats.break_edges = adj.break_edges;
+  for (const VertexRecord& r : records) {
+    result.stats.candidates_initial += r.is_candidate;
+    result.stats.exact_samples += r.is_exact_sample;
+  }
+
+  // Untriangulatable patches (Fig. 6 a, b): merge into a neighbour, then re-evaluate the
+  // vertices of the merged faces, which may lose feature edges and candidacy (Fig. 6 c, d).
+  std::vector<std::uint8_t> is_candidate(nv, 0);
+  for (const VertexRecord& r : records) is_candidate[r.vertex] = r.is_candidate;
+  Patches patches = find_patches(adj, labels, feature);
+  std::vector<std::uint32_t> touched;
+  std::vector<VertexRecord> fresh;
+  for (int round = 0; round < 64; ++round) {
+    const std::vector<std::uint32_t> plan = plan_untriangulatable_merges(mesh, adj, patches, feature, is_candidate);
+    touched.clear();
+    for (std::size_t f = 0; f < nf; ++f) {
+      const std::uint32_t target = plan[patches.face_patch[f]];
+      if (target == kNoPatch) continue;
+      labels[f] = patches.patch_label[target];
+      for (std::uint32_t v : mesh.triangles[f].v) touched.push_back(v);
+    }
+    if (touched.empty()) break;
+    result.stats.merged_patches += static_cast<std::size_t>(
+        std::count_if(plan.begin(), plan.end(), [](std::uint32_t t) { return t != kNoPatch; }));
+    feature = compute_feature_edges(adj, labels);
+    std::sort(touched.begin(), touched.end());
+    touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+    // Re-evaluate the touched vertices' label-dependent decisions; exact verdicts do not depend
+    // on labels and are kept from the first pass.
+    fresh.clear();
+    for (std::uint32_t v : touched) evaluate_vertices(mesh, adj, normals, labels, feature, gauss, false, v, v + 1, fresh);
+    std::vector<VertexRecord> merged;
+    merged.reserve(records.size());
+    auto is_touched = [&](std::uint32_t v) { return std::binary_search(touched.begin(), touched.end(), v); };
+    std::vector<VertexRecord> old_touched;
+    for (const VertexRecord& r : records) {
+      if (is_touched(r.vertex)) old_touched.push_back(r);
+      else merged.push_back(r);
+    }
+    // Carry exact verdicts over, then add the re-evaluated records.
+    for (VertexRecord& r : fresh) {
+      auto it = std::lower_bound(old_touched.begin(), old_touched.end(), r.vertex,
+                                 [](const VertexRecord& x, std::uint32_t v) { return x.vertex < v; });
+      if (it != old_touched.end() && it->vertex == r.vertex) {
+        r.is_exact_sample = it->is_exact_sample;
+        r.enclosed = it->enclosed;
+        r.exact_gauss_vertex = it->exact_gauss_vertex;
+        r.exact_winding = it->exact_winding;
+        r.exact_characteristic = it->exact_characteristic;
+      }
+    }
+    for (const VertexRecord& r : old_touched) {
+      const bool refreshed = std::binary_search(fresh.begin(), fresh.end(), r,
+                                                [](const VertexRecord& x, const VertexRecord& y) { return x.vertex < y.vertex; });
+      if (!refreshed && r.is_exact_sample) {
+        VertexRecord kept = r;  // no longer a candidate, still an exact sample
+        kept.is_candidate = false;
+        kept.is_tree = false;
+        kept.gauss_vertex = kNoGaussVertex;
+        kept.characteristic = Characteristic::kNone;
+        fresh.push_back(kept);
+      }
+    }
+    merged.insert(merged.end(), fresh.begin(), fresh.end());
+    std::sort(merged.begin(), merged.end(), [](const VertexRecord& x, const VertexRecord& y) { return x.vertex < y.vertex; });
+    records.swap(merged);
+    std::fill(is_candidate.begin(), is_candidate.end(), 0);
+    for (const VertexRecord& r : records) is_candidate[r.vertex] = r.is_candidate;
+    patches = find_patches(adj, labels, feature);
+  }
+
+  // Patch graph inputs.
+  result.face_label = std::move(labels);
+  result.face_feature = std::move(feature);
+  result.face_patch = std::move(patches.face_patch);
+  result.patch_label = std::move(patches.patch_label);
+  result.patch_count = result.patch_label.size();
+  for (std::size_t f = 0; f < nf; ++f) {
+    for (int i = 0; i < 3; ++i) {
+      const std::uint32_t g = adj.edge_neighbor[3 * f + i];
+      if (g == MeshAdjacency::kNoFace) continue;
+      const std::uint32_t p = result.face_patch[f], q = result.face_patch[g];
+      if (p < q) result.patch_adjacency.emplace_back(p, q);
+    }
+  }
+  std::sort(result.patch_adjacency.begin(), result.patch_adjacency.end());
+  result.patch_adjacency.erase(std::unique(result.patch_adjacency.begin(), result.patch_adjacency.end()),
+                               result.patch_adjacency.end());
+
+  for (const VertexRecord& r : records)
+    if (r.is_candidate) result.candidates.push_back(r);
+
+  if (exact) {
+    for (const VertexRecord& r : records)
+      if (r.is_exact_sample) result.samples.push_back({r.vertex, r.exact_gauss_vertex, r.exact_characteristic});
+  } else {
+    // Non-sample filter, then the noisy-sample filter over the survivors.
+    std::vector<NoisyFilterInput> survivors;
+    for (const VertexRecord& r : result.candidates) {
+      if (r.is_tree) {
+        ++result.stats.tree_filtered;
+        continue;
+      }
+      survivors.push_back({r.vertex, r.gauss_vertex, static_cast<std::uint8_t>(r.characteristic), r.cover_mask});
+    }
+    const auto candidate_pairs = find_candidate_adjacency(mesh, adj, result.face_feature, is_candidate);
+    const std::vector<std::uint8_t> keep = noisy_sample_filter(survivors, candidate_pairs);
+    for (std::size_t k = 0; k < survivors.size(); ++k) {
+      if (!keep[k]) {
+        ++result.stats.noisy_filtered;
+        continue;
+      }
+      result.samples.push_back({survivors[k].vertex, survivors[k].gauss_vertex,
+                                static_cast<Characteristic>(survivors[k].characteristic)});
+    }
+  }
+  return result;
+}
+
+}  // namespace gaussmesh::stream
