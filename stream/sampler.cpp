@@ -429,6 +429,7 @@ format::Result<SamplingResult> sample_mesh(format::MeshView mesh, const GaussSph
         r.exact_characteristic = it->exact_characteristic;
       }
     }
+    std::vector<VertexRecord> exact_only;
     for (const VertexRecord& r : old_touched) {
       const bool refreshed = std::binary_search(fresh.begin(), fresh.end(), r,
                                                 [](const VertexRecord& x, const VertexRecord& y) { return x.vertex < y.vertex; });
@@ -438,10 +439,11 @@ format::Result<SamplingResult> sample_mesh(format::MeshView mesh, const GaussSph
         kept.is_tree = false;
         kept.gauss_vertex = kNoGaussVertex;
         kept.characteristic = Characteristic::kNone;
-        fresh.push_back(kept);
+        exact_only.push_back(kept);
       }
     }
     merged.insert(merged.end(), fresh.begin(), fresh.end());
+    merged.insert(merged.end(), exact_only.begin(), exact_only.end());
     std::sort(merged.begin(), merged.end(), [](const VertexRecord& x, const VertexRecord& y) { return x.vertex < y.vertex; });
     records.swap(merged);
     std::fill(is_candidate.begin(), is_candidate.end(), 0);
@@ -479,6 +481,11 @@ format::Result<SamplingResult> sample_mesh(format::MeshView mesh, const GaussSph
     for (const VertexRecord& r : result.candidates) {
       if (r.is_tree) {
         ++result.stats.tree_filtered;
+        continue;
+      }
+      if (options.drop_unwinding_candidates && r.gauss_vertex != kNoGaussVertex &&
+          r.characteristic == Characteristic::kNone) {
+        ++result.stats.unwinding_filtered;
         continue;
       }
       survivors.push_back({r.vertex, r.gauss_vertex, static_cast<std::uint8_t>(r.characteristic), r.cover_mask});

@@ -34,6 +34,11 @@ const char* characteristic_name(Characteristic c);
 struct SamplerOptions {
   std::uint32_t smooth_iterations = 0;  // --smooth N: low-pass filter of face normals ([Tau01])
   SampleTest sample_test = SampleTest::kExact;
+  // kPaper only. The paper's characteristic is the winding of the (true) normal polygon around
+  // the represented v_G; a candidate whose polygon does not wind around it (kNone) cannot be
+  // the sample of v_G, and is dropped by the non-sample filter when this is set. Without it the
+  // filters keep about two candidates per Gaussian vertex on smooth shapes (docs/sampling.md).
+  bool drop_unwinding_candidates = true;
 };
 
 // ---- Step 1: per face (a pure function of the face and its edge neighbours, one ring per
@@ -114,6 +119,7 @@ struct SamplingStats {
   std::size_t candidates_initial = 0;   // before the untriangulatable-patch filter
   std::size_t merged_patches = 0;       // untriangulatable patches merged away
   std::size_t tree_filtered = 0;        // candidates removed by the non-sample filter
+  std::size_t unwinding_filtered = 0;   // ... and for not winding around their v_G
   std::size_t noisy_filtered = 0;       // candidates removed by the noisy-sample filter
   std::size_t exact_samples = 0;        // vertices with a winding != 0 (either mode reports it)
 };
