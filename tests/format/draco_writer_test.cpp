@@ -246,26 +246,29 @@ TEST(DracoWriter, GooglesDecoderReadsTheOutput) {
   EXPECT_EQ(faces, 5804);
 }
 
-// The figure in docs/formats-draco.md: how many of the cow's distinct positions survive
-// quantization at 11 (Draco's default) and 14 bits (ours).
-TEST(DracoWriter, CowVertexCollapseAtQp11And14) {
+// The figures in docs/formats-draco.md: how many of the cow's distinct positions survive
+// quantization at 8, 11 (Draco's default) and 14 bits (ours). Draco never merges points: the
+// point count stays 2,904 even where positions coincide after quantization.
+TEST(DracoWriter, CowVertexCollapseByQuantization) {
   PlainMesh cow = read_cow();
   const size_t distinct_in = unique_positions(cow.positions).size();
   ScratchDir dir;
-  size_t distinct_out[2] = {0, 0};
-  const int bits[2] = {11, 14};
-  for (int i = 0; i < 2; ++i) {
+  const int bits[3] = {8, 11, 14};
+  size_t distinct_out[3] = {0, 0, 0};
+  for (int i = 0; i < 3; ++i) {
     std::string path = dir.file("cow.drc");
     ASSERT_TRUE(write_file_draco(path, cow.view(), {bits[i], 7}).is_ok());
     PlainMesh decoded = decode(testing::read_file(path));
+    EXPECT_EQ(decoded.positions.size(), cow.positions.size());
     distinct_out[i] = unique_positions(decoded.positions).size();
     std::printf("cow: qp %d keeps %zu of %zu distinct positions (%zu collapse), %zu bytes\n",
                 bits[i], distinct_out[i], distinct_in, distinct_in - distinct_out[i],
                 static_cast<size_t>(std::filesystem::file_size(path)));
   }
+  EXPECT_LT(distinct_out[0], distinct_in) << "qp 8 (step ~1/255 of the cow) merges close vertices";
   EXPECT_LE(distinct_out[0], distinct_out[1]);
-  EXPECT_LE(distinct_out[1], distinct_in);
-  EXPECT_EQ(distinct_out[1], distinct_in) << "qp 14 should keep every distinct cow position";
+  EXPECT_LE(distinct_out[1], distinct_out[2]);
+  EXPECT_EQ(distinct_out[2], distinct_in) << "qp 14 should keep every distinct cow position";
 }
 
 // What Draco 1.5 keeps of unusual input (docs/formats-draco.md). A simplifier's output has
@@ -359,6 +362,14 @@ TEST(DracoWriter, RejectsBadOptionsAndInput) {
   PlainMesh points_only;
   points_only.positions = mesh.positions;
   EXPECT_EQ(write_file_draco(path, points_only.view(), {}).code(), Code::kProcessing);
+  // Faces exist but all repeat an index: Draco's own refusal ("All triangles are
+  // degenerate.") comes back as a kProcessing Status naming the file.
+  PlainMesh all_degenerate;
+  all_degenerate.positions = {{0, 0, 0}, {1, 0, 0}};
+  all_degenerate.triangles = {{{0, 0, 1}}, {{1, 1, 0}}};
+  Status degenerate = write_file_draco(path, all_degenerate.view(), {});
+  EXPECT_EQ(degenerate.code(), Code::kProcessing);
+  EXPECT_NE(degenerate.to_string().find("Draco"), std::string::npos) << degenerate.to_string();
   PlainMesh out_of_range = mesh;
   out_of_range.triangles.push_back({{0, 1, static_cast<VertexIndex>(mesh.positions.size())}});
   Status s = write_file_draco(path, out_of_range.view(), {});
