@@ -60,7 +60,7 @@ struct MeshTopology {
   bool is_closed() const { return boundary_edges == 0; }
 };
 
-// Analyses mesh. Memory: about 60 bytes per face and 20 per vertex, all in a few flat arrays.
+// Analyses mesh. Memory: about 55 bytes per face and 26 per vertex, in a few flat arrays.
 // Errors: kProcessing when a face refers to a vertex outside mesh.positions; kResources when
 // the mesh has more than 2^32 / 3 - 1 faces (corner ids are 32-bit).
 format::Result<MeshTopology> compute_topology(format::MeshView mesh);
