@@ -90,6 +90,7 @@ Status OutputFile::flush() {
 Status OutputFile::write(const void* data, size_t size) {
   if (failed_) return Status::error(Code::kOutput, display_, "write after an earlier failure");
   const char* bytes = static_cast<const char*>(data);
+  total_ += size;
   while (size > 0) {
     if (used_ == kBufferSize) GM_RETURN_IF_ERROR(flush());
     size_t take = std::min(size, kBufferSize - used_);

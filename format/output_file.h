@@ -3,6 +3,7 @@
 // so that SIGINT/SIGTERM remove them (see temp_registry.h).
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -24,6 +25,8 @@ class OutputFile {
   // Flushes, and for a file renames it onto the target. After an error nothing is left.
   Status commit();
   const std::string& name() const { return display_; }
+  // Bytes handed to write() so far.
+  std::uint64_t bytes_written() const { return total_; }
   bool is_stdout() const { return fd_ == 1; }
 
  private:
@@ -34,6 +37,7 @@ class OutputFile {
   std::string target_, temp_, display_;
   std::unique_ptr<char[]> buffer_;
   size_t used_ = 0;
+  std::uint64_t total_ = 0;
   bool committed_ = false;
   bool failed_ = false;
 };

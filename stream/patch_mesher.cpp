@@ -284,6 +284,9 @@ class Mesher {
       progress = false;
       for (VH vh : mesh_.vertices()) {
         if (mesh_.status(vh).deleted() || mesh_.is_isolated(vh) || keep_[vh.idx()] != Keep::kCorner) continue;
+        // Corners on a boundary stay: they are where patch borders cross the boundary curve,
+        // its sampling in the L2,1 metric (Fig. 19); without them a hole's rim goes straight.
+        if (mesh_.is_boundary(vh)) continue;
         if (try_remove(vh, true)) progress = true;
       }
     }

@@ -1,0 +1,78 @@
+// The in-core simplification job: orientation search, sampling, meshing (paper §4–5).
+#include "stream/simplify.h"
+
+#include <algorithm>
+#include <chrono>
+#include <optional>
+
+#include "stream/voronoi_mesher.h"
+
+namespace gaussmesh::stream {
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+const char* mesher_name(MesherKind mesher) { return mesher == MesherKind::kPatch ? "patch" : "voronoi"; }
+
+format::Result<SimplifyResult> simplify_mesh(MeshView mesh, const SimplifyOptions& options) {
+  SimplifyResult result;
+  auto start = std::chrono::steady_clock::now();
+  std::optional<SamplingResult> best;
+  std::optional<GaussSphere> best_gauss;
+  const std::uint32_t tries = std::max<std::uint32_t>(1, options.orientations);
+  for (std::uint32_t k = 0; k < tries; ++k) {
+    GaussSphereOptions gauss_options = options.gauss;
+    if (k > 0) gauss_options.rotation = gauss_rotation_from_seed(options.seed + k);
+    auto gauss = GaussSphere::create(gauss_options);
+    if (!gauss) return gauss.status();
+    auto sampled = sample_mesh(mesh, *gauss, options.sampler);
+    if (!sampled) return sampled.status();
+    result.samples_per_orientation.push_back(sampled->samples.size());
+    if (!best || sampled->samples.size() < best->samples.size()) {
+      best = std::move(sampled.value());
+      best_gauss = std::move(gauss.value());
+      result.orientation_index = k;
+    }
+  }
+  result.seconds_sample = seconds_since(start);
+  const SamplingResult& sampling = *best;
+  result.rotation = best_gauss->options().rotation;
+  result.gauss_vertices = best_gauss->vertex_count();
+  result.gauss_triangles = best_gauss->triangle_count();
+  result.patches = sampling.patch_count;
+  result.candidates = sampling.candidates.size();
+  result.samples = sampling.samples.size();
+  result.sampling = sampling.stats;
+
+  start = std::chrono::steady_clock::now();
+  if (options.mesher == MesherKind::kVoronoi) {
+    std::vector<std::uint32_t> sample_ids;
+    sample_ids.reserve(sampling.samples.size());
+    for (const auto& s : sampling.samples) sample_ids.push_back(s.vertex);
+    auto meshed = mesh_voronoi(mesh, sample_ids);
+    if (!meshed) return meshed.status();
+    result.mesh = std::move(meshed->mesh);
+    result.birth = std::move(meshed->birth);
+  } else {
+    std::vector<VertexRole> roles(mesh.positions.size(), VertexRole::kNone);
+    for (const auto& c : sampling.candidates) roles[c.vertex] = VertexRole::kCorner;
+    for (const auto& s : sampling.samples) roles[s.vertex] = VertexRole::kSample;
+    auto meshed = mesh_patches({mesh, sampling.face_patch, roles});
+    if (!meshed) return meshed.status();
+    result.mesh = std::move(meshed->mesh);
+    result.birth = std::move(meshed->birth);
+    result.graph = meshed->graph;
+    result.kept_corners = meshed->kept_corners;
+    result.kept_chain_vertices = meshed->kept_chain_vertices;
+    result.kept_interior_vertices = meshed->kept_interior_vertices;
+    result.skipped_input_faces = meshed->skipped_input_faces;
+  }
+  result.seconds_mesh = seconds_since(start);
+  return result;
+}
+
+}  // namespace gaussmesh::stream

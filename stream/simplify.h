@@ -1,0 +1,49 @@
+// The in-core simplification job (paper §4–5): sample the mesh on the Gaussian sphere G (trying
+// several orientations of G if asked), then build the approximation with the per-patch or the
+// Voronoi mesher. The out-of-core pipeline reaches the same result through records.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "format/status.h"
+#include "stream/gauss_sphere.h"
+#include "stream/mesh.h"
+#include "stream/patch_mesher.h"
+#include "stream/sampler.h"
+
+namespace gaussmesh::stream {
+
+enum class MesherKind { kPatch, kVoronoi };
+const char* mesher_name(MesherKind mesher);
+
+struct SimplifyOptions {
+  GaussSphereOptions gauss;  // base, frequency, rotation
+  SamplerOptions sampler;    // smoothing, sample test
+  MesherKind mesher = MesherKind::kPatch;
+  // > 1: also try the rotations gauss_rotation_from_seed(seed + 1 ..), keep the one with the
+  // fewest samples (ties: the earliest). The first try uses gauss.rotation as given.
+  std::uint32_t orientations = 1;
+  std::uint64_t seed = kDefaultGaussSeed;
+};
+
+struct SimplifyResult {
+  Mesh mesh;                         // the approximation; positions copied from the input
+  std::vector<std::uint32_t> birth;  // input vertex of every output vertex
+  std::array<double, 4> rotation{};  // the orientation of G that was used
+  std::uint32_t orientation_index = 0;  // 0 = the given rotation, k = seed + k
+  std::vector<std::size_t> samples_per_orientation;
+  std::size_t gauss_vertices = 0, gauss_triangles = 0;
+  std::size_t patches = 0, candidates = 0, samples = 0;
+  SamplingStats sampling;
+  PatchGraphStats graph;             // per-patch mesher only
+  std::size_t kept_corners = 0, kept_chain_vertices = 0, kept_interior_vertices = 0;
+  std::size_t skipped_input_faces = 0;
+  double seconds_sample = 0, seconds_mesh = 0;
+};
+
+// Errors: kUsage for invalid G options; kProcessing from the sampler or mesher.
+format::Result<SimplifyResult> simplify_mesh(MeshView mesh, const SimplifyOptions& options);
+
+}  // namespace gaussmesh::stream
