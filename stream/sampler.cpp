@@ -5,6 +5,7 @@
 #include "stream/sampler.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 
 #include "stream/exact_predicates.h"
@@ -502,6 +503,27 @@ format::Result<SamplingResult> sample_mesh(format::MeshView mesh, const GaussSph
     }
   }
   return result;
+}
+
+format::Result<OrientedSampling> sample_mesh_best_orientation(format::MeshView mesh,
+                                                              const std::vector<GaussSphereOptions>& spheres,
+                                                              const SamplerOptions& options) {
+  assert(!spheres.empty());
+  OrientedSampling best;
+  for (std::size_t k = 0; k < spheres.size(); ++k) {
+    auto gauss = GaussSphere::create(spheres[k]);
+    if (!gauss) return gauss.status();
+    auto result = sample_mesh(mesh, *gauss, options);
+    if (!result) return result.status();
+    const std::size_t n = result->samples.size();
+    best.samples_per_orientation.push_back(n);
+    if (k == 0 || n < best.result.samples.size()) {
+      best.gauss.emplace(std::move(gauss).value());
+      best.result = std::move(result).value();
+      best.chosen = k;
+    }
+  }
+  return best;
 }
 
 }  // namespace gaussmesh::stream

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "format/mesh_types.h"
@@ -156,5 +157,18 @@ struct SamplingResult {
 // build_mesh_adjacency (bad indices, size limits).
 format::Result<SamplingResult> sample_mesh(format::MeshView mesh, const GaussSphere& gauss,
                                            const SamplerOptions& options);
+
+// --orientations K (DESIGN §1 "Default orientation"): samples the mesh once per Gaussian
+// sphere in `spheres` and keeps the one with the fewest samples (ties: the earliest).
+// Precondition: spheres is not empty. Errors: those of sample_mesh and GaussSphere::create.
+struct OrientedSampling {
+  std::optional<GaussSphere> gauss;  // the chosen sphere (always set on success)
+  SamplingResult result;
+  std::size_t chosen = 0;  // index into spheres
+  std::vector<std::size_t> samples_per_orientation;
+};
+format::Result<OrientedSampling> sample_mesh_best_orientation(format::MeshView mesh,
+                                                              const std::vector<GaussSphereOptions>& spheres,
+                                                              const SamplerOptions& options);
 
 }  // namespace gaussmesh::stream
