@@ -94,12 +94,17 @@ class Mesher {
       mesh_.property(patch_, fh) = input_.face_patch[f];
     }
     ::omerr().enable();
-    // Mean normal of every patch, for the orientation guard.
+    // Patch ids made dense (0 .. patches-1, in order of id), then the mean normal of every
+    // patch, for the orientation guard.
+    std::vector<std::uint32_t> ids(input_.face_patch.begin(), input_.face_patch.end());
+    std::sort(ids.begin(), ids.end());
+    ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
     for (FH fh : mesh_.faces()) {
-      Vec n = face_cross(fh);
-      auto [it, inserted] = patch_normal_.try_emplace(mesh_.property(patch_, fh), Vec(0, 0, 0));
-      it->second += n;
+      auto& id = mesh_.property(patch_, fh);
+      id = static_cast<std::uint32_t>(std::lower_bound(ids.begin(), ids.end(), id) - ids.begin());
     }
+    patch_normal_.assign(ids.size(), Vec(0, 0, 0));
+    for (FH fh : mesh_.faces()) patch_normal_[mesh_.property(patch_, fh)] += face_cross(fh);
     keep_.assign(mesh_.n_vertices(), Keep::kRemove);
   }
 
@@ -251,7 +256,8 @@ class Mesher {
 
   // Tries every allowed target of vh, shortest edge first.
   bool try_remove(VH vh, bool along_features_only) {
-    std::vector<std::pair<double, HH>> options;
+    std::vector<std::pair<double, HH>>& options = options_;
+    options.clear();
     for (HH h : mesh_.voh_range(vh)) {
       if (along_features_only && !is_feature(mesh_.edge_handle(h))) continue;
       Vec d = mesh_.point(mesh_.to_vertex_handle(h)) - mesh_.point(vh);
@@ -326,8 +332,9 @@ class Mesher {
   const PatchMesherInput& input_;
   OMesh mesh_;
   OpenMesh::FPropHandleT<std::uint32_t> patch_;
-  std::map<std::uint32_t, Vec> patch_normal_;
+  std::vector<Vec> patch_normal_;  // by dense patch index
   std::vector<Keep> keep_;
+  std::vector<std::pair<double, HH>> options_;  // scratch of try_remove
   PatchMesherResult result_;
 };
 
