@@ -31,12 +31,11 @@ class MeshBatcher {
     return {};
   }
 
-  // Precondition: every index < vertex_count(). Pending vertices that the triangle uses are
-  // delivered first.
+  // Precondition: every index < vertex_count(). The triangle may use pending vertices: they
+  // are always delivered before the triangles (flush_triangles delivers them first), so
+  // interleaved vertices and faces (OBJ, STL) still travel in full batches.
   Status add_triangle(VertexIndex a, VertexIndex b, VertexIndex c) {
     assert(a < vertex_count() && b < vertex_count() && c < vertex_count());
-    VertexIndex top = std::max(a, std::max(b, c));
-    if (top >= delivered_vertices_) GM_RETURN_IF_ERROR(flush_vertices());
     triangles_.push_back(Triangle{{a, b, c}});
     if (triangles_.size() >= batch_size_) return flush_triangles();
     return {};
@@ -49,7 +48,9 @@ class MeshBatcher {
     vertices_.clear();
     return s;
   }
+  // Delivers pending vertices, then pending triangles.
   Status flush_triangles() {
+    GM_RETURN_IF_ERROR(flush_vertices());
     if (triangles_.empty()) return {};
     Status s = sink_.on_triangles(triangles_);
     delivered_triangles_ += triangles_.size();
@@ -57,10 +58,7 @@ class MeshBatcher {
     return s;
   }
   // Delivers everything pending (vertices first); the reader then calls sink.on_end().
-  Status finish() {
-    GM_RETURN_IF_ERROR(flush_vertices());
-    return flush_triangles();
-  }
+  Status finish() { return flush_triangles(); }
 
  private:
   MeshSink& sink_;

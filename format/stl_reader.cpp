@@ -4,9 +4,12 @@
 // table: the one reader whose memory grows with the mesh (unique vertices). docs/formats.md.
 #include "format/stl_reader.h"
 
+#include <sys/mman.h>
+
 #include <bit>
+#include <cstdlib>
 #include <cstring>
-#include <new>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -50,34 +53,69 @@ bool contains_nocase(std::string_view s, std::string_view needle) {
 
 // Welds positions by exact value: bitwise-equal coordinates (with -0.0 taken as 0.0) are one
 // vertex. Open addressing with linear probing, load <= 0.7: about 23-46 bytes per unique
-// vertex.
+// vertex. STL files list a mesh's facets in some spatial order, so a corner usually repeats
+// soon after it first appears: a small direct-mapped cache of recent corners (fixed 512 KiB)
+// answers most lookups without touching the large table, which lives in DRAM.
 class VertexWelder {
  public:
   static constexpr uint32_t kEmpty = 0xFFFFFFFFu;  // never a vertex index (< kMaxVertices)
 
-  VertexWelder() { slots_.assign(kInitialSlots, Slot{}); }
+  VertexWelder() : slots_(kInitialSlots), recent_(kRecentSlots) {}
 
+  // False when even the initial tables could not be allocated.
+  bool ok() const { return slots_.ok() && recent_.ok(); }
   size_t size() const { return size_; }
+  // True when the next insertion must wait for grow().
+  bool full() const { return size_ * 10 >= slots_.size() * 7; }
 
-  // The index of p: existing, or next_index (then inserted). Fails only on memory.
-  Result<uint32_t> find_or_insert(const Vec3f& p, uint32_t next_index) {
+  // The index of p: an existing one, or next_index after inserting p. Precondition: !full().
+  uint32_t find_or_insert(const Vec3f& p, uint32_t next_index) {
     Key key{bits(p.x), bits(p.y), bits(p.z)};
+    size_t h = hash(key);
+    Slot& cached = recent_[h >> (64 - kRecentBits)];
+    if (cached.index != kEmpty && same(cached.key, key)) return cached.index;
     size_t mask = slots_.size() - 1;
-    for (size_t i = hash(key) & mask;; i = (i + 1) & mask) {
+    for (size_t i = h & mask;; i = (i + 1) & mask) {
       Slot& s = slots_[i];
       if (s.index == kEmpty) {
         s.key = key;
         s.index = next_index;
         ++size_;
-        if (size_ * 10 > slots_.size() * 7) GM_RETURN_IF_ERROR(grow());
+        cached = s;
         return next_index;
       }
-      if (s.key.x == key.x && s.key.y == key.y && s.key.z == key.z) return s.index;
+      if (same(s.key, key)) {
+        cached = s;
+        return s.index;
+      }
     }
+  }
+
+  // Doubles the table. Fails (kResources, no where) only when memory runs out.
+  Status grow() {
+    SlotArray bigger(slots_.size() * 2);
+    if (!bigger.ok()) {
+      return Status::error(Code::kResources, "",
+                           "out of memory welding STL vertices (" + std::to_string(size_) +
+                               " unique so far)");
+    }
+    size_t mask = bigger.size() - 1;
+    for (size_t k = 0; k < slots_.size(); ++k) {
+      const Slot& s = slots_[k];
+      if (s.index == kEmpty) continue;
+      size_t i = hash(s.key) & mask;
+      while (bigger[i].index != kEmpty) i = (i + 1) & mask;
+      bigger[i] = s;
+    }
+    std::swap(slots_, bigger);
+    return {};
   }
 
  private:
   static constexpr size_t kInitialSlots = size_t{1} << 16;
+  static constexpr int kRecentBits = 15;
+  static_assert(sizeof(size_t) == 8, "hash bits assume a 64-bit size_t");
+  static constexpr size_t kRecentSlots = size_t{1} << kRecentBits;
   struct Key {
     uint32_t x = 0, y = 0, z = 0;
   };
@@ -85,6 +123,39 @@ class VertexWelder {
     Key key;
     uint32_t index = kEmpty;
   };
+  // Slots, all empty, in memory the kernel may back with huge pages: the table is touched at
+  // random, and with 4 KiB pages its first touch costs a page fault per 256 slots.
+  class SlotArray {
+   public:
+    explicit SlotArray(size_t n) : size_(n) {
+      size_t bytes = n * sizeof(Slot);
+      bool huge = bytes >= kHugePage;
+      if (huge) bytes = (bytes + kHugePage - 1) / kHugePage * kHugePage;
+      void* p = std::aligned_alloc(huge ? kHugePage : alignof(Slot), bytes);
+      if (p == nullptr) {
+        size_ = 0;
+        return;
+      }
+#ifdef MADV_HUGEPAGE
+      if (huge) ::madvise(p, bytes, MADV_HUGEPAGE);  // a hint: failure changes nothing
+#endif
+      std::memset(p, 0xFF, n * sizeof(Slot));  // index 0xFFFFFFFF == kEmpty
+      data_.reset(static_cast<Slot*>(p));
+    }
+    bool ok() const { return data_ != nullptr; }
+    size_t size() const { return size_; }
+    Slot& operator[](size_t i) { return data_.get()[i]; }
+    const Slot& operator[](size_t i) const { return data_.get()[i]; }
+
+   private:
+    static constexpr size_t kHugePage = size_t{2} << 20;
+    struct Free {
+      void operator()(Slot* p) const { std::free(p); }
+    };
+    std::unique_ptr<Slot, Free> data_;
+    size_t size_ = 0;
+  };
+  static bool same(const Key& a, const Key& b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
 
   static uint32_t bits(float f) {
     uint32_t b = std::bit_cast<uint32_t>(f);
@@ -99,27 +170,8 @@ class VertexWelder {
     return static_cast<size_t>(h);
   }
 
-  Status grow() {
-    std::vector<Slot> bigger;
-    try {
-      bigger.assign(slots_.size() * 2, Slot{});
-    } catch (const std::bad_alloc&) {
-      return Status::error(Code::kResources, "",
-                           "out of memory welding STL vertices (" + std::to_string(size_) +
-                               " unique so far)");
-    }
-    size_t mask = bigger.size() - 1;
-    for (const Slot& s : slots_) {
-      if (s.index == kEmpty) continue;
-      size_t i = hash(s.key) & mask;
-      while (bigger[i].index != kEmpty) i = (i + 1) & mask;
-      bigger[i] = s;
-    }
-    slots_.swap(bigger);
-    return {};
-  }
-
-  std::vector<Slot> slots_;
+  SlotArray slots_;
+  SlotArray recent_;
   size_t size_ = 0;
 };
 
@@ -134,10 +186,11 @@ class StlCorners {
       return Status::error(Code::kResources, "",
                            "more than " + std::to_string(kMaxVertices) + " unique vertices are not supported");
     }
-    Result<uint32_t> index = welder_.find_or_insert(p, static_cast<uint32_t>(next));
-    if (!index.is_ok()) return index.status();
-    if (*index == next) GM_RETURN_IF_ERROR(batcher_.add_vertex(p));
-    return *index;
+    if (!welder_.ok()) return Status::error(Code::kResources, "", "out of memory for the STL vertex table");
+    if (welder_.full()) GM_RETURN_IF_ERROR(welder_.grow());
+    uint32_t index = welder_.find_or_insert(p, static_cast<uint32_t>(next));
+    if (index == next) GM_RETURN_IF_ERROR(batcher_.add_vertex(p));
+    return index;
   }
 
  private:

@@ -114,6 +114,13 @@ TEST(ObjReader, CowWithNegativeIndicesInterleavingAndQuads) {
     EXPECT_EQ(r.mesh.positions, cow().positions);
     // Face order changed; each triangle must come back with its orientation.
     EXPECT_EQ(canonical_sorted(r.mesh.triangles), canonical_sorted(cow().triangles)) << "batch " << batch;
+    // Interleaving must not shrink the batches: triangle batches are full, and a vertex batch
+    // is cut short only when a triangle batch needs its vertices delivered first.
+    EXPECT_EQ(r.triangle_batches, (cow().triangles.size() + batch - 1) / batch) << "batch " << batch;
+    EXPECT_LE(r.vertex_batches, (cow().positions.size() + batch - 1) / batch + r.triangle_batches);
+    if (batch > cow().triangles.size()) {
+      EXPECT_EQ(r.vertex_batches, 1u);
+    }
   }
 }
 

@@ -72,6 +72,12 @@ TEST(StlReader, CowThroughBinaryAndAsciiWeldsBackToTheSameMesh) {
   // Small batches keep the sink contract.
   ReadOutcome small = read_stl_bytes(to_binary_stl(cow()), 5);
   expect_same_as_cow(small, "binary, batch 5");
+  // New vertices appear between triangles; batches stay full all the same (a vertex batch is
+  // cut short only when a triangle batch needs its vertices delivered first).
+  EXPECT_EQ(small.triangle_batches, (5804u + 4) / 5);
+  EXPECT_LE(small.vertex_batches, (2903u + 4) / 5 + small.triangle_batches);
+  EXPECT_EQ(binary.vertex_batches, 1u);
+  EXPECT_EQ(binary.triangle_batches, 1u);
 }
 
 TEST(StlReader, WeldsExactPositionsAndTreatsNegativeZeroAsZero) {

@@ -41,12 +41,14 @@ class CollectSink final : public format::MeshSink {
   format::Status on_vertices(std::span<const Vec3f> batch) override {
     if (headers_ != 1 || ended_) note("on_vertices outside header..end");
     if (batch.empty()) note("empty vertex batch");
+    ++vertex_batches;
     mesh.positions.insert(mesh.positions.end(), batch.begin(), batch.end());
     return {};
   }
   format::Status on_triangles(std::span<const Triangle> batch) override {
     if (headers_ != 1 || ended_) note("on_triangles outside header..end");
     if (batch.empty()) note("empty triangle batch");
+    ++triangle_batches;
     for (const Triangle& t : batch) {
       for (auto v : t.v) {
         if (v >= mesh.positions.size()) note("triangle refers to an undelivered vertex");
@@ -62,6 +64,7 @@ class CollectSink final : public format::MeshSink {
   }
 
   Mesh mesh;
+  size_t vertex_batches = 0, triangle_batches = 0;
   const format::MeshHeader& header() const { return header_; }
   bool ended() const { return ended_; }
   // Empty when the reader kept the contract.
@@ -83,6 +86,7 @@ struct ReadOutcome {
   format::MeshHeader header;
   bool ended = false;
   std::string contract_error;
+  size_t vertex_batches = 0, triangle_batches = 0;
 };
 
 inline ReadOutcome finish(format::Status status, CollectSink& sink) {
@@ -92,6 +96,8 @@ inline ReadOutcome finish(format::Status status, CollectSink& sink) {
   r.header = sink.header();
   r.ended = sink.ended();
   r.contract_error = sink.contract_error();
+  r.vertex_batches = sink.vertex_batches;
+  r.triangle_batches = sink.triangle_batches;
   return r;
 }
 
@@ -125,7 +131,11 @@ inline ReadOutcome read_stdin(const std::string& bytes, bool via_pipe,
   ScratchDir dir;
   if (via_pipe) {
     int fds[2];
-    if (::pipe(fds) != 0) return {format::Status::error(format::Code::kBadInput, "test", "pipe failed"), {}, {}, false, {}};
+    if (::pipe(fds) != 0) {
+      ReadOutcome failed;
+      failed.status = format::Status::error(format::Code::kBadInput, "test", "pipe failed");
+      return failed;
+    }
     ::dup2(fds[0], STDIN_FILENO);
     ::close(fds[0]);
     int out = fds[1];
