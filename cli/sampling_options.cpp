@@ -28,14 +28,16 @@ format::Result<std::vector<stream::GaussSphereOptions>> gauss_sphere_options(con
   else if (o.base == "octa") base.base = stream::GaussBase::kOctahedron;
   else if (o.base == "tetra") base.base = stream::GaussBase::kTetrahedron;
   else return Status::error(Code::kUsage, "--base", "expected icosa, octa or tetra, got '" + o.base + "'");
-  if (o.frequency != 0 && o.level >= 0) {
+  if (o.frequency >= 0 && o.level >= 0) {
     return Status::error(Code::kUsage, "--level", "give --frequency or --level, not both");
   }
   if (o.level > 9) return Status::error(Code::kUsage, "--level", "at most 9 (frequency 512)");
-  base.frequency = o.level >= 0 ? (1u << o.level) : (o.frequency != 0 ? o.frequency : kDefaultFrequency);
-  if (base.frequency > stream::kMaxGaussFrequency) {
-    return Status::error(Code::kUsage, "--frequency", "at most " + std::to_string(stream::kMaxGaussFrequency));
+  if (o.frequency == 0 || o.frequency > static_cast<long long>(stream::kMaxGaussFrequency) || o.frequency < -1) {
+    return Status::error(Code::kUsage, "--frequency",
+                         "must be between 1 and " + std::to_string(stream::kMaxGaussFrequency));
   }
+  base.frequency = o.level >= 0 ? (1u << o.level)
+                                : (o.frequency > 0 ? static_cast<std::uint32_t>(o.frequency) : kDefaultFrequency);
   if (o.orientations == 0) return Status::error(Code::kUsage, "--orientations", "must be at least 1");
   std::vector<stream::GaussSphereOptions> spheres;
   for (std::uint32_t k = 0; k < o.orientations; ++k) {

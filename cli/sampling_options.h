@@ -19,7 +19,7 @@ inline constexpr std::uint32_t kDefaultFrequency = 4;
 
 struct SamplingOptions {
   std::string base = "icosa";
-  std::uint32_t frequency = 0;  // 0: not given
+  long long frequency = -1;     // -1: not given
   int level = -1;               // -1: not given; else frequency = 2^level
   std::uint64_t seed = stream::kDefaultGaussSeed;
   std::string rotation;         // "w,x,y,z" or empty
