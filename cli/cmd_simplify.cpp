@@ -1,16 +1,147 @@
-// gaussmesh simplify: not written yet; the subcommand exists so that usage is stable.
+// gaussmesh simplify: the main job — mesh in (file or stdin), approximation out (Draco by
+// default, PLY or OBJ; file or stdout), with an optional JSON report (DESIGN §5).
+#include <chrono>
+#include <memory>
+#include <string>
+
 #include "cli/commands.h"
+#include "cli/output.h"
+#include "cli/report.h"
+#include "cli/sampling_options.h"
+#include "format/mesh_reader.h"
+#include "stream/mesh.h"
+#include "stream/simplify.h"
 
 namespace gaussmesh::cli {
+namespace {
+
+struct SimplifyArgs {
+  std::string input = "-";
+  std::string output;
+  std::string input_format;
+  std::string output_format;
+  std::string mesher = "patch";
+  std::string report;
+  int qp = 14;
+  int cl = 7;
+  SamplingOptions sampling;
+};
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+int run_simplify(const SimplifyArgs& args) {
+  using format::Code;
+  using format::Status;
+  auto started = std::chrono::steady_clock::now();
+  auto kind = choose_output_kind(args.output_format, args.output);
+  if (!kind) return report_error(kind.status());
+  if (args.mesher != "patch" && args.mesher != "voronoi") {
+    return report_error(Status::error(Code::kUsage, "--mesher", "expected patch or voronoi, got '" + args.mesher + "'"));
+  }
+  auto spheres = gauss_sphere_options(args.sampling);
+  if (!spheres) return report_error(spheres.status());
+  auto sampler = sampler_options(args.sampling);
+  if (!sampler) return report_error(sampler.status());
+
+  format::ReadOptions read_options;
+  if (!args.input_format.empty()) {
+    read_options.format = format::parse_format_name(args.input_format);
+    if (read_options.format == format::MeshFormat::kUnknown) {
+      return report_error(Status::error(Code::kUsage, "--input-format", "unknown format '" + args.input_format + "'"));
+    }
+  }
+  auto t = std::chrono::steady_clock::now();
+  auto mesh = stream::load_mesh(args.input, read_options);
+  if (!mesh) return report_error(mesh.status());
+  double seconds_read = seconds_since(t);
+
+  stream::SimplifyOptions options;
+  options.spheres = *spheres;
+  options.sampler = *sampler;
+  options.mesher = args.mesher == "voronoi" ? stream::MesherKind::kVoronoi : stream::MesherKind::kPatch;
+  auto result = stream::simplify_mesh(mesh->view(), options);
+  if (!result) return report_error(result.status());
+  if (result->mesh.triangles.empty()) {
+    return report_error(Status::error(Code::kProcessing, args.input == "-" ? "<stdin>" : args.input,
+                                      "the approximation has no faces (too few samples: raise --frequency)"));
+  }
+
+  t = std::chrono::steady_clock::now();
+  format::DracoWriteOptions draco;
+  draco.quantization_bits = args.qp;
+  draco.compression_level = args.cl;
+  auto bytes = write_mesh_output(args.output, *kind, result->mesh.view(), draco);
+  if (!bytes) return report_error(bytes.status());
+  double seconds_write = seconds_since(t);
+
+  if (verbosity() >= 1 && args.output != "-") {
+    std::fprintf(stderr, "gaussmesh: %zu -> %zu faces, %zu samples, %llu bytes (%s)\n", mesh->triangles.size(),
+                 result->mesh.triangles.size(), result->samples, static_cast<unsigned long long>(*bytes),
+                 output_kind_name(*kind));
+  }
+  if (!args.report.empty()) {
+    Json report;
+    report["command"] = "simplify";
+    report["input"] = args.input;
+    report["output"] = args.output;
+    report["output_format"] = output_kind_name(*kind);
+    report["input_vertices"] = mesh->positions.size();
+    report["input_faces"] = mesh->triangles.size();
+    report["gauss_base"] = stream::gauss_base_name(options.spheres[0].base);
+    report["gauss_frequency"] = options.spheres[0].frequency;
+    report["gauss_vertices"] = result->gauss_vertices;
+    report["gauss_triangles"] = result->gauss_triangles;
+    report["rotation"] = result->rotation;
+    report["orientations"] = result->samples_per_orientation.size();
+    report["orientation_chosen"] = result->orientation_index;
+    report["samples_per_orientation"] = result->samples_per_orientation;
+    report["sample_test"] = stream::sample_test_name(options.sampler.sample_test);
+    report["smooth"] = options.sampler.smooth_iterations;
+    report["patches"] = result->patches;
+    report["candidates"] = result->candidates;
+    report["samples"] = result->samples;
+    report["mesher"] = stream::mesher_name(options.mesher);
+    report["chains"] = result->graph.chains;
+    report["corners"] = result->graph.corners;
+    report["kept_corners"] = result->kept_corners;
+    report["kept_chain_vertices"] = result->kept_chain_vertices;
+    report["kept_interior_vertices"] = result->kept_interior_vertices;
+    report["skipped_input_faces"] = result->skipped_input_faces;
+    report["output_vertices"] = result->mesh.positions.size();
+    report["output_faces"] = result->mesh.triangles.size();
+    report["output_bytes"] = *bytes;
+    report["qp"] = args.qp;
+    report["cl"] = args.cl;
+    report["chunks"] = 1;
+    report["peak_rss_bytes"] = peak_rss_bytes();
+    report["seconds"] = {{"read", seconds_read},
+                         {"sample", result->seconds_sample},
+                         {"mesh", result->seconds_mesh},
+                         {"write", seconds_write},
+                         {"total", seconds_since(started)}};
+    auto status = write_report(args.report, report);
+    if (!status.is_ok()) return report_error(status);
+  }
+  return 0;
+}
+
+}  // namespace
 
 void register_simplify(CLI::App& app, Runner& run) {
-  CLI::App* sub = app.add_subcommand("simplify", "(not implemented yet)");
-  sub->allow_extras();
-  sub->callback([&run] {
-    run = [] {
-      return report_error(format::Status::error(format::Code::kUsage, "simplify", "not implemented yet"));
-    };
-  });
+  auto args = std::make_shared<SimplifyArgs>();
+  CLI::App* sub = app.add_subcommand("simplify", "simplify a mesh into a Draco (or PLY/OBJ) approximation");
+  sub->add_option("input", args->input, "input mesh, or - for stdin (default)");
+  sub->add_option("-o,--output", args->output, "output file, or - for stdout")->required();
+  sub->add_option("--format", args->output_format, "output format: draco (default), ply, ply-ascii, obj");
+  sub->add_option("--input-format", args->input_format, "force the input format: ply, off, obj, stl");
+  sub->add_option("--mesher", args->mesher, "patch (default, topology-preserving) or voronoi");
+  sub->add_option("--qp", args->qp, "Draco position quantization bits (default 14)")->check(CLI::Range(1, 30));
+  sub->add_option("--cl", args->cl, "Draco compression level 0-10 (default 7)")->check(CLI::Range(0, 10));
+  sub->add_option("--report", args->report, "write a JSON report to this file (- for stdout)");
+  add_sampling_options(*sub, args->sampling);
+  sub->callback([&run, args] { run = [args] { return run_simplify(*args); }; });
 }
 
 }  // namespace gaussmesh::cli

@@ -23,11 +23,10 @@ format::Result<SimplifyResult> simplify_mesh(MeshView mesh, const SimplifyOption
   auto start = std::chrono::steady_clock::now();
   std::optional<SamplingResult> best;
   std::optional<GaussSphere> best_gauss;
-  const std::uint32_t tries = std::max<std::uint32_t>(1, options.orientations);
-  for (std::uint32_t k = 0; k < tries; ++k) {
-    GaussSphereOptions gauss_options = options.gauss;
-    if (k > 0) gauss_options.rotation = gauss_rotation_from_seed(options.seed + k);
-    auto gauss = GaussSphere::create(gauss_options);
+  std::vector<GaussSphereOptions> spheres = options.spheres;
+  if (spheres.empty()) spheres.emplace_back();
+  for (std::uint32_t k = 0; k < spheres.size(); ++k) {
+    auto gauss = GaussSphere::create(spheres[k]);
     if (!gauss) return gauss.status();
     auto sampled = sample_mesh(mesh, *gauss, options.sampler);
     if (!sampled) return sampled.status();

@@ -19,20 +19,18 @@ enum class MesherKind { kPatch, kVoronoi };
 const char* mesher_name(MesherKind mesher);
 
 struct SimplifyOptions {
-  GaussSphereOptions gauss;  // base, frequency, rotation
-  SamplerOptions sampler;    // smoothing, sample test
+  // The Gaussian spheres to try (base, frequency, rotation); the one giving the fewest samples
+  // is kept (ties: the earliest). At least one; an empty list means the default sphere.
+  std::vector<GaussSphereOptions> spheres = {GaussSphereOptions{}};
+  SamplerOptions sampler;  // smoothing, sample test
   MesherKind mesher = MesherKind::kPatch;
-  // > 1: also try the rotations gauss_rotation_from_seed(seed + 1 ..), keep the one with the
-  // fewest samples (ties: the earliest). The first try uses gauss.rotation as given.
-  std::uint32_t orientations = 1;
-  std::uint64_t seed = kDefaultGaussSeed;
 };
 
 struct SimplifyResult {
   Mesh mesh;                         // the approximation; positions copied from the input
   std::vector<std::uint32_t> birth;  // input vertex of every output vertex
   std::array<double, 4> rotation{};  // the orientation of G that was used
-  std::uint32_t orientation_index = 0;  // 0 = the given rotation, k = seed + k
+  std::uint32_t orientation_index = 0;  // index into options.spheres
   std::vector<std::size_t> samples_per_orientation;
   std::size_t gauss_vertices = 0, gauss_triangles = 0;
   std::size_t patches = 0, candidates = 0, samples = 0;

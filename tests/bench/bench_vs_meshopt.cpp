@@ -40,12 +40,12 @@ void row(const std::string& name, const char* method, const stream::Mesh& input,
 
 int main(int argc, char** argv) {
   stream::SimplifyOptions options;
-  options.gauss.frequency = 4;
+  options.spheres[0].frequency = 4;
   std::vector<std::string> files;
   for (int i = 1; i < argc; ++i) {
     std::string arg = argv[i];
     if (arg == "--frequency" && i + 1 < argc) {
-      options.gauss.frequency = std::stoul(argv[++i]);
+      options.spheres[0].frequency = std::stoul(argv[++i]);
     } else {
       files.push_back(arg);
     }

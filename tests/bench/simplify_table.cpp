@@ -16,13 +16,13 @@ using namespace gaussmesh;
 
 int main(int argc, char** argv) {
   stream::SimplifyOptions options;
-  options.gauss.frequency = 4;
+  options.spheres[0].frequency = 4;
   std::vector<std::string> files;
   int orientations = 8;
   for (int i = 1; i < argc; ++i) {
     std::string arg = argv[i];
     auto next = [&] { return std::string(i + 1 < argc ? argv[++i] : ""); };
-    if (arg == "--frequency") options.gauss.frequency = std::stoul(next());
+    if (arg == "--frequency") options.spheres[0].frequency = std::stoul(next());
     else if (arg == "--smooth") options.sampler.smooth_iterations = std::stoul(next());
     else if (arg == "--sample-test") options.sampler.sample_test = next() == "paper" ? stream::SampleTest::kPaper : stream::SampleTest::kExact;
     else if (arg == "--mesher") options.mesher = next() == "voronoi" ? stream::MesherKind::kVoronoi : stream::MesherKind::kPatch;
@@ -45,7 +45,7 @@ int main(int argc, char** argv) {
     auto in_topology = stream::compute_topology(mesh->view());
     double worst = 0;
     for (int k = 1; k <= orientations; ++k) {
-      options.gauss.rotation = stream::gauss_rotation_from_seed(k);
+      options.spheres[0].rotation = stream::gauss_rotation_from_seed(k);
       auto start = std::chrono::steady_clock::now();
       auto result = stream::simplify_mesh(mesh->view(), options);
       double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -83,8 +83,8 @@ TEST_P(FixtureSimplify, KeepsTopologyAndErrorBoundOverEightOrientations) {
   ASSERT_TRUE(mesh.is_ok()) << mesh.status().to_string();
   for (std::uint64_t seed = 1; seed <= 8; ++seed) {
     SimplifyOptions options;
-    options.gauss.frequency = 4;
-    options.gauss.rotation = gauss_rotation_from_seed(seed);
+    options.spheres[0].frequency = 4;
+    options.spheres[0].rotation = gauss_rotation_from_seed(seed);
     Checked c = simplify_and_check(*mesh, options, GetParam() + " seed " + std::to_string(seed));
     EXPECT_LE(c.hausdorff_pct, 8.0) << GetParam() << " seed " << seed;
   }
@@ -103,7 +103,7 @@ TEST(Simplify, AnalyticShapesKeepGenus) {
   testing::ShapeOptions shape;
   shape.vertices = 4000;
   SimplifyOptions options;
-  options.gauss.frequency = 3;
+  options.spheres[0].frequency = 3;
   simplify_and_check(testing::make_sphere(shape), options, "sphere");
   simplify_and_check(testing::make_torus(1.0, 0.3, shape), options, "torus");
   simplify_and_check(testing::make_genus2(shape), options, "genus2");
@@ -114,7 +114,7 @@ TEST(Simplify, VoronoiMesherProducesAnApproximation) {
   ASSERT_TRUE(mesh.is_ok());
   SimplifyOptions options;
   options.mesher = MesherKind::kVoronoi;
-  options.gauss.frequency = 4;
+  options.spheres[0].frequency = 4;
   auto result = simplify_mesh(mesh->view(), options);
   ASSERT_TRUE(result.is_ok()) << result.status().to_string();
   EXPECT_GT(result->mesh.triangles.size(), result->samples / 2);
@@ -125,7 +125,11 @@ TEST(Simplify, MoreOrientationsNeverGiveMoreSamples) {
   auto mesh = load_mesh(testing::fixture("real/fandisk.off"));
   ASSERT_TRUE(mesh.is_ok());
   SimplifyOptions one, eight;
-  eight.orientations = 8;
+  for (std::uint64_t k = 1; k < 8; ++k) {
+    GaussSphereOptions sphere;
+    sphere.rotation = gauss_rotation_from_seed(kDefaultGaussSeed + k);
+    eight.spheres.push_back(sphere);
+  }
   auto a = simplify_mesh(mesh->view(), one);
   auto b = simplify_mesh(mesh->view(), eight);
   ASSERT_TRUE(a.is_ok() && b.is_ok());
