@@ -56,6 +56,10 @@ class ObjReader {
       GM_RETURN_IF_ERROR(line.status());
       if (!line->has_value()) break;  // a final backslash continues nothing
       std::string_view more = **line;
+      if (joined_.size() + more.size() > ByteSource::kMaxWindow) {
+        return bad("statement continued with '\\' over more than " +
+                   std::to_string(ByteSource::kMaxWindow >> 20) + " MiB");
+      }
       joined_ += ' ';
       if (!more.empty() && more.back() == '\\') {
         joined_.append(more.substr(0, more.size() - 1));

@@ -149,6 +149,17 @@ TEST(ObjReader, ErrorLinesPointAtTheStatementThatStartsAContinuation) {
   EXPECT_EQ(r.status.where(), "t.obj:3");
 }
 
+TEST(ObjReader, EndlessContinuationIsBounded) {
+  // Memory must not grow with the input: a statement joined over 4 MiB is refused.
+  std::string text = "v 0 0 0\nf 1";
+  for (int i = 0; i < 1200000; ++i) text += " 1 \\\n";
+  text += "1\n";
+  ReadOutcome r = read_obj_text(text);
+  ASSERT_FALSE(r.status.is_ok()) << text.size() << " bytes read as " << r.mesh.triangles.size() << " triangles";
+  EXPECT_EQ(r.status.where(), "t.obj:2");
+  EXPECT_NE(r.status.message().find("over more than 4 MiB"), std::string::npos) << r.status.to_string();
+}
+
 TEST(ObjReader, PolygonFanAndTrianglesOnlyAfterTheirVertices) {
   ReadOutcome r = read_obj_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 2 0\nf 1 2 3 4 5\n", 1);
   ASSERT_TRUE(r.status.is_ok()) << r.status.to_string();
