@@ -24,6 +24,8 @@ struct SimplifyArgs {
   std::string report;
   int qp = 14;
   int cl = 7;
+  bool quiet = false;
+  bool verbose = false;
   SamplingOptions sampling;
 };
 
@@ -35,6 +37,8 @@ int run_simplify(const SimplifyArgs& args) {
   using format::Code;
   using format::Status;
   auto started = std::chrono::steady_clock::now();
+  if (args.quiet) set_verbosity(0);
+  if (args.verbose) set_verbosity(2);
   auto kind = choose_output_kind(args.output_format, args.output);
   if (!kind) return report_error(kind.status());
   if (args.mesher != "patch" && args.mesher != "voronoi") {
@@ -76,7 +80,11 @@ int run_simplify(const SimplifyArgs& args) {
   if (!bytes) return report_error(bytes.status());
   double seconds_write = seconds_since(t);
 
-  if (verbosity() >= 1 && args.output != "-") {
+  if (verbosity() >= 2) {
+    std::fprintf(stderr, "gaussmesh: read %.3f s, sample %.3f s, mesh %.3f s, write %.3f s\n", seconds_read,
+                 result->seconds_sample, result->seconds_mesh, seconds_write);
+  }
+  if (verbosity() >= 1) {
     std::fprintf(stderr, "gaussmesh: %zu -> %zu faces, %zu samples, %llu bytes (%s)\n", mesh->triangles.size(),
                  result->mesh.triangles.size(), result->samples, static_cast<unsigned long long>(*bytes),
                  output_kind_name(*kind));
@@ -137,9 +145,11 @@ void register_simplify(CLI::App& app, Runner& run) {
   sub->add_option("--format", args->output_format, "output format: draco (default), ply, ply-ascii, obj");
   sub->add_option("--input-format", args->input_format, "force the input format: ply, off, obj, stl");
   sub->add_option("--mesher", args->mesher, "patch (default, topology-preserving) or voronoi");
-  sub->add_option("--qp", args->qp, "Draco position quantization bits (default 14)")->check(CLI::Range(1, 30));
+  sub->add_option("--qp", args->qp, "Draco position quantization bits 1-24 (default 14; encoder cost doubles per bit)")->check(CLI::Range(1, 24));
   sub->add_option("--cl", args->cl, "Draco compression level 0-10 (default 7)")->check(CLI::Range(0, 10));
   sub->add_option("--report", args->report, "write a JSON report to this file (- for stdout)");
+  sub->add_flag("-q,--quiet", args->quiet, "print nothing on stderr but errors");
+  sub->add_flag("-v,--verbose", args->verbose, "print timings on stderr");
   add_sampling_options(*sub, args->sampling);
   sub->callback([&run, args] { run = [args] { return run_simplify(*args); }; });
 }

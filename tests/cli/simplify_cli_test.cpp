@@ -1,0 +1,141 @@
+// Tests for `gaussmesh simplify` as a user runs it: every real fixture to Draco, decoded by
+// Google's own draco_decoder to the counts the report gives; stdin -> stdout gives the same
+// bytes as file -> file; bad input, bad options, unwritable outputs and interruptions leave
+// no output and no temporary file behind.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <regex>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "tests/support/test_util.h"
+
+namespace gaussmesh::testing {
+namespace {
+
+std::string q(const std::string& text) { return "'" + text + "'"; }
+
+std::string binary() { return q(gaussmesh_binary()); }
+
+size_t files_in(const std::string& dir) {
+  size_t n = 0;
+  for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(dir)) ++n;
+  return n;
+}
+
+// Counts from a PLY header ("element vertex N", "element face N").
+std::pair<long, long> ply_counts(const std::string& path) {
+  std::string text = read_file(path);
+  std::smatch m;
+  long vertices = -1, faces = -1;
+  if (std::regex_search(text, m, std::regex("element vertex (\\d+)"))) vertices = std::stol(m[1]);
+  if (std::regex_search(text, m, std::regex("element face (\\d+)"))) faces = std::stol(m[1]);
+  return {vertices, faces};
+}
+
+class SimplifyFixture : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(SimplifyFixture, DracoOutputDecodesWithGooglesDecoderToTheReportedCounts) {
+  ScratchDir dir;
+  std::string out = dir.file("out.drc"), report = dir.file("r.json"), decoded = dir.file("decoded.ply");
+  auto run = run_command(binary() + " simplify " + q(fixture("real/" + GetParam())) + " -o " + q(out) +
+                         " --report " + q(report));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  auto json = nlohmann::json::parse(read_file(report));
+  for (const char* field : {"input_vertices", "input_faces", "gauss_vertices", "gauss_triangles", "patches",
+                            "candidates", "samples", "output_vertices", "output_faces", "chunks", "peak_rss_bytes",
+                            "seconds"}) {
+    EXPECT_TRUE(json.contains(field)) << field;
+  }
+  EXPECT_LT(json["output_faces"].get<long>(), json["input_faces"].get<long>());
+  auto decode = run_command("draco_decoder -i " + q(out) + " -o " + q(decoded));
+  ASSERT_EQ(decode.exit_code, 0) << decode.out << decode.err;
+  auto [vertices, faces] = ply_counts(decoded);
+  EXPECT_EQ(faces, json["output_faces"].get<long>());
+  EXPECT_EQ(vertices, json["output_vertices"].get<long>());
+  EXPECT_EQ(json["output_bytes"].get<long>(), static_cast<long>(std::filesystem::file_size(out)));
+  EXPECT_EQ(files_in(dir.path().string()), 3u) << "only out.drc, r.json and decoded.ply";
+}
+
+INSTANTIATE_TEST_SUITE_P(Real, SimplifyFixture,
+                         ::testing::Values("cow.off", "fandisk.off", "homer.off", "knot1.off", "mech-holes-shark.off",
+                                           "mushroom.off", "bunny-lowres.ply"),
+                         [](const auto& info) {
+                           std::string name = info.param.substr(0, info.param.find('.'));
+                           for (auto& c : name) c = c == '-' ? '_' : c;
+                           return name;
+                         });
+
+TEST(SimplifyCli, StdinToStdoutGivesTheSameBytesAsFileToFile) {
+  ScratchDir dir;
+  std::string input = fixture("real/fandisk.off");
+  auto a = run_command(binary() + " simplify " + q(input) + " -o " + q(dir.file("a.drc")) + " -q");
+  ASSERT_EQ(a.exit_code, 0) << a.err;
+  auto b = run_command("cat " + q(input) + " | " + binary() + " simplify - -o - -q > " + q(dir.file("b.drc")));
+  ASSERT_EQ(b.exit_code, 0) << b.err;
+  EXPECT_EQ(read_file(dir.file("a.drc")), read_file(dir.file("b.drc")));
+  EXPECT_FALSE(read_file(dir.file("a.drc")).empty());
+}
+
+TEST(SimplifyCli, FormatsFollowTheExtensionOrTheFlag) {
+  ScratchDir dir;
+  std::string input = q(fixture("real/cow.off"));
+  ASSERT_EQ(run_command(binary() + " simplify " + input + " -o " + q(dir.file("x.ply")) + " -q").exit_code, 0);
+  ASSERT_EQ(run_command(binary() + " simplify " + input + " -o " + q(dir.file("x.obj")) + " -q").exit_code, 0);
+  ASSERT_EQ(run_command(binary() + " simplify " + input + " --format ply-ascii -o " + q(dir.file("x.out")) + " -q").exit_code, 0);
+  EXPECT_EQ(read_file(dir.file("x.ply")).rfind("ply\nformat binary_little_endian 1.0", 0), 0u);
+  EXPECT_NE(read_file(dir.file("x.obj")).find("\nf "), std::string::npos);
+  EXPECT_EQ(read_file(dir.file("x.out")).rfind("ply\nformat ascii 1.0", 0), 0u);
+  // The PLY output reads back with the counts info reports.
+  auto info = run_command(binary() + " info " + q(dir.file("x.ply")));
+  EXPECT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_NE(info.out.find("closed manifold        yes"), std::string::npos) << info.out;
+}
+
+TEST(SimplifyCli, BadInputLeavesNothingBehind) {
+  ScratchDir dir;
+  for (const char* bad : {"bad/OutOfMemory.off", "bad/empty.ply", "bad/invalid.off", "bad/malformed2.obj"}) {
+    auto run = run_command(binary() + " simplify " + q(fixture(bad)) + " -o " + q(dir.file("out.drc")));
+    EXPECT_EQ(run.exit_code, 2) << bad << ": " << run.err;
+    EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+    EXPECT_NE(run.err.find(bad), std::string::npos) << run.err;
+    EXPECT_EQ(files_in(dir.path().string()), 0u) << bad;
+  }
+}
+
+TEST(SimplifyCli, UsageErrorsExitOne) {
+  ScratchDir dir;
+  std::string input = q(fixture("real/cow.off"));
+  EXPECT_EQ(run_command(binary() + " simplify " + input).exit_code, 1);  // no -o
+  EXPECT_EQ(run_command(binary() + " simplify " + input + " -o " + q(dir.file("o.drc")) + " --mesher nope").exit_code, 1);
+  EXPECT_EQ(run_command(binary() + " simplify " + input + " -o " + q(dir.file("o.drc")) + " --qp 0").exit_code, 1);
+  EXPECT_EQ(run_command(binary() + " simplify " + input + " -o " + q(dir.file("o.drc")) + " --format xyz").exit_code, 1);
+  EXPECT_EQ(files_in(dir.path().string()), 0u);
+}
+
+TEST(SimplifyCli, UnwritableOutputIsExitFourAndKeepsTheOldFile) {
+  ScratchDir dir;
+  std::string input = q(fixture("real/cow.off"));
+  auto run = run_command(binary() + " simplify " + input + " -o " + q(dir.file("missing/dir/out.drc")));
+  EXPECT_EQ(run.exit_code, 4) << run.err;
+  // A failed run never clobbers an existing output: the old file stays as it was.
+  write_file(dir.file("keep.drc"), "previous result");
+  auto bad = run_command(binary() + " simplify " + q(fixture("bad/invalid.off")) + " -o " + q(dir.file("keep.drc")));
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_EQ(read_file(dir.file("keep.drc")), "previous result");
+  EXPECT_EQ(files_in(dir.path().string()), 1u);
+}
+
+TEST(SimplifyCli, InterruptedRunLeavesNoFiles) {
+  ScratchDir dir;
+  // The input never ends; SIGINT arrives while gaussmesh waits on stdin.
+  auto run = run_command("(sleep 30 | " + binary() + " simplify - -o " + q(dir.file("out.drc")) +
+                         " & pid=$!; sleep 1; kill -INT $pid; wait $pid; echo status=$?)");
+  EXPECT_NE(run.out.find("status=130"), std::string::npos) << run.out << run.err;
+  EXPECT_EQ(files_in(dir.path().string()), 0u);
+}
+
+}  // namespace
+}  // namespace gaussmesh::testing
