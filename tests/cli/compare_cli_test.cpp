@@ -34,10 +34,10 @@ std::string off_text(const Mesh& mesh, double dx = 0, double scale = 1) {
   return out;
 }
 
-std::string quoted(const std::string& s) { return "'" + s + "'"; }
+std::string shell_quoted(const std::string& s) { return "'" + s + "'"; }
 
 std::string compare(const std::string& arguments) {
-  return quoted(gaussmesh_binary()) + " compare " + arguments;
+  return shell_quoted(gaussmesh_binary()) + " compare " + arguments;
 }
 
 class CompareCli : public ::testing::Test {
@@ -60,7 +60,7 @@ class CompareCli : public ::testing::Test {
 
 TEST_F(CompareCli, TranslatedSphereReportsTheShiftInPercentOfTheDiagonal) {
   const std::string report = dir_.file("r.json");
-  const CommandResult r = run_command(compare(quoted(a_) + " " + quoted(b_) + " --samples 20000 --report " + quoted(report)));
+  const CommandResult r = run_command(compare(shell_quoted(a_) + " " + shell_quoted(b_) + " --samples 20000 --report " + shell_quoted(report)));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("hausdorff"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("A -> B"), std::string::npos) << r.out;
@@ -83,11 +83,11 @@ TEST_F(CompareCli, TranslatedSphereReportsTheShiftInPercentOfTheDiagonal) {
 
 TEST_F(CompareCli, ReportOnStdoutIsTheOnlyOutputAndStdinWorks) {
   const CommandResult files =
-      run_command(compare(quoted(a_) + " " + quoted(b_) + " --samples 5000 --report -"));
+      run_command(compare(shell_quoted(a_) + " " + shell_quoted(b_) + " --samples 5000 --report -"));
   ASSERT_EQ(files.exit_code, 0) << files.err;
   const Json from_files = Json::parse(files.out);  // throws (fails) on any extra text
   const CommandResult piped =
-      run_command("cat " + quoted(b_) + " | " + compare(quoted(a_) + " - --samples 5000 --report -"));
+      run_command("cat " + shell_quoted(b_) + " | " + compare(shell_quoted(a_) + " - --samples 5000 --report -"));
   ASSERT_EQ(piped.exit_code, 0) << piped.err;
   const Json from_stdin = Json::parse(piped.out);
   EXPECT_EQ(from_stdin.at("hausdorff_pct"), from_files.at("hausdorff_pct"));
@@ -98,7 +98,7 @@ TEST_F(CompareCli, ReportOnStdoutIsTheOnlyOutputAndStdinWorks) {
 TEST_F(CompareCli, SameSeedSameFiguresOtherSeedOtherSamples) {
   auto rms = [&](const std::string& extra) {
     const CommandResult r = run_command(
-        compare(quoted(a_) + " " + quoted(b_) + " --samples 5000 --report - " + extra));
+        compare(shell_quoted(a_) + " " + shell_quoted(b_) + " --samples 5000 --report - " + extra));
     EXPECT_EQ(r.exit_code, 0) << r.err;
     return Json::parse(r.out).at("rms_pct").get<double>();
   };
@@ -109,8 +109,8 @@ TEST_F(CompareCli, SameSeedSameFiguresOtherSeedOtherSamples) {
 }
 
 TEST_F(CompareCli, AMeshAgainstItselfIsAtZero) {
-  const CommandResult r = run_command(compare(quoted(fixture("real/cow.off")) + " " +
-                                              quoted(fixture("real/cow.off")) + " --samples 20000 --report -"));
+  const CommandResult r = run_command(compare(shell_quoted(fixture("real/cow.off")) + " " +
+                                              shell_quoted(fixture("real/cow.off")) + " --samples 20000 --report -"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const Json j = Json::parse(r.out);
   EXPECT_LT(j.at("hausdorff_pct").get<double>(), 1e-5);
@@ -127,13 +127,13 @@ TEST_F(CompareCli, ErrorsGiveOneLineAndTheDocumentedExitCode) {
   const std::string no_faces = dir_.file("points.off");
   write_file(no_faces, "OFF\n3 0 0\n0 0 0\n1 0 0\n0 1 0\n");
   const Case cases[] = {
-      {quoted(a_), 1, "B"},                                           // B missing
+      {shell_quoted(a_), 1, "B"},                                           // B missing
       {"- -", 1, "'-'"},                                              // two stdins
-      {quoted(a_) + " " + quoted(b_) + " --samples 0", 1, "--samples"},
-      {quoted(a_) + " " + quoted(b_) + " --bogus", 1, "bogus"},
-      {quoted(a_) + " " + quoted(missing), 2, "missing.off"},
-      {quoted(fixture("bad/invalid.off")) + " " + quoted(a_), 2, "invalid.off"},
-      {quoted(a_) + " " + quoted(no_faces), 2, "points.off"},
+      {shell_quoted(a_) + " " + shell_quoted(b_) + " --samples 0", 1, "--samples"},
+      {shell_quoted(a_) + " " + shell_quoted(b_) + " --bogus", 1, "bogus"},
+      {shell_quoted(a_) + " " + shell_quoted(missing), 2, "missing.off"},
+      {shell_quoted(fixture("bad/invalid.off")) + " " + shell_quoted(a_), 2, "invalid.off"},
+      {shell_quoted(a_) + " " + shell_quoted(no_faces), 2, "points.off"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.arguments);
