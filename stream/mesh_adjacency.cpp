@@ -1,8 +1,15 @@
-// Compact mesh adjacency for the sampler (paper §4): vertex stars by counting sort, the face
-// across each edge by matching directed edges inside a star, fans by walking those links.
+// Compact mesh adjacency for the sampler (paper §4): vertex stars by counting sort, then one
+// pass over the vertices that matches the directed edges of each star locally (the faces
+// holding v -> a and a -> v are all in v's star) and walks the fans, in parallel over vertex
+// ranges (every vertex writes only its own star slots and the edge slots of its own corners).
 #include "stream/mesh_adjacency.h"
 
+#include <algorithm>
+#include <atomic>
 #include <string>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 namespace gaussmesh::stream {
 namespace {
@@ -13,109 +20,187 @@ using format::Triangle;
 
 bool is_collapsed(const Triangle& t) { return t.v[0] == t.v[1] || t.v[1] == t.v[2] || t.v[0] == t.v[2]; }
 
+// Per-thread scratch for one star: the corners' other two vertices.
+struct StarScratch {
+  std::vector<std::uint32_t> corner, next, prev, partner, next_slot, ordered;
+  std::vector<std::uint8_t> flags, used, manifold_out;
+  std::vector<std::uint32_t> by_next, by_prev;  // slot indices sorted by next / prev (large stars)
+};
+
+// Matches the star of one vertex and writes its fans. Returns its directed break edges.
+// Slot r holds corner c = 3 f + i with next vertex a = next[r] and previous vertex prev[r].
+// Outgoing edge (v, a) is manifold iff exactly one slot has next == a and exactly one has
+// prev == a; the face across it is that second slot's face. The incoming edge (prev, v) of
+// slot r is manifold iff exactly one slot has prev == prev[r] and one has next == prev[r]:
+// the fan continues counter-clockwise into that slot.
+std::size_t build_star(const Triangle* tris, std::uint32_t begin, std::uint32_t end, std::uint32_t* corners,
+                       std::uint8_t* slot_flags, std::uint32_t* edge_neighbor, StarScratch& s) {
+  const std::uint32_t degree = end - begin;
+  constexpr std::uint32_t kNone = MeshAdjacency::kNoFace;
+  s.corner.assign(corners + begin, corners + end);
+  s.next.resize(degree);
+  s.prev.resize(degree);
+  for (std::uint32_t r = 0; r < degree; ++r) {
+    const std::uint32_t c = s.corner[r];
+    const Triangle& t = tris[c / 3];
+    const std::uint32_t i = c % 3;
+    s.next[r] = t.v[i == 2 ? 0 : i + 1];
+    s.prev[r] = t.v[i == 0 ? 2 : i - 1];
+  }
+  // For each slot: the slot across its outgoing edge (partner) and the slot that continues the
+  // fan across its incoming edge (next_slot), kNone when that edge is a break.
+  s.partner.assign(degree, kNone);
+  s.next_slot.assign(degree, kNone);
+  std::size_t breaks = 0;
+  if (degree <= 24) {
+    for (std::uint32_t r = 0; r < degree; ++r) {
+      const std::uint32_t a = s.next[r], p = s.prev[r];
+      std::uint32_t out = 0, in = 0, in_slot = kNone, p_in = 0, p_out = 0, p_slot = kNone;
+      for (std::uint32_t d = 0; d < degree; ++d) {
+        out += s.next[d] == a;
+        if (s.prev[d] == a) {
+          ++in;
+          in_slot = d;
+        }
+        p_in += s.prev[d] == p;
+        if (s.next[d] == p) {
+          ++p_out;
+          p_slot = d;
+        }
+      }
+      if (out == 1 && in == 1) s.partner[r] = in_slot;
+      else ++breaks;
+      if (p_in == 1 && p_out == 1) s.next_slot[r] = p_slot;
+    }
+  } else {
+    // Large stars (fan apexes): sorted slot lists instead of the quadratic scan.
+    s.by_next.resize(degree);
+    s.by_prev.resize(degree);
+    for (std::uint32_t r = 0; r < degree; ++r) s.by_next[r] = s.by_prev[r] = r;
+    std::sort(s.by_next.begin(), s.by_next.end(), [&](std::uint32_t x, std::uint32_t y) { return s.next[x] < s.next[y]; });
+    std::sort(s.by_prev.begin(), s.by_prev.end(), [&](std::uint32_t x, std::uint32_t y) { return s.prev[x] < s.prev[y]; });
+    auto count_slots = [&](const std::vector<std::uint32_t>& sorted, const std::vector<std::uint32_t>& key,
+                           std::uint32_t a, std::uint32_t& one) {
+      auto lo = std::lower_bound(sorted.begin(), sorted.end(), a, [&](std::uint32_t slot, std::uint32_t k) { return key[slot] < k; });
+      auto hi = std::upper_bound(lo, sorted.end(), a, [&](std::uint32_t k, std::uint32_t slot) { return k < key[slot]; });
+      if (hi - lo == 1) one = *lo;
+      return static_cast<std::uint32_t>(hi - lo);
+    };
+    for (std::uint32_t r = 0; r < degree; ++r) {
+      std::uint32_t in_slot = kNone, p_slot = kNone, ignore = kNone;
+      const std::uint32_t out = count_slots(s.by_next, s.next, s.next[r], ignore);
+      const std::uint32_t in = count_slots(s.by_prev, s.prev, s.next[r], in_slot);
+      if (out == 1 && in == 1) s.partner[r] = in_slot;
+      else ++breaks;
+      const std::uint32_t p_in = count_slots(s.by_prev, s.prev, s.prev[r], ignore);
+      const std::uint32_t p_out = count_slots(s.by_next, s.next, s.prev[r], p_slot);
+      if (p_in == 1 && p_out == 1) s.next_slot[r] = p_slot;
+    }
+  }
+  for (std::uint32_t r = 0; r < degree; ++r)
+    edge_neighbor[s.corner[r]] = s.partner[r] == kNone ? kNone : s.corner[s.partner[r]] / 3;
+
+  // Fans: walk counter-clockwise from each open end (a slot whose outgoing edge is a break),
+  // then the remaining cycles, each from its lowest slot.
+  s.ordered.clear();
+  s.flags.clear();
+  s.used.assign(degree, 0);
+  auto walk = [&](std::uint32_t r, bool closed) {
+    s.flags.push_back(static_cast<std::uint8_t>(MeshAdjacency::kFanStart | (closed ? MeshAdjacency::kFanClosed : 0)));
+    const std::uint32_t start = r;
+    while (true) {
+      s.used[r] = 1;
+      s.ordered.push_back(s.corner[r]);
+      const std::uint32_t nr = s.next_slot[r];
+      if (nr == kNone || nr == start || s.used[nr]) break;
+      s.flags.push_back(0);
+      r = nr;
+    }
+  };
+  for (std::uint32_t r = 0; r < degree; ++r)
+    if (s.partner[r] == kNone) walk(r, false);
+  for (std::uint32_t r = 0; r < degree; ++r)
+    if (!s.used[r]) walk(r, true);
+  std::copy(s.ordered.begin(), s.ordered.end(), corners + begin);
+  std::copy(s.flags.begin(), s.flags.end(), slot_flags + begin);
+  return breaks;
+}
+
 }  // namespace
 
-format::Result<MeshAdjacency> build_mesh_adjacency(format::MeshView mesh) {
+format::Status build_mesh_adjacency(format::MeshView mesh, MeshAdjacency& adj) {
   const std::size_t nv = mesh.positions.size();
   const std::size_t nf = mesh.triangles.size();
   if (3 * nf >= MeshAdjacency::kNoFace || nv >= MeshAdjacency::kNoFace) {
     return Status::error(Code::kResources, "adjacency", "mesh too large for 32-bit corner ids");
   }
-  MeshAdjacency adj;
+  adj.collapsed_faces = 0;
+  adj.break_edges = 0;
   adj.vertex_offsets.assign(nv + 1, 0);
+  const Triangle* tris = mesh.triangles.data();
+  std::uint32_t* count = adj.vertex_offsets.data() + 1;
   for (std::size_t f = 0; f < nf; ++f) {
-    const Triangle& t = mesh.triangles[f];
-    for (int i = 0; i < 3; ++i) {
-      if (t.v[i] >= nv) {
-        return Status::error(Code::kBadInput, "face " + std::to_string(f),
-                             "vertex index " + std::to_string(t.v[i]) + " out of range (" +
-                                 std::to_string(nv) + " vertices)");
-      }
+    const Triangle& t = tris[f];
+    if (t.v[0] >= nv || t.v[1] >= nv || t.v[2] >= nv) {
+      const int i = t.v[0] >= nv ? 0 : (t.v[1] >= nv ? 1 : 2);
+      return Status::error(Code::kBadInput, "face " + std::to_string(f),
+                           "vertex index " + std::to_string(t.v[i]) + " out of range (" +
+                               std::to_string(nv) + " vertices)");
     }
     if (is_collapsed(t)) {
       ++adj.collapsed_faces;
       continue;
     }
-    for (int i = 0; i < 3; ++i) ++adj.vertex_offsets[t.v[i] + 1];
+    ++count[t.v[0]];
+    ++count[t.v[1]];
+    ++count[t.v[2]];
   }
   for (std::size_t v = 0; v < nv; ++v) adj.vertex_offsets[v + 1] += adj.vertex_offsets[v];
-  adj.vertex_corners.resize(adj.vertex_offsets[nv]);
+  const std::size_t slots = adj.vertex_offsets[nv];
+  adj.vertex_corners.resize(slots);
+  adj.slot_flags.resize(slots);
   {
-    std::vector<std::uint32_t> fill(adj.vertex_offsets.begin(), adj.vertex_offsets.end() - 1);
+    // Fill cursors: vertex_offsets shifted by one, restored by the fill itself.
+    std::uint32_t* cursor = adj.vertex_offsets.data();
+    std::uint32_t* corners = adj.vertex_corners.data();
     for (std::size_t f = 0; f < nf; ++f) {
-      const Triangle& t = mesh.triangles[f];
+      const Triangle& t = tris[f];
       if (is_collapsed(t)) continue;
-      for (std::uint32_t i = 0; i < 3; ++i) adj.vertex_corners[fill[t.v[i]]++] = static_cast<std::uint32_t>(3 * f + i);
+      const std::uint32_t c = static_cast<std::uint32_t>(3 * f);
+      corners[cursor[t.v[0]]++] = c;
+      corners[cursor[t.v[1]]++] = c + 1;
+      corners[cursor[t.v[2]]++] = c + 2;
     }
+    // Now cursor[v] == old offset[v + 1]: shift back.
+    for (std::size_t v = nv; v > 0; --v) adj.vertex_offsets[v] = adj.vertex_offsets[v - 1];
+    adj.vertex_offsets[0] = 0;
   }
-  adj.edge_neighbor.assign(3 * nf, MeshAdjacency::kNoFace);
-  adj.slot_flags.assign(adj.vertex_corners.size(), 0);
+  // Every corner of a non-collapsed face is written by its vertex's pass; collapsed faces
+  // keep kNoFace on all three edges.
+  adj.edge_neighbor.resize(3 * nf);
+  if (adj.collapsed_faces > 0) std::fill(adj.edge_neighbor.begin(), adj.edge_neighbor.end(), MeshAdjacency::kNoFace);
 
-  const auto* tris = mesh.triangles.data();
-  auto next_of = [tris](std::uint32_t c) { return tris[c / 3].v[(c % 3 + 1) % 3]; };
-  auto prev_of = [tris](std::uint32_t c) { return tris[c / 3].v[(c % 3 + 2) % 3]; };
+  std::atomic<std::size_t> breaks{0};
+  const std::uint32_t* offsets = adj.vertex_offsets.data();
+  std::uint32_t* corners = adj.vertex_corners.data();
+  std::uint8_t* flags = adj.slot_flags.data();
+  std::uint32_t* neighbor = adj.edge_neighbor.data();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const tbb::blocked_range<std::size_t>& range) {
+    StarScratch s;
+    std::size_t local = 0;
+    for (std::size_t v = range.begin(); v < range.end(); ++v) {
+      if (offsets[v] == offsets[v + 1]) continue;
+      local += build_star(tris, offsets[v], offsets[v + 1], corners, flags, neighbor, s);
+    }
+    breaks += local;
+  });
+  adj.break_edges = breaks;
+  return Status();
+}
 
-  std::vector<std::uint32_t> ordered;
-  std::vector<std::uint8_t> flags, used;
-  for (std::size_t v = 0; v < nv; ++v) {
-    const std::uint32_t begin = adj.vertex_offsets[v], end = adj.vertex_offsets[v + 1];
-    // Outgoing edge (v, a) of each corner: manifold iff exactly one face of the star goes
-    // v -> a and exactly one goes a -> v.
-    for (std::uint32_t s = begin; s < end; ++s) {
-      const std::uint32_t c = adj.vertex_corners[s];
-      const std::uint32_t a = next_of(c);
-      std::uint32_t out = 0, in = 0, partner = MeshAdjacency::kNoFace;
-      for (std::uint32_t r = begin; r < end; ++r) {
-        const std::uint32_t d = adj.vertex_corners[r];
-        if (next_of(d) == a) ++out;
-        if (prev_of(d) == a) {
-          ++in;
-          partner = d / 3;
-        }
-      }
-      if (out == 1 && in == 1) adj.edge_neighbor[c] = partner;  // edge i of f sits at 3 f + i = c
-      else ++adj.break_edges;
-    }
-  }
-  // Fans need the links of the incoming edges too, which other vertices' passes set.
-  for (std::size_t v = 0; v < nv; ++v) {
-    const std::uint32_t begin = adj.vertex_offsets[v], end = adj.vertex_offsets[v + 1];
-    // Fans: walk counter-clockwise (across edge (prev, v)) from each open end, then cycles.
-    const std::uint32_t degree = end - begin;
-    ordered.clear();
-    flags.clear();
-    used.assign(degree, 0);
-    auto slot_of_face = [&](std::uint32_t face) {
-      for (std::uint32_t r = 0; r < degree; ++r)
-        if (adj.vertex_corners[begin + r] / 3 == face) return r;
-      return degree;
-    };
-    auto walk = [&](std::uint32_t r, bool closed) {
-      flags.push_back(static_cast<std::uint8_t>(MeshAdjacency::kFanStart | (closed ? MeshAdjacency::kFanClosed : 0)));
-      const std::uint32_t start = r;
-      while (true) {
-        used[r] = 1;
-        const std::uint32_t c = adj.vertex_corners[begin + r];
-        ordered.push_back(c);
-        const std::uint32_t next_face = adj.edge_neighbor[3 * (c / 3) + (c % 3 + 2) % 3];
-        if (next_face == MeshAdjacency::kNoFace) break;
-        const std::uint32_t nr = slot_of_face(next_face);
-        if (nr == degree || nr == start || used[nr]) break;
-        flags.push_back(0);
-        r = nr;
-      }
-    };
-    for (std::uint32_t r = 0; r < degree; ++r) {
-      const std::uint32_t c = adj.vertex_corners[begin + r];
-      if (adj.edge_neighbor[c] == MeshAdjacency::kNoFace) walk(r, false);
-    }
-    for (std::uint32_t r = 0; r < degree; ++r)
-      if (!used[r]) walk(r, true);
-    for (std::uint32_t r = 0; r < degree; ++r) {
-      adj.vertex_corners[begin + r] = ordered[r];
-      adj.slot_flags[begin + r] = flags[r];
-    }
-  }
+format::Result<MeshAdjacency> build_mesh_adjacency(format::MeshView mesh) {
+  MeshAdjacency adj;
+  if (Status s = build_mesh_adjacency(mesh, adj); !s.is_ok()) return s;
   return adj;
 }
 

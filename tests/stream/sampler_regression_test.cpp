@@ -633,6 +633,28 @@ Mesh defective_torus(std::size_t vertices, double noise) {
   return out;
 }
 
+// Two cones of 60 triangles sharing their apex (a non-manifold vertex of degree > 100), one
+// with a missing and a duplicated triangle: the adjacency's large-star path.
+Mesh double_cone() {
+  Mesh m;
+  m.positions.push_back({0, 0, 0});
+  const std::uint32_t n = 60;
+  for (int side : {1, -1})
+    for (std::uint32_t k = 0; k < n; ++k) {
+      const double a = 2 * 3.14159265358979 * k / n;
+      m.positions.push_back({float(std::cos(a)), float(std::sin(a)), float(side * (0.5 + 0.05 * std::sin(7.0 * k)))});
+    }
+  for (std::uint32_t cone = 0; cone < 2; ++cone)
+    for (std::uint32_t k = 0; k < n; ++k) {
+      const std::uint32_t a = 1 + cone * n + k, b = 1 + cone * n + (k + 1) % n;
+      if (cone == 1 && k == 3) continue;
+      if (cone == 0) m.triangles.push_back({{0, b, a}});
+      else m.triangles.push_back({{0, a, b}});
+      if (cone == 1 && k == 9) m.triangles.push_back(m.triangles.back());
+    }
+  return m;
+}
+
 const std::vector<Case>& cases() {
   static const std::vector<Case> all = [] {
     std::vector<Case> c;
@@ -643,6 +665,7 @@ const std::vector<Case>& cases() {
       if (mesh.is_ok()) c.push_back({name, std::move(mesh).value()});
     }
     c.push_back({"noisy defective torus", defective_torus(6000, 2e-3)});
+    c.push_back({"double cone", double_cone()});
     testing::ShapeOptions o;
     o.vertices = 4000;
     o.noise = 1e-3;
