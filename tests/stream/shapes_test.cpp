@@ -290,6 +290,22 @@ TEST_P(Shapes, ClosedManifoldOutwardWithTheRightTopologyAndSize) {
   }
 }
 
+TEST_P(Shapes, ClosedManifoldAtCoarseAndFineResolutions) {
+  const ShapeCase& shape = GetParam();
+  for (std::size_t vertices : {300u, 1000u, 25000u}) {
+    SCOPED_TRACE("vertices " + std::to_string(vertices));
+    ShapeOptions options;
+    options.vertices = vertices;
+    options.rotation = random_rotation(vertices);
+    const Mesh mesh = shape.make(options);
+    EXPECT_EQ(closed_manifold_problem(mesh), "");
+    EXPECT_EQ(euler_characteristic(mesh), shape.euler);
+    EXPECT_GT(signed_volume(mesh), 0);
+    EXPECT_NEAR(double(mesh.positions.size()), double(vertices),
+                double(vertices) * std::max(shape.count_tolerance, 0.1));
+  }
+}
+
 TEST_P(Shapes, RotationPreservesEdgeLengths) {
   const ShapeCase& shape = GetParam();
   ShapeOptions options;
