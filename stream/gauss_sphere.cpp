@@ -254,6 +254,11 @@ format::Result<GaussSphere> GaussSphere::create(const GaussSphereOptions& option
     g.centers_[t] = c;
     g.cap_cos_[t] = std::min({dot(c, g.vertices_[tv[0]]), dot(c, g.vertices_[tv[1]]), dot(c, g.vertices_[tv[2]])});
   }
+  g.cap_angle_.resize(nt);
+  for (std::size_t t = 0; t < nt; ++t) {
+    const double a = std::acos(std::clamp(g.cap_cos_[t], -1.0, 1.0));
+    g.cap_angle_[t] = {a, std::cos(a), std::sin(a)};
+  }
   return g;
 }
 

@@ -78,6 +78,11 @@ class GaussSphere {
   // between it and the triangle's corners (a cap that holds the triangle).
   const Vec3d& triangle_center(std::uint32_t t) const { return centers_[t]; }
   double triangle_cap_cos(std::uint32_t t) const { return cap_cos_[t]; }
+  // acos(clamp(triangle_cap_cos(t), -1, 1)) (the cap's angular radius), and its cosine and sine,
+  // precomputed so that cap searches compare cosines instead of calling acos.
+  double triangle_cap_angle(std::uint32_t t) const { return cap_angle_[t].angle; }
+  double triangle_cap_angle_cos(std::uint32_t t) const { return cap_angle_[t].cos; }
+  double triangle_cap_angle_sin(std::uint32_t t) const { return cap_angle_[t].sin; }
 
   // The Gaussian triangle holding direction n (any length > 0; the zero vector yields some
   // valid id). O(1): rotate by Rᵀ, pick the base face whose cone holds it (the face plane the
@@ -107,6 +112,10 @@ class GaussSphere {
   std::vector<std::uint32_t> vertex_triangles_;
   std::vector<Vec3d> centers_;
   std::vector<double> cap_cos_;
+  struct CapAngle {
+    double angle, cos, sin;
+  };
+  std::vector<CapAngle> cap_angle_;
 };
 
 }  // namespace gaussmesh::stream

@@ -25,84 +25,168 @@ struct DisjointSets {
 
 }  // namespace
 
-Patches find_patches(const MeshAdjacency& adjacency, const std::vector<std::uint32_t>& labels,
-                     const std::vector<std::uint8_t>& feature) {
+void find_patches(const MeshAdjacency& adjacency, const std::vector<std::uint32_t>& labels,
+                  const std::vector<std::uint8_t>& feature, Patches& p, std::vector<std::uint32_t>& stack) {
   const std::size_t nf = labels.size();
-  Patches p;
   p.face_patch.assign(nf, kNoPatch);
-  std::vector<std::uint32_t> stack;
+  p.patch_label.clear();
+  p.patch_size.clear();
+  stack.clear();
+  std::uint32_t* face_patch = p.face_patch.data();
+  const std::uint32_t* nb = adjacency.edge_neighbor.data();
+  const std::uint8_t* bits = feature.data();
   for (std::size_t seed = 0; seed < nf; ++seed) {
-    if (p.face_patch[seed] != kNoPatch) continue;
+    if (face_patch[seed] != kNoPatch) continue;
     const std::uint32_t id = static_cast<std::uint32_t>(p.patch_label.size());
     p.patch_label.push_back(labels[seed]);
+    face_patch[seed] = id;
+    // A face whose three edges are features is a patch of its own (common in noisy regions).
+    if (bits[seed] == 7) {
+      p.patch_size.push_back(1);
+      continue;
+    }
     std::uint32_t size = 0;
-    p.face_patch[seed] = id;
     stack.push_back(static_cast<std::uint32_t>(seed));
     while (!stack.empty()) {
       const std::uint32_t f = stack.back();
       stack.pop_back();
       ++size;
       for (int i = 0; i < 3; ++i) {
-        if (feature[f] >> i & 1) continue;
-        const std::uint32_t g = adjacency.edge_neighbor[3 * f + i];
-        if (g == MeshAdjacency::kNoFace || p.face_patch[g] != kNoPatch) continue;
-        p.face_patch[g] = id;
+        if (bits[f] >> i & 1) continue;
+        const std::uint32_t g = nb[3 * f + i];
+        if (g == MeshAdjacency::kNoFace || face_patch[g] != kNoPatch) continue;
+        face_patch[g] = id;
         stack.push_back(g);
       }
     }
     p.patch_size.push_back(size);
   }
+}
+
+Patches find_patches(const MeshAdjacency& adjacency, const std::vector<std::uint32_t>& labels,
+                     const std::vector<std::uint8_t>& feature) {
+  Patches p;
+  std::vector<std::uint32_t> stack;
+  find_patches(adjacency, labels, feature, p, stack);
   return p;
+}
+
+void plan_untriangulatable_merges(format::MeshView mesh, const MeshAdjacency& adjacency, const Patches& patches,
+                                  const std::vector<std::uint8_t>& feature,
+                                  const std::vector<std::uint8_t>& is_candidate, std::vector<std::uint32_t>& target,
+                                  MergePlanScratch& s) {
+  const std::size_t np = patches.patch_label.size();
+  const std::size_t nf = patches.face_patch.size();
+  const std::size_t nv = adjacency.vertex_count();
+  const std::uint32_t* face_patch = patches.face_patch.data();
+  // Distinct candidates per patch: a candidate's faces are its star (plus collapsed faces,
+  // which are patches of their own and in no star).
+  s.candidate_count.assign(np, 0);
+  std::uint32_t* candidate_count = s.candidate_count.data();
+  std::uint32_t seen[64];
+  for (std::size_t v = 0; v < nv; ++v) {
+    if (!is_candidate[v]) continue;
+    const std::uint32_t begin = adjacency.star_begin(static_cast<std::uint32_t>(v)),
+                        end = adjacency.star_end(static_cast<std::uint32_t>(v));
+    if (end - begin <= 64) {
+      std::uint32_t n = 0;
+      for (std::uint32_t k = begin; k < end; ++k) {
+        const std::uint32_t p = face_patch[adjacency.vertex_corners[k] / 3];
+        bool dup = false;
+        for (std::uint32_t j = 0; j < n && !dup; ++j) dup = seen[j] == p;
+        if (!dup) {
+          seen[n++] = p;
+          ++candidate_count[p];
+        }
+      }
+    } else {
+      s.patch_list.clear();
+      for (std::uint32_t k = begin; k < end; ++k) s.patch_list.push_back(face_patch[adjacency.vertex_corners[k] / 3]);
+      std::sort(s.patch_list.begin(), s.patch_list.end());
+      s.patch_list.erase(std::unique(s.patch_list.begin(), s.patch_list.end()), s.patch_list.end());
+      for (std::uint32_t p : s.patch_list) ++candidate_count[p];
+    }
+  }
+  if (adjacency.collapsed_faces > 0) {
+    for (std::size_t f = 0; f < nf; ++f) {
+      const auto& t = mesh.triangles[f];
+      if (!(t.v[0] == t.v[1] || t.v[1] == t.v[2] || t.v[0] == t.v[2])) continue;
+      std::uint32_t n = 0;
+      for (int i = 0; i < 3; ++i) {
+        bool dup = false;
+        for (int j = 0; j < i; ++j) dup = dup || t.v[j] == t.v[i];
+        n += !dup && is_candidate[t.v[i]];
+      }
+      candidate_count[face_patch[f]] += n;
+    }
+  }
+  // Feature edges from each patch with < 3 candidates to each neighbour, bucketed by patch
+  // (counting sort: the patches are visited in id order below).
+  s.bucket.assign(np + 1, 0);
+  std::uint32_t* bucket = s.bucket.data();
+  const std::uint32_t* nb = adjacency.edge_neighbor.data();
+  const std::uint8_t* bits = feature.data();
+  for (std::size_t f = 0; f < nf; ++f) {
+    if (!bits[f]) continue;
+    const std::uint32_t p = face_patch[f];
+    if (candidate_count[p] >= 3) continue;
+    for (int i = 0; i < 3; ++i) {
+      if (!(bits[f] >> i & 1)) continue;
+      const std::uint32_t g = nb[3 * f + i];
+      if (g != MeshAdjacency::kNoFace && face_patch[g] != p) ++bucket[p + 1];
+    }
+  }
+  for (std::size_t p = 0; p < np; ++p) bucket[p + 1] += bucket[p];
+  s.neighbors.resize(bucket[np]);
+  {
+    s.cursor.assign(bucket, bucket + np);
+    std::uint32_t* cursor = s.cursor.data();
+    std::uint32_t* out = s.neighbors.data();
+    for (std::size_t f = 0; f < nf; ++f) {
+      if (!bits[f]) continue;
+      const std::uint32_t p = face_patch[f];
+      if (candidate_count[p] >= 3) continue;
+      for (int i = 0; i < 3; ++i) {
+        if (!(bits[f] >> i & 1)) continue;
+        const std::uint32_t g = nb[3 * f + i];
+        if (g != MeshAdjacency::kNoFace && face_patch[g] != p) out[cursor[p]++] = face_patch[g];
+      }
+    }
+  }
+  target.assign(np, kNoPatch);
+  s.is_target.assign(np, 0);
+  for (std::size_t p = 0; p < np; ++p) {
+    if (bucket[p] == bucket[p + 1]) continue;
+    // The neighbour sharing most feature edges, ties to the lowest id.
+    std::uint32_t* begin = s.neighbors.data() + bucket[p];
+    std::uint32_t* end = s.neighbors.data() + bucket[p + 1];
+    std::sort(begin, end);
+    std::uint32_t best = kNoPatch, best_count = 0;
+    for (std::uint32_t* k = begin; k < end;) {
+      std::uint32_t* run = k;
+      while (run < end && *run == *k) ++run;
+      const std::uint32_t count = static_cast<std::uint32_t>(run - k);
+      if (count > best_count) {
+        best = *k;
+        best_count = count;
+      }
+      k = run;
+    }
+    // Apply the plan in patch order: a patch that already absorbs another this round, or
+    // whose chosen neighbour is itself leaving, waits for the next round.
+    if (s.is_target[p] || target[best] != kNoPatch) continue;
+    target[p] = best;
+    s.is_target[best] = 1;
+  }
 }
 
 std::vector<std::uint32_t> plan_untriangulatable_merges(format::MeshView mesh, const MeshAdjacency& adjacency,
                                                         const Patches& patches,
                                                         const std::vector<std::uint8_t>& feature,
                                                         const std::vector<std::uint8_t>& is_candidate) {
-  const std::size_t np = patches.patch_label.size();
-  const std::size_t nf = patches.face_patch.size();
-  // Distinct candidates per patch boundary, and feature edges shared with each neighbour.
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> patch_vertex, patch_neighbor;
-  for (std::size_t f = 0; f < nf; ++f) {
-    const std::uint32_t p = patches.face_patch[f];
-    const auto& t = mesh.triangles[f];
-    for (int i = 0; i < 3; ++i) {
-      if (is_candidate[t.v[i]]) patch_vertex.emplace_back(p, t.v[i]);
-      if (!(feature[f] >> i & 1)) continue;
-      const std::uint32_t g = adjacency.edge_neighbor[3 * f + i];
-      if (g != MeshAdjacency::kNoFace && patches.face_patch[g] != p) patch_neighbor.emplace_back(p, patches.face_patch[g]);
-    }
-  }
-  std::sort(patch_vertex.begin(), patch_vertex.end());
-  patch_vertex.erase(std::unique(patch_vertex.begin(), patch_vertex.end()), patch_vertex.end());
-  std::vector<std::uint32_t> candidate_count(np, 0);
-  for (const auto& pv : patch_vertex) ++candidate_count[pv.first];
-  std::sort(patch_neighbor.begin(), patch_neighbor.end());
-
-  std::vector<std::uint32_t> target(np, kNoPatch);
-  std::vector<std::uint8_t> is_target(np, 0);
-  for (std::size_t k = 0; k < patch_neighbor.size();) {
-    const std::uint32_t p = patch_neighbor[k].first;
-    std::uint32_t best = kNoPatch, best_count = 0;
-    while (k < patch_neighbor.size() && patch_neighbor[k].first == p) {
-      const std::uint32_t q = patch_neighbor[k].second;
-      std::uint32_t count = 0;
-      while (k < patch_neighbor.size() && patch_neighbor[k].first == p && patch_neighbor[k].second == q) {
-        ++count;
-        ++k;
-      }
-      if (count > best_count) {
-        best = q;
-        best_count = count;
-      }
-    }
-    if (candidate_count[p] >= 3 || best == kNoPatch) continue;
-    // Apply the plan in patch order: a patch that already absorbs another this round, or
-    // whose chosen neighbour is itself leaving, waits for the next round.
-    if (is_target[p] || target[best] != kNoPatch) continue;
-    target[p] = best;
-    is_target[best] = 1;
-  }
+  std::vector<std::uint32_t> target;
+  MergePlanScratch scratch;
+  plan_untriangulatable_merges(mesh, adjacency, patches, feature, is_candidate, target, scratch);
   return target;
 }
 

@@ -25,6 +25,9 @@ struct Patches {
 // order of their lowest face. Collapsed faces are patches of their own.
 Patches find_patches(const MeshAdjacency& adjacency, const std::vector<std::uint32_t>& labels,
                      const std::vector<std::uint8_t>& feature);
+// The same into `out`, reusing its arrays and the traversal stack (no allocation when warm).
+void find_patches(const MeshAdjacency& adjacency, const std::vector<std::uint32_t>& labels,
+                  const std::vector<std::uint8_t>& feature, Patches& out, std::vector<std::uint32_t>& stack);
 
 // Per patch: kNoPatch if its boundary carries >= 3 candidates (is_candidate[v] != 0) or it has
 // no neighbour across a manifold feature edge; otherwise the neighbour it should join: the one
@@ -35,6 +38,16 @@ std::vector<std::uint32_t> plan_untriangulatable_merges(format::MeshView mesh, c
                                                         const Patches& patches,
                                                         const std::vector<std::uint8_t>& feature,
                                                         const std::vector<std::uint8_t>& is_candidate);
+// The same into `target`, reusing scratch across rounds and calls. O(F + V + P): candidates
+// counted per patch from the candidates' stars, neighbours bucketed by patch.
+struct MergePlanScratch {
+  std::vector<std::uint32_t> candidate_count, bucket, cursor, neighbors, patch_list;
+  std::vector<std::uint8_t> is_target;
+};
+void plan_untriangulatable_merges(format::MeshView mesh, const MeshAdjacency& adjacency, const Patches& patches,
+                                  const std::vector<std::uint8_t>& feature,
+                                  const std::vector<std::uint8_t>& is_candidate, std::vector<std::uint32_t>& target,
+                                  MergePlanScratch& scratch);
 
 // Pairs (a, b), a < b, of candidate vertices joined by a chain of feature edges through no
 // other candidate (paper "Adjacent Samples"); sorted, unique. Chains are followed through

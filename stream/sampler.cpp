@@ -5,8 +5,13 @@
 #include "stream/sampler.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cassert>
 #include <cmath>
+#include <numbers>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "stream/exact_predicates.h"
 #include "stream/patch_filters.h"
@@ -71,10 +76,26 @@ struct Scratch {
   std::vector<std::uint32_t> gauss;     // Gaussian vertices to test
 };
 
+// acos(clamp(x, -1, 1)) <= t, decided with cosines where the answer is clear by a margin of
+// 1e-9 (|d acos/dx| >= 1, so a margin in x is at least that margin in angle) and by acos itself
+// in that band: the same booleans as the acos comparison, without calling acos almost always.
+// cos_t approximates cos(t) to well within the margin.
+bool angle_within(double x, double t, double cos_t) {
+  if (t >= std::numbers::pi) return true;  // acos never exceeds pi
+  if (x > cos_t + 1e-9) return true;
+  if (x < cos_t - 1e-9) return false;
+  return std::acos(std::clamp(x, -1.0, 1.0)) <= t;
+}
+
 // The Gaussian vertices that a polygon inside the cap (c, cos_theta) may enclose: corners of
 // the Gaussian triangles that meet the cap, found by a walk from the triangle holding c.
+// Angles compare as acos(x) <= theta + alpha + 1e-9 (alpha: a triangle's cap angle), decided by
+// angle_within with cos(theta + alpha + 1e-9) from the addition formula.
 void gauss_vertices_in_cap(const GaussSphere& gauss, const Vec3d& c, double cos_theta, Scratch& s) {
   const double theta = std::acos(std::clamp(cos_theta, -1.0, 1.0));
+  const double ct = std::cos(theta), st = std::sin(theta);
+  const double vertex_t = theta + 1e-9;
+  const double vertex_cos = ct - 1e-9 * st;  // cos(theta + 1e-9) to O(1e-18)
   s.visited.clear();
   s.gauss.clear();
   s.visited.push_back(gauss.locate(c));
@@ -82,15 +103,19 @@ void gauss_vertices_in_cap(const GaussSphere& gauss, const Vec3d& c, double cos_
     const std::uint32_t t = s.visited[k];
     for (std::uint32_t g : gauss.triangle_vertices(t)) {
       const double gc = dot(gauss.vertex(g), c);
-      if (gc > kHemisphereMargin && std::acos(std::min(gc, 1.0)) <= theta + 1e-9 &&
+      if (gc > kHemisphereMargin && angle_within(std::min(gc, 1.0), vertex_t, vertex_cos) &&
           std::find(s.gauss.begin(), s.gauss.end(), g) == s.gauss.end()) {
         s.gauss.push_back(g);
       }
     }
     for (std::uint32_t n : gauss.triangle_neighbors(t)) {
       if (std::find(s.visited.begin(), s.visited.end(), n) != s.visited.end()) continue;
-      const double reach = theta + std::acos(std::clamp(gauss.triangle_cap_cos(n), -1.0, 1.0)) + 1e-9;
-      if (std::acos(std::clamp(dot(gauss.triangle_center(n), c), -1.0, 1.0)) <= reach) s.visited.push_back(n);
+      const double alpha = gauss.triangle_cap_angle(n);
+      const double reach = theta + alpha + 1e-9;
+      const double ca = gauss.triangle_cap_angle_cos(n), sa = gauss.triangle_cap_angle_sin(n);
+      // cos(theta + alpha + 1e-9) = cos(theta + alpha) - 1e-9 sin(theta + alpha) + O(1e-18).
+      const double reach_cos = (ct * ca - st * sa) - 1e-9 * (st * ca + ct * sa);
+      if (angle_within(dot(gauss.triangle_center(n), c), reach, reach_cos)) s.visited.push_back(n);
     }
   }
   std::sort(s.gauss.begin(), s.gauss.end());
@@ -123,257 +148,379 @@ const char* characteristic_name(Characteristic c) {
   return "?";
 }
 
+namespace {
+
+constexpr std::size_t kFaceGrain = 16384;    // faces per parallel task
+constexpr std::size_t kVertexBlock = 32768;  // vertices per parallel block of evaluate_vertices
+
+bool is_zero(const Vec3f& n) { return n.x == 0 && n.y == 0 && n.z == 0; }
+
+template <typename Body>
+void for_faces(std::size_t n, const Body& body) {
+  if (n <= kFaceGrain) {
+    body(std::size_t{0}, n);
+    return;
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kFaceGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) { body(r.begin(), r.end()); });
+}
+
+std::uint8_t feature_bits(const std::uint32_t* nb, const std::uint32_t* labels, std::size_t f) {
+  const std::uint32_t l = labels[f];
+  std::uint8_t bits = 0;
+  for (int i = 0; i < 3; ++i) {
+    const std::uint32_t g = nb[3 * f + i];
+    if (g == MeshAdjacency::kNoFace || labels[g] != l) bits |= static_cast<std::uint8_t>(1u << i);
+  }
+  return bits;
+}
+
+}  // namespace
+
+void compute_face_normals(format::MeshView mesh, const MeshAdjacency& adjacency, std::uint32_t smooth_iterations,
+                          FaceNormals& out, std::vector<float>& area_buffer, std::vector<format::Vec3f>& scratch) {
+  const std::size_t nf = mesh.triangles.size();
+  out.normal.resize(nf);
+  out.degenerate.resize(nf);
+  area_buffer.resize(nf);
+  const Vec3f* pos = mesh.positions.data();
+  const format::Triangle* tris = mesh.triangles.data();
+  Vec3f* normal = out.normal.data();
+  std::uint8_t* degenerate = out.degenerate.data();
+  float* area = area_buffer.data();
+  std::atomic<std::size_t> degenerate_count{0};
+  for_faces(nf, [&](std::size_t begin, std::size_t end) {
+    std::size_t local = 0;
+    for (std::size_t f = begin; f < end; ++f) {
+      const auto& t = tris[f];
+      const Vec3d p0 = to_d(pos[t.v[0]]), p1 = to_d(pos[t.v[1]]), p2 = to_d(pos[t.v[2]]);
+      const Vec3d e1 = p1 - p0, e2 = p2 - p0, e3 = p2 - p1;
+      const Vec3d n = cross(e1, e2);
+      const double len = std::sqrt(dot(n, n));
+      if (!(len > kDegenerateRatio * (dot(e1, e1) + dot(e2, e2) + dot(e3, e3)))) {
+        degenerate[f] = 1;
+        ++local;
+        area[f] = 0;
+        normal[f] = {};
+        continue;
+      }
+      const double s = 1.0 / len;
+      degenerate[f] = 0;
+      normal[f] = {static_cast<float>(n.x * s), static_cast<float>(n.y * s), static_cast<float>(n.z * s)};
+      area[f] = static_cast<float>(0.5 * len);
+    }
+    degenerate_count += local;
+  });
+  out.degenerate_count = degenerate_count;
+  const std::uint32_t* nb = adjacency.edge_neighbor.data();
+  // Degenerate faces inherit the area-weighted mean of their edge neighbours' own normals (in
+  // place: only degenerate faces are written, only non-degenerate ones read).
+  if (out.degenerate_count > 0) {
+    for_faces(nf, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t f = begin; f < end; ++f) {
+        if (!degenerate[f]) continue;
+        Vec3d sum{};
+        for (int i = 0; i < 3; ++i) {
+          const std::uint32_t g = nb[3 * f + i];
+          if (g == MeshAdjacency::kNoFace || degenerate[g]) continue;
+          sum = sum + static_cast<double>(area[g]) * to_d(normal[g]);
+        }
+        normal[f] = unit_f(sum);
+      }
+    });
+  }
+  if (smooth_iterations > 0) scratch.resize(nf);
+  for (std::uint32_t it = 0; it < smooth_iterations; ++it) {
+    const Vec3f* cur = out.normal.data();
+    Vec3f* next = scratch.data();
+    for_faces(nf, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t f = begin; f < end; ++f) {
+        Vec3d sum = static_cast<double>(area[f]) * to_d(cur[f]);
+        for (int i = 0; i < 3; ++i) {
+          const std::uint32_t g = nb[3 * f + i];
+          if (g != MeshAdjacency::kNoFace) sum = sum + static_cast<double>(area[g]) * to_d(cur[g]);
+        }
+        const Vec3f u = unit_f(sum);
+        next[f] = is_zero(u) ? cur[f] : u;
+      }
+    });
+    out.normal.swap(scratch);
+  }
+}
+
 FaceNormals compute_face_normals(format::MeshView mesh, const MeshAdjacency& adjacency,
                                  std::uint32_t smooth_iterations) {
-  const std::size_t nf = mesh.triangles.size();
   FaceNormals out;
-  out.normal.resize(nf);
-  out.degenerate.assign(nf, 0);
-  std::vector<float> area(nf);
-  const Vec3f* pos = mesh.positions.data();
-  for (std::size_t f = 0; f < nf; ++f) {
-    const auto& t = mesh.triangles[f];
-    const Vec3d p0 = to_d(pos[t.v[0]]), p1 = to_d(pos[t.v[1]]), p2 = to_d(pos[t.v[2]]);
-    const Vec3d e1 = p1 - p0, e2 = p2 - p0, e3 = p2 - p1;
-    const Vec3d n = cross(e1, e2);
-    const double len = std::sqrt(dot(n, n));
-    if (!(len > kDegenerateRatio * (dot(e1, e1) + dot(e2, e2) + dot(e3, e3)))) {
-      out.degenerate[f] = 1;
-      ++out.degenerate_count;
-      area[f] = 0;
-      out.normal[f] = {};
-      continue;
-    }
-    const double s = 1.0 / len;
-    out.normal[f] = {static_cast<float>(n.x * s), static_cast<float>(n.y * s), static_cast<float>(n.z * s)};
-    area[f] = static_cast<float>(0.5 * len);
-  }
-  const auto& nb = adjacency.edge_neighbor;
-  // Degenerate faces inherit the area-weighted mean of their edge neighbours' own normals.
-  if (out.degenerate_count > 0) {
-    std::vector<Vec3f> inherited(out.normal);
-    for (std::size_t f = 0; f < nf; ++f) {
-      if (!out.degenerate[f]) continue;
-      Vec3d sum{};
-      for (int i = 0; i < 3; ++i) {
-        const std::uint32_t g = nb[3 * f + i];
-        if (g == MeshAdjacency::kNoFace || out.degenerate[g]) continue;
-        sum = sum + static_cast<double>(area[g]) * to_d(out.normal[g]);
-      }
-      inherited[f] = unit_f(sum);
-    }
-    out.normal.swap(inherited);
-  }
-  std::vector<Vec3f> next(nf);
-  for (std::uint32_t it = 0; it < smooth_iterations; ++it) {
-    for (std::size_t f = 0; f < nf; ++f) {
-      Vec3d sum = static_cast<double>(area[f]) * to_d(out.normal[f]);
-      for (int i = 0; i < 3; ++i) {
-        const std::uint32_t g = nb[3 * f + i];
-        if (g != MeshAdjacency::kNoFace) sum = sum + static_cast<double>(area[g]) * to_d(out.normal[g]);
-      }
-      const Vec3f u = unit_f(sum);
-      next[f] = (u.x == 0 && u.y == 0 && u.z == 0) ? out.normal[f] : u;
-    }
-    out.normal.swap(next);
-  }
+  std::vector<float> area;
+  std::vector<Vec3f> scratch;
+  compute_face_normals(mesh, adjacency, smooth_iterations, out, area, scratch);
   return out;
 }
 
-std::vector<std::uint32_t> compute_face_labels(const FaceNormals& normals, const GaussSphere& gauss) {
+void compute_face_labels(const FaceNormals& normals, const GaussSphere& gauss, std::vector<std::uint32_t>& labels) {
   const std::size_t nf = normals.normal.size();
-  std::vector<std::uint32_t> labels(nf);
-  for (std::size_t f = 0; f < nf; ++f) {
-    const Vec3f& n = normals.normal[f];
-    labels[f] = (n.x == 0 && n.y == 0 && n.z == 0) ? kNoLabel : gauss.locate(to_d(n));
-  }
+  labels.resize(nf);
+  const Vec3f* normal = normals.normal.data();
+  std::uint32_t* out = labels.data();
+  for_faces(nf, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t f = begin; f < end; ++f) out[f] = is_zero(normal[f]) ? kNoLabel : gauss.locate(to_d(normal[f]));
+  });
+}
+
+std::vector<std::uint32_t> compute_face_labels(const FaceNormals& normals, const GaussSphere& gauss) {
+  std::vector<std::uint32_t> labels;
+  compute_face_labels(normals, gauss, labels);
   return labels;
+}
+
+void compute_feature_edges(const MeshAdjacency& adjacency, const std::vector<std::uint32_t>& labels,
+                           std::vector<std::uint8_t>& feature) {
+  const std::size_t nf = labels.size();
+  feature.resize(nf);
+  const std::uint32_t* nb = adjacency.edge_neighbor.data();
+  const std::uint32_t* l = labels.data();
+  std::uint8_t* out = feature.data();
+  for_faces(nf, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t f = begin; f < end; ++f) out[f] = feature_bits(nb, l, f);
+  });
 }
 
 std::vector<std::uint8_t> compute_feature_edges(const MeshAdjacency& adjacency,
                                                 const std::vector<std::uint32_t>& labels) {
-  const std::size_t nf = labels.size();
-  std::vector<std::uint8_t> feature(nf);
-  const std::uint32_t* nb = adjacency.edge_neighbor.data();
-  for (std::size_t f = 0; f < nf; ++f) {
-    const std::uint32_t l = labels[f];
-    std::uint8_t bits = 0;
-    for (int i = 0; i < 3; ++i) {
-      const std::uint32_t g = nb[3 * f + i];
-      if (g == MeshAdjacency::kNoFace || labels[g] != l) bits |= static_cast<std::uint8_t>(1u << i);
-    }
-    feature[f] = bits;
-  }
+  std::vector<std::uint8_t> feature;
+  compute_feature_edges(adjacency, labels, feature);
   return feature;
 }
+
+namespace {
+
+struct VertexInputs {
+  format::MeshView mesh;
+  const MeshAdjacency& adjacency;
+  const FaceNormals& normals;
+  const std::uint32_t* labels;
+  const std::uint8_t* feature;
+  const GaussSphere& gauss;
+  bool run_exact_test;
+};
+
+// The per-vertex decisions of one vertex (docs/sampling.md); appends a record when the vertex
+// is a candidate or an exact sample.
+void evaluate_vertex(const VertexInputs& in, std::uint32_t v, Scratch& s, std::vector<VertexRecord>& out) {
+  const MeshAdjacency& adjacency = in.adjacency;
+  const GaussSphere& gauss = in.gauss;
+  const std::uint32_t* labels = in.labels;
+  const auto* tris = in.mesh.triangles.data();
+  const std::uint32_t* corners = adjacency.vertex_corners.data();
+  const std::uint8_t* flags = adjacency.slot_flags.data();
+  const std::uint32_t* nb = adjacency.edge_neighbor.data();
+  const std::uint32_t sb = adjacency.star_begin(v), se = adjacency.star_end(v);
+  if (sb == se) return;
+  // Fast path: feature edges and whether the star carries more than one label.
+  std::uint32_t feature_count = 0;
+  const std::uint32_t first_label = labels[corners[sb] / 3];
+  bool several_labels = false;
+  for (std::uint32_t k = sb; k < se; ++k) {
+    const std::uint32_t c = corners[k], f = c / 3, i = c % 3;
+    feature_count += in.feature[f] >> i & 1;
+    feature_count += nb[3 * f + (i + 2) % 3] == MeshAdjacency::kNoFace;
+    several_labels |= labels[f] != first_label;
+  }
+  const bool is_candidate = feature_count >= 3;
+  const bool test_exact = in.run_exact_test && several_labels;
+  if (!is_candidate && !test_exact) return;
+
+  VertexRecord r;
+  r.vertex = v;
+  r.feature_edges = static_cast<std::uint16_t>(std::min<std::uint32_t>(feature_count, 0xFFFF));
+  r.is_candidate = is_candidate;
+  const Vec3d pv = to_d(in.mesh.positions[v]);
+  auto neighbour_side = [&](const Vec3d& g) {
+    double side = 0;
+    for (std::uint32_t k = sb; k < se; ++k) {
+      const std::uint32_t c = corners[k];
+      side += dot(to_d(in.mesh.positions[tris[c / 3].v[(c % 3 + 1) % 3]]) - pv, g);
+    }
+    return side;
+  };
+
+  // Distinct labels of the whole star.
+  s.distinct.clear();
+  for (std::uint32_t k = sb; k < se; ++k) {
+    const std::uint32_t l = labels[corners[k] / 3];
+    if (std::find(s.distinct.begin(), s.distinct.end(), l) == s.distinct.end()) s.distinct.push_back(l);
+  }
+  const bool has_unlabelled = std::find(s.distinct.begin(), s.distinct.end(), kNoLabel) != s.distinct.end();
+
+  if (is_candidate) {
+    // Non-sample filter, fan by fan: consecutive labels equal or edge-adjacent, and the fan's
+    // distinct labels a tree in G's dual graph.
+    bool all_trees = !has_unlabelled;
+    for (std::uint32_t k = sb; k < se && all_trees;) {
+      std::uint32_t fan_end = k + 1;
+      while (fan_end < se && !(flags[fan_end] & MeshAdjacency::kFanStart)) ++fan_end;
+      s.labels.clear();
+      for (std::uint32_t j = k; j < fan_end; ++j) s.labels.push_back(labels[corners[j] / 3]);
+      const std::size_t m = s.labels.size();
+      for (std::size_t j = 0; j < m && all_trees; ++j) {
+        const std::uint32_t a = s.labels[j], b = s.labels[(j + 1) % m];
+        if (a != b && !gauss.are_edge_adjacent(a, b)) all_trees = false;
+      }
+      if (all_trees) {
+        std::sort(s.labels.begin(), s.labels.end());
+        s.labels.erase(std::unique(s.labels.begin(), s.labels.end()), s.labels.end());
+        // A set of triangles whose adjacency graph has |L| - 1 edges and is connected; with
+        // consecutive labels adjacent the set is connected, so count the edges.
+        std::size_t edges = 0;
+        for (std::size_t x = 0; x < s.labels.size(); ++x)
+          for (std::size_t y = x + 1; y < s.labels.size(); ++y) edges += gauss.are_edge_adjacent(s.labels[x], s.labels[y]);
+        if (edges + 1 != s.labels.size()) all_trees = false;
+      }
+      k = fan_end;
+    }
+    r.is_tree = all_trees;
+
+    // Represented Gaussian vertex: the one corner every label is incident on.
+    if (!has_unlabelled) {
+      std::uint32_t found = kNoGaussVertex, count = 0;
+      for (std::uint32_t g : gauss.triangle_vertices(s.distinct[0])) {
+        bool on_all = true;
+        for (std::uint32_t l : s.distinct) on_all = on_all && gauss.triangle_has_vertex(l, g);
+        if (on_all) {
+          found = g;
+          ++count;
+        }
+      }
+      if (count == 1) {
+        r.gauss_vertex = found;
+        const auto around = gauss.vertex_triangles(found);
+        for (std::uint32_t l : s.distinct)
+          for (std::size_t k = 0; k < around.size() && k < 8; ++k)
+            if (around[k] == l) r.cover_mask |= static_cast<std::uint8_t>(1u << k);
+      }
+    }
+  }
+
+  // Windings fan by fan, over each fan's own (non-degenerate) normals. Only needed for a
+  // represented v_G or the exact test.
+  if (r.gauss_vertex == kNoGaussVertex && !test_exact) {
+    if (r.is_candidate) out.push_back(r);
+    return;
+  }
+  const Vec3d vg = r.gauss_vertex != kNoGaussVertex ? gauss.vertex(r.gauss_vertex) : Vec3d{};
+  int winding_vg = 0;
+  int exact_first = 0;
+  std::uint32_t exact_g = kNoGaussVertex;
+  std::uint32_t enclosed = 0;
+  bool exact_fallback = false;
+  const std::uint8_t* degenerate = in.normals.degenerate.data();
+  const Vec3f* normal = in.normals.normal.data();
+  for (std::uint32_t k = sb; k < se;) {
+    std::uint32_t fan_end = k + 1;
+    while (fan_end < se && !(flags[fan_end] & MeshAdjacency::kFanStart)) ++fan_end;
+    s.poly.clear();
+    for (std::uint32_t j = k; j < fan_end; ++j) {
+      const std::uint32_t f = corners[j] / 3;
+      if (!degenerate[f]) s.poly.push_back(to_d(normal[f]));
+    }
+    k = fan_end;
+    if (s.poly.size() < 3) continue;
+    Vec3d c;
+    double cos_theta;
+    if (!fan_polygon(s.poly, c, cos_theta)) {
+      exact_fallback = true;
+      continue;
+    }
+    if (r.gauss_vertex != kNoGaussVertex && dot(vg, c) > kHemisphereMargin) winding_vg += winding_number(s.poly, vg);
+    if (test_exact) {
+      gauss_vertices_in_cap(gauss, c, cos_theta, s);
+      for (std::uint32_t g : s.gauss) {
+        const int w = winding_number(s.poly, gauss.vertex(g));
+        if (w == 0) continue;
+        ++enclosed;
+        if (exact_g == kNoGaussVertex || g < exact_g) {
+          exact_g = g;
+          exact_first = w;
+        }
+      }
+    }
+  }
+  if (r.gauss_vertex != kNoGaussVertex) {
+    r.winding = static_cast<std::int8_t>(std::clamp(winding_vg, -127, 127));
+    r.characteristic = classify(winding_vg, neighbour_side(vg));
+  }
+  if (test_exact) {
+    // A fan whose normals do not fit in an open hemisphere has no exact verdict: it is a
+    // sample when the vertex is a candidate (documented fallback).
+    r.is_exact_sample = enclosed > 0 || (exact_fallback && is_candidate);
+    r.enclosed = static_cast<std::uint8_t>(std::min<std::uint32_t>(enclosed, 255));
+    if (exact_g != kNoGaussVertex) {
+      r.exact_gauss_vertex = exact_g;
+      r.exact_winding = static_cast<std::int8_t>(std::clamp(exact_first, -127, 127));
+      r.exact_characteristic = classify(exact_first, neighbour_side(gauss.vertex(exact_g)));
+    }
+  }
+  if (r.is_candidate || r.is_exact_sample) out.push_back(r);
+}
+
+// Evaluates the vertices get(0) .. get(n - 1) (increasing) and appends their records in that
+// order: blocks in parallel, each into its own list, concatenated in block order.
+template <typename VertexAt>
+void evaluate_many(const VertexInputs& in, std::size_t n, const VertexAt& get, std::vector<VertexRecord>& out) {
+  if (n <= kVertexBlock) {
+    Scratch s;
+    for (std::size_t k = 0; k < n; ++k) evaluate_vertex(in, get(k), s, out);
+    return;
+  }
+  const std::size_t blocks = (n + kVertexBlock - 1) / kVertexBlock;
+  std::vector<std::vector<VertexRecord>> parts(blocks);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 1), [&](const tbb::blocked_range<std::size_t>& r) {
+    Scratch s;
+    for (std::size_t b = r.begin(); b < r.end(); ++b) {
+      const std::size_t end = std::min(n, (b + 1) * kVertexBlock);
+      for (std::size_t k = b * kVertexBlock; k < end; ++k) evaluate_vertex(in, get(k), s, parts[b]);
+    }
+  });
+  std::size_t total = out.size();
+  for (const auto& p : parts) total += p.size();
+  out.reserve(total);
+  for (const auto& p : parts) out.insert(out.end(), p.begin(), p.end());
+}
+
+}  // namespace
 
 void evaluate_vertices(format::MeshView mesh, const MeshAdjacency& adjacency, const FaceNormals& normals,
                        const std::vector<std::uint32_t>& labels, const std::vector<std::uint8_t>& feature,
                        const GaussSphere& gauss, bool run_exact_test, std::uint32_t begin, std::uint32_t end,
                        std::vector<VertexRecord>& out) {
-  Scratch s;
-  const auto* tris = mesh.triangles.data();
-  const std::uint32_t* corners = adjacency.vertex_corners.data();
-  const std::uint8_t* flags = adjacency.slot_flags.data();
-  const std::uint32_t* nb = adjacency.edge_neighbor.data();
-  for (std::uint32_t v = begin; v < end; ++v) {
-    const std::uint32_t sb = adjacency.star_begin(v), se = adjacency.star_end(v);
-    if (sb == se) continue;
-    // Fast path: feature edges and whether the star carries more than one label.
-    std::uint32_t feature_count = 0;
-    const std::uint32_t first_label = labels[corners[sb] / 3];
-    bool several_labels = false;
-    for (std::uint32_t k = sb; k < se; ++k) {
-      const std::uint32_t c = corners[k], f = c / 3, i = c % 3;
-      feature_count += feature[f] >> i & 1;
-      feature_count += nb[3 * f + (i + 2) % 3] == MeshAdjacency::kNoFace;
-      several_labels |= labels[f] != first_label;
-    }
-    const bool is_candidate = feature_count >= 3;
-    const bool test_exact = run_exact_test && several_labels;
-    if (!is_candidate && !test_exact) continue;
-
-    VertexRecord r;
-    r.vertex = v;
-    r.feature_edges = static_cast<std::uint16_t>(std::min<std::uint32_t>(feature_count, 0xFFFF));
-    r.is_candidate = is_candidate;
-    const Vec3d pv = to_d(mesh.positions[v]);
-    auto neighbour_side = [&](const Vec3d& g) {
-      double side = 0;
-      for (std::uint32_t k = sb; k < se; ++k) {
-        const std::uint32_t c = corners[k];
-        side += dot(to_d(mesh.positions[tris[c / 3].v[(c % 3 + 1) % 3]]) - pv, g);
-      }
-      return side;
-    };
-
-    // Distinct labels of the whole star.
-    s.distinct.clear();
-    for (std::uint32_t k = sb; k < se; ++k) {
-      const std::uint32_t l = labels[corners[k] / 3];
-      if (std::find(s.distinct.begin(), s.distinct.end(), l) == s.distinct.end()) s.distinct.push_back(l);
-    }
-    const bool has_unlabelled = std::find(s.distinct.begin(), s.distinct.end(), kNoLabel) != s.distinct.end();
-
-    if (is_candidate) {
-      // Non-sample filter, fan by fan: consecutive labels equal or edge-adjacent, and the fan's
-      // distinct labels a tree in G's dual graph.
-      bool all_trees = !has_unlabelled;
-      for (std::uint32_t k = sb; k < se && all_trees;) {
-        std::uint32_t fan_end = k + 1;
-        while (fan_end < se && !(flags[fan_end] & MeshAdjacency::kFanStart)) ++fan_end;
-        s.labels.clear();
-        for (std::uint32_t j = k; j < fan_end; ++j) s.labels.push_back(labels[corners[j] / 3]);
-        const std::size_t m = s.labels.size();
-        for (std::size_t j = 0; j < m && all_trees; ++j) {
-          const std::uint32_t a = s.labels[j], b = s.labels[(j + 1) % m];
-          if (a != b && !gauss.are_edge_adjacent(a, b)) all_trees = false;
-        }
-        if (all_trees) {
-          std::sort(s.labels.begin(), s.labels.end());
-          s.labels.erase(std::unique(s.labels.begin(), s.labels.end()), s.labels.end());
-          // A set of triangles whose adjacency graph has |L| - 1 edges and is connected; with
-          // consecutive labels adjacent the set is connected, so count the edges.
-          std::size_t edges = 0;
-          for (std::size_t x = 0; x < s.labels.size(); ++x)
-            for (std::size_t y = x + 1; y < s.labels.size(); ++y) edges += gauss.are_edge_adjacent(s.labels[x], s.labels[y]);
-          if (edges + 1 != s.labels.size()) all_trees = false;
-        }
-        k = fan_end;
-      }
-      r.is_tree = all_trees;
-
-      // Represented Gaussian vertex: the one corner every label is incident on.
-      if (!has_unlabelled) {
-        std::uint32_t found = kNoGaussVertex, count = 0;
-        for (std::uint32_t g : gauss.triangle_vertices(s.distinct[0])) {
-          bool on_all = true;
-          for (std::uint32_t l : s.distinct) on_all = on_all && gauss.triangle_has_vertex(l, g);
-          if (on_all) {
-            found = g;
-            ++count;
-          }
-        }
-        if (count == 1) {
-          r.gauss_vertex = found;
-          const auto around = gauss.vertex_triangles(found);
-          for (std::uint32_t l : s.distinct)
-            for (std::size_t k = 0; k < around.size() && k < 8; ++k)
-              if (around[k] == l) r.cover_mask |= static_cast<std::uint8_t>(1u << k);
-        }
-      }
-    }
-
-    // Windings fan by fan, over each fan's own (non-degenerate) normals.
-    const Vec3d vg = r.gauss_vertex != kNoGaussVertex ? gauss.vertex(r.gauss_vertex) : Vec3d{};
-    int winding_vg = 0;
-    int exact_first = 0;
-    std::uint32_t exact_g = kNoGaussVertex;
-    std::uint32_t enclosed = 0;
-    bool exact_fallback = false;
-    for (std::uint32_t k = sb; k < se;) {
-      std::uint32_t fan_end = k + 1;
-      while (fan_end < se && !(flags[fan_end] & MeshAdjacency::kFanStart)) ++fan_end;
-      s.poly.clear();
-      for (std::uint32_t j = k; j < fan_end; ++j) {
-        const std::uint32_t f = corners[j] / 3;
-        if (!normals.degenerate[f]) s.poly.push_back(to_d(normals.normal[f]));
-      }
-      k = fan_end;
-      if (s.poly.size() < 3) continue;
-      Vec3d c;
-      double cos_theta;
-      if (!fan_polygon(s.poly, c, cos_theta)) {
-        exact_fallback = true;
-        continue;
-      }
-      if (r.gauss_vertex != kNoGaussVertex && dot(vg, c) > kHemisphereMargin) winding_vg += winding_number(s.poly, vg);
-      if (test_exact) {
-        gauss_vertices_in_cap(gauss, c, cos_theta, s);
-        for (std::uint32_t g : s.gauss) {
-          const int w = winding_number(s.poly, gauss.vertex(g));
-          if (w == 0) continue;
-          ++enclosed;
-          if (exact_g == kNoGaussVertex || g < exact_g) {
-            exact_g = g;
-            exact_first = w;
-          }
-        }
-      }
-    }
-    if (r.gauss_vertex != kNoGaussVertex) {
-      r.winding = static_cast<std::int8_t>(std::clamp(winding_vg, -127, 127));
-      r.characteristic = classify(winding_vg, neighbour_side(vg));
-    }
-    if (test_exact) {
-      // A fan whose normals do not fit in an open hemisphere has no exact verdict: it is a
-      // sample when the vertex is a candidate (documented fallback).
-      r.is_exact_sample = enclosed > 0 || (exact_fallback && is_candidate);
-      r.enclosed = static_cast<std::uint8_t>(std::min<std::uint32_t>(enclosed, 255));
-      if (exact_g != kNoGaussVertex) {
-        r.exact_gauss_vertex = exact_g;
-        r.exact_winding = static_cast<std::int8_t>(std::clamp(exact_first, -127, 127));
-        r.exact_characteristic = classify(exact_first, neighbour_side(gauss.vertex(exact_g)));
-      }
-    }
-    if (r.is_candidate || r.is_exact_sample) out.push_back(r);
-  }
+  if (end <= begin) return;
+  const VertexInputs in{mesh, adjacency, normals, labels.data(), feature.data(), gauss, run_exact_test};
+  evaluate_many(in, end - begin, [begin](std::size_t k) { return static_cast<std::uint32_t>(begin + k); }, out);
 }
 
-format::Result<SamplingResult> sample_mesh(format::MeshView mesh, const GaussSphere& gauss,
-                                           const SamplerOptions& options) {
-  auto adjacency_or = build_mesh_adjacency(mesh);
-  if (!adjacency_or) return adjacency_or.status();
-  const MeshAdjacency& adj = *adjacency_or;
+SamplerWorkspace::SamplerWorkspace() = default;
+SamplerWorkspace::~SamplerWorkspace() = default;
+
+format::Status sample_mesh(format::MeshView mesh, const GaussSphere& gauss, const SamplerOptions& options,
+                           SamplerWorkspace& ws, SamplingResult& result) {
+  if (format::Status st = build_mesh_adjacency(mesh, ws.adjacency); !st.is_ok()) return st;
+  const MeshAdjacency& adj = ws.adjacency;
   const std::uint32_t nv = static_cast<std::uint32_t>(mesh.positions.size());
   const std::size_t nf = mesh.triangles.size();
   const bool exact = options.sample_test == SampleTest::kExact;
 
-  SamplingResult result;
-  const FaceNormals normals = compute_face_normals(mesh, adj, options.smooth_iterations);
-  std::vector<std::uint32_t> labels = compute_face_labels(normals, gauss);
-  std::vector<std::uint8_t> feature = compute_feature_edges(adj, labels);
-  std::vector<VertexRecord> records;
+  result.candidates.clear();
+  result.samples.clear();
+  result.patch_adjacency.clear();
+  result.stats = {};
+  std::vector<std::uint32_t>& labels = result.face_label;
+  std::vector<std::uint8_t>& feature = result.face_feature;
+  compute_face_normals(mesh, adj, options.smooth_iterations, ws.normals, ws.area, ws.smoothed);
+  const FaceNormals& normals = ws.normals;
+  compute_face_labels(normals, gauss, labels);
+  compute_feature_edges(adj, labels, feature);
+  std::vector<VertexRecord>& records = ws.records;
+  records.clear();
   evaluate_vertices(mesh, adj, normals, labels, feature, gauss, exact, 0, nv, records);
 
   result.stats.degenerate_faces = normals.degenerate_count;
@@ -386,89 +533,102 @@ format::Result<SamplingResult> sample_mesh(format::MeshView mesh, const GaussSph
 
   // Untriangulatable patches (Fig. 6 a, b): merge into a neighbour, then re-evaluate the
   // vertices of the merged faces, which may lose feature edges and candidacy (Fig. 6 c, d).
-  std::vector<std::uint8_t> is_candidate(nv, 0);
+  std::vector<std::uint8_t>& is_candidate = ws.is_candidate;
+  is_candidate.assign(nv, 0);
   for (const VertexRecord& r : records) is_candidate[r.vertex] = r.is_candidate;
-  Patches patches = find_patches(adj, labels, feature);
-  std::vector<std::uint32_t> touched;
-  std::vector<VertexRecord> fresh;
+  Patches& patches = ws.patches;
+  find_patches(adj, labels, feature, patches, ws.stack);
+  const std::uint32_t* nb = adj.edge_neighbor.data();
+  const VertexInputs relabelled{mesh, adj, normals, labels.data(), feature.data(), gauss, false};
   for (int round = 0; round < 64; ++round) {
-    const std::vector<std::uint32_t> plan = plan_untriangulatable_merges(mesh, adj, patches, feature, is_candidate);
-    touched.clear();
+    plan_untriangulatable_merges(mesh, adj, patches, feature, is_candidate, ws.plan, ws.plan_scratch);
+    const std::size_t merging = static_cast<std::size_t>(
+        std::count_if(ws.plan.begin(), ws.plan.end(), [](std::uint32_t t) { return t != kNoPatch; }));
+    if (merging == 0) break;  // every patch has a face: no target, no touched vertex
+    result.stats.merged_patches += merging;
+    ws.merged_faces.clear();
+    ws.touched.clear();
     for (std::size_t f = 0; f < nf; ++f) {
-      const std::uint32_t target = plan[patches.face_patch[f]];
+      const std::uint32_t target = ws.plan[patches.face_patch[f]];
       if (target == kNoPatch) continue;
       labels[f] = patches.patch_label[target];
-      for (std::uint32_t v : mesh.triangles[f].v) touched.push_back(v);
+      ws.merged_faces.push_back(static_cast<std::uint32_t>(f));
+      for (std::uint32_t v : mesh.triangles[f].v) ws.touched.push_back(v);
     }
-    if (touched.empty()) break;
-    result.stats.merged_patches += static_cast<std::size_t>(
-        std::count_if(plan.begin(), plan.end(), [](std::uint32_t t) { return t != kNoPatch; }));
-    feature = compute_feature_edges(adj, labels);
-    std::sort(touched.begin(), touched.end());
-    touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+    // Feature bits change only on relabelled faces and their edge neighbours.
+    for (std::uint32_t f : ws.merged_faces) {
+      feature[f] = feature_bits(nb, labels.data(), f);
+      for (int i = 0; i < 3; ++i) {
+        const std::uint32_t g = nb[3 * f + i];
+        if (g != MeshAdjacency::kNoFace) feature[g] = feature_bits(nb, labels.data(), g);
+      }
+    }
+    std::sort(ws.touched.begin(), ws.touched.end());
+    ws.touched.erase(std::unique(ws.touched.begin(), ws.touched.end()), ws.touched.end());
     // Re-evaluate the touched vertices' label-dependent decisions; exact verdicts do not depend
     // on labels and are kept from the first pass.
-    fresh.clear();
-    for (std::uint32_t v : touched) evaluate_vertices(mesh, adj, normals, labels, feature, gauss, false, v, v + 1, fresh);
-    std::vector<VertexRecord> merged;
-    merged.reserve(records.size());
-    auto is_touched = [&](std::uint32_t v) { return std::binary_search(touched.begin(), touched.end(), v); };
-    std::vector<VertexRecord> old_touched;
-    for (const VertexRecord& r : records) {
-      if (is_touched(r.vertex)) old_touched.push_back(r);
-      else merged.push_back(r);
-    }
-    // Carry exact verdicts over, then add the re-evaluated records.
-    for (VertexRecord& r : fresh) {
-      auto it = std::lower_bound(old_touched.begin(), old_touched.end(), r.vertex,
-                                 [](const VertexRecord& x, std::uint32_t v) { return x.vertex < v; });
-      if (it != old_touched.end() && it->vertex == r.vertex) {
-        r.is_exact_sample = it->is_exact_sample;
-        r.enclosed = it->enclosed;
-        r.exact_gauss_vertex = it->exact_gauss_vertex;
-        r.exact_winding = it->exact_winding;
-        r.exact_characteristic = it->exact_characteristic;
+    ws.fresh.clear();
+    const std::uint32_t* touched = ws.touched.data();
+    evaluate_many(relabelled, ws.touched.size(), [touched](std::size_t k) { return touched[k]; }, ws.fresh);
+    // Merge, in vertex order: untouched records stay; a touched vertex takes its fresh record
+    // (with the old exact verdict), or keeps its old record as exact-only, or drops out.
+    std::vector<VertexRecord>& merged = ws.records_next;
+    merged.clear();
+    std::size_t i = 0, k = 0;
+    for (std::uint32_t v : ws.touched) {
+      while (i < records.size() && records[i].vertex < v) merged.push_back(records[i++]);
+      const VertexRecord* old = i < records.size() && records[i].vertex == v ? &records[i++] : nullptr;
+      if (k < ws.fresh.size() && ws.fresh[k].vertex == v) {
+        VertexRecord r = ws.fresh[k++];
+        if (old) {
+          r.is_exact_sample = old->is_exact_sample;
+          r.enclosed = old->enclosed;
+          r.exact_gauss_vertex = old->exact_gauss_vertex;
+          r.exact_winding = old->exact_winding;
+          r.exact_characteristic = old->exact_characteristic;
+        }
+        is_candidate[v] = r.is_candidate;
+        merged.push_back(r);
+      } else {
+        is_candidate[v] = 0;
+        if (old && old->is_exact_sample) {
+          VertexRecord kept = *old;  // no longer a candidate, still an exact sample
+          kept.is_candidate = false;
+          kept.is_tree = false;
+          kept.gauss_vertex = kNoGaussVertex;
+          kept.characteristic = Characteristic::kNone;
+          merged.push_back(kept);
+        }
       }
     }
-    std::vector<VertexRecord> exact_only;
-    for (const VertexRecord& r : old_touched) {
-      const bool refreshed = std::binary_search(fresh.begin(), fresh.end(), r,
-                                                [](const VertexRecord& x, const VertexRecord& y) { return x.vertex < y.vertex; });
-      if (!refreshed && r.is_exact_sample) {
-        VertexRecord kept = r;  // no longer a candidate, still an exact sample
-        kept.is_candidate = false;
-        kept.is_tree = false;
-        kept.gauss_vertex = kNoGaussVertex;
-        kept.characteristic = Characteristic::kNone;
-        exact_only.push_back(kept);
-      }
-    }
-    merged.insert(merged.end(), fresh.begin(), fresh.end());
-    merged.insert(merged.end(), exact_only.begin(), exact_only.end());
-    std::sort(merged.begin(), merged.end(), [](const VertexRecord& x, const VertexRecord& y) { return x.vertex < y.vertex; });
+    merged.insert(merged.end(), records.begin() + static_cast<std::ptrdiff_t>(i), records.end());
     records.swap(merged);
-    std::fill(is_candidate.begin(), is_candidate.end(), 0);
-    for (const VertexRecord& r : records) is_candidate[r.vertex] = r.is_candidate;
-    patches = find_patches(adj, labels, feature);
+    find_patches(adj, labels, feature, patches, ws.stack);
   }
 
   // Patch graph inputs.
-  result.face_label = std::move(labels);
-  result.face_feature = std::move(feature);
-  result.face_patch = std::move(patches.face_patch);
-  result.patch_label = std::move(patches.patch_label);
+  result.face_patch.swap(patches.face_patch);
+  result.patch_label.swap(patches.patch_label);
   result.patch_count = result.patch_label.size();
-  for (std::size_t f = 0; f < nf; ++f) {
-    for (int i = 0; i < 3; ++i) {
-      const std::uint32_t g = adj.edge_neighbor[3 * f + i];
-      if (g == MeshAdjacency::kNoFace) continue;
-      const std::uint32_t p = result.face_patch[f], q = result.face_patch[g];
-      if (p < q) result.patch_adjacency.emplace_back(p, q);
+  {
+    std::vector<std::uint64_t>& keys = ws.pair_keys;
+    keys.clear();
+    const std::uint32_t* face_patch = result.face_patch.data();
+    for (std::size_t f = 0; f < nf; ++f) {
+      if (!feature[f]) continue;  // a non-feature edge joins faces of one patch
+      for (int i = 0; i < 3; ++i) {
+        const std::uint32_t g = nb[3 * f + i];
+        if (g == MeshAdjacency::kNoFace) continue;
+        const std::uint32_t p = face_patch[f], q = face_patch[g];
+        if (p < q) keys.push_back(std::uint64_t{p} << 32 | q);
+      }
     }
+    std::sort(keys.begin(), keys.end());
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    result.patch_adjacency.reserve(keys.size());
+    for (std::uint64_t key : keys)
+      result.patch_adjacency.emplace_back(static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key));
   }
-  std::sort(result.patch_adjacency.begin(), result.patch_adjacency.end());
-  result.patch_adjacency.erase(std::unique(result.patch_adjacency.begin(), result.patch_adjacency.end()),
-                               result.patch_adjacency.end());
 
   for (const VertexRecord& r : records)
     if (r.is_candidate) result.candidates.push_back(r);
@@ -502,6 +662,14 @@ format::Result<SamplingResult> sample_mesh(format::MeshView mesh, const GaussSph
                                 static_cast<Characteristic>(survivors[k].characteristic)});
     }
   }
+  return format::Status();
+}
+
+format::Result<SamplingResult> sample_mesh(format::MeshView mesh, const GaussSphere& gauss,
+                                           const SamplerOptions& options) {
+  SamplerWorkspace ws;
+  SamplingResult result;
+  if (format::Status st = sample_mesh(mesh, gauss, options, ws, result); !st.is_ok()) return st;
   return result;
 }
 
@@ -510,16 +678,17 @@ format::Result<OrientedSampling> sample_mesh_best_orientation(format::MeshView m
                                                               const SamplerOptions& options) {
   assert(!spheres.empty());
   OrientedSampling best;
+  SamplerWorkspace ws;  // shared by the orientations: only the first pays for fresh memory
+  SamplingResult result;
   for (std::size_t k = 0; k < spheres.size(); ++k) {
     auto gauss = GaussSphere::create(spheres[k]);
     if (!gauss) return gauss.status();
-    auto result = sample_mesh(mesh, *gauss, options);
-    if (!result) return result.status();
-    const std::size_t n = result->samples.size();
+    if (format::Status st = sample_mesh(mesh, *gauss, options, ws, result); !st.is_ok()) return st;
+    const std::size_t n = result.samples.size();
     best.samples_per_orientation.push_back(n);
     if (k == 0 || n < best.result.samples.size()) {
       best.gauss.emplace(std::move(gauss).value());
-      best.result = std::move(result).value();
+      std::swap(best.result, result);
       best.chosen = k;
     }
   }

@@ -12,6 +12,7 @@
 #include "format/status.h"
 #include "stream/gauss_sphere.h"
 #include "stream/mesh_adjacency.h"
+#include "stream/patch_filters.h"
 
 namespace gaussmesh::stream {
 
@@ -58,14 +59,21 @@ struct FaceNormals {
 };
 FaceNormals compute_face_normals(format::MeshView mesh, const MeshAdjacency& adjacency,
                                  std::uint32_t smooth_iterations);
+// The same into `out`, reusing its arrays and two scratch arrays (per-face areas; the
+// smoothing buffer). Parallel over faces (oneTBB); the result does not depend on threads.
+void compute_face_normals(format::MeshView mesh, const MeshAdjacency& adjacency, std::uint32_t smooth_iterations,
+                          FaceNormals& out, std::vector<float>& area, std::vector<format::Vec3f>& scratch);
 
 // label[f] = G.locate(normal[f]), or kNoLabel for a zero normal.
 std::vector<std::uint32_t> compute_face_labels(const FaceNormals& normals, const GaussSphere& gauss);
+void compute_face_labels(const FaceNormals& normals, const GaussSphere& gauss, std::vector<std::uint32_t>& out);
 
 // Bit i of feature[f] set iff edge i of f is a feature edge: a break edge (boundary,
 // non-manifold, inconsistently oriented) or a manifold edge whose two faces differ in label.
 std::vector<std::uint8_t> compute_feature_edges(const MeshAdjacency& adjacency,
                                                 const std::vector<std::uint32_t>& labels);
+void compute_feature_edges(const MeshAdjacency& adjacency, const std::vector<std::uint32_t>& labels,
+                           std::vector<std::uint8_t>& out);
 
 // ---- Step 2: per vertex (a pure function of the vertex's star: labels, normals, feature bits)
 
@@ -93,7 +101,8 @@ struct VertexRecord {
 
 // Evaluates vertices [begin, end) and appends their records (in vertex order) to out. The exact
 // winding test runs on every vertex whose star carries two or more labels when
-// run_exact_test; the candidate-only decisions always run.
+// run_exact_test; the candidate-only decisions always run. Large ranges run in parallel blocks
+// (oneTBB), concatenated in vertex order: the result does not depend on threads.
 void evaluate_vertices(format::MeshView mesh, const MeshAdjacency& adjacency, const FaceNormals& normals,
                        const std::vector<std::uint32_t>& labels, const std::vector<std::uint8_t>& feature,
                        const GaussSphere& gauss, bool run_exact_test, std::uint32_t begin, std::uint32_t end,
@@ -157,6 +166,28 @@ struct SamplingResult {
 // build_mesh_adjacency (bad indices, size limits).
 format::Result<SamplingResult> sample_mesh(format::MeshView mesh, const GaussSphere& gauss,
                                            const SamplerOptions& options);
+
+// Buffers of the whole pass, reused across calls (chunks, orientations): refilling warm memory
+// costs a fraction of first-touching new pages (DESIGN §2). One per thread; contents between
+// calls are unspecified.
+struct SamplerWorkspace {
+  SamplerWorkspace();
+  ~SamplerWorkspace();
+  MeshAdjacency adjacency;
+  FaceNormals normals;
+  std::vector<float> area;
+  std::vector<format::Vec3f> smoothed;
+  std::vector<VertexRecord> records, records_next, fresh;
+  std::vector<std::uint8_t> is_candidate;
+  Patches patches;
+  MergePlanScratch plan_scratch;
+  std::vector<std::uint32_t> stack, plan, merged_faces, touched;
+  std::vector<std::uint64_t> pair_keys;
+};
+
+// The same into `result`, reusing the workspace's and the result's arrays. Same decisions.
+format::Status sample_mesh(format::MeshView mesh, const GaussSphere& gauss, const SamplerOptions& options,
+                           SamplerWorkspace& workspace, SamplingResult& result);
 
 // --orientations K (DESIGN §1 "Default orientation"): samples the mesh once per Gaussian
 // sphere in `spheres` and keeps the one with the fewest samples (ties: the earliest).

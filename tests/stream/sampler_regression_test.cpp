@@ -780,5 +780,36 @@ TEST(SamplerRegression, WholePassEqualsReference) {
   }
 }
 
+// Large enough (> 16384 faces, > 32768 vertices) for the parallel per-face and per-vertex paths
+// and the parallel adjacency, with noise so that many patches merge.
+TEST(SamplerRegression, LargeMeshTakesParallelPathsWithSameDecisions) {
+  const Mesh m = defective_torus(40000, 1e-3);
+  ASSERT_GT(m.positions.size(), 32768u);
+  const MeshAdjacency adj = build_mesh_adjacency(m.view()).value();
+  const MeshAdjacency ref = ref_adjacency(m);
+  EXPECT_EQ(adj.vertex_corners, ref.vertex_corners);
+  EXPECT_EQ(adj.slot_flags, ref.slot_flags);
+  EXPECT_EQ(adj.edge_neighbor, ref.edge_neighbor);
+  EXPECT_EQ(adj.break_edges, ref.break_edges);
+  std::size_t ambiguous = 0;
+  for (SampleTest test : {SampleTest::kExact, SampleTest::kPaper}) {
+    const GaussSphere g = sphere(4, 3);
+    SamplerOptions o;
+    o.smooth_iterations = 1;
+    o.sample_test = test;
+    const SamplingResult got = sample_mesh(m.view(), g, o).value();
+    const SamplingResult want = ref_sample(m, g, o, ambiguous);
+    EXPECT_EQ(got.face_label, want.face_label);
+    EXPECT_EQ(got.face_feature, want.face_feature);
+    EXPECT_EQ(got.face_patch, want.face_patch);
+    EXPECT_EQ(got.patch_adjacency, want.patch_adjacency);
+    expect_same_records(got.candidates, want.candidates, "candidates");
+    EXPECT_EQ(got.stats.merged_patches, want.stats.merged_patches);
+    EXPECT_GT(got.stats.merged_patches, 0u);
+    ASSERT_EQ(got.samples.size(), want.samples.size());
+    for (std::size_t k = 0; k < got.samples.size(); ++k) EXPECT_EQ(got.samples[k].vertex, want.samples[k].vertex);
+  }
+}
+
 }  // namespace
 }  // namespace gaussmesh::stream
