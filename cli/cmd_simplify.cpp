@@ -117,6 +117,8 @@ int run_simplify(const SimplifyArgs& args) {
     report["kept_chain_vertices"] = result->kept_chain_vertices;
     report["kept_interior_vertices"] = result->kept_interior_vertices;
     report["skipped_input_faces"] = result->skipped_input_faces;
+    report["planar_patches"] = result->planar_patches;
+    report["collapse_patches"] = result->collapse_patches;
     report["output_vertices"] = result->mesh.positions.size();
     report["output_faces"] = result->mesh.triangles.size();
     report["output_bytes"] = *bytes;

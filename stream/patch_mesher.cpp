@@ -12,6 +12,10 @@
 //      vertices along their chain — so each chain becomes straight edges between kept
 //      vertices and each patch becomes a triangulation of its boundary polygon; the patch
 //      keeps its orientation (no new face may turn away from the patch's mean normal);
+//   3b. each patch polygon is re-triangulated in the plane of its Gaussian triangle with exact
+//      predicates and Delaunay flips (stream/polygon_triangulation.h), never creating an edge
+//      that already exists outside the patch; where that is impossible the collapse result
+//      stays;
 //   4. phase 2: non-sample corners are collapsed along a feature edge where that keeps the
 //      mesh manifold (OpenMesh's link-condition test) and flips no face.
 // Every collapse moves no position: output vertices are input vertices ("birth" indices).
@@ -26,6 +30,8 @@
 #include <map>
 #include <string>
 #include <utility>
+
+#include "stream/polygon_triangulation.h"
 
 namespace gaussmesh::stream {
 namespace {
@@ -68,6 +74,7 @@ class Mesher {
     find_patch_graph();
     guard_topology();
     phase_one();
+    retriangulate_patches();
     phase_two();
     return extract();
   }
@@ -104,6 +111,7 @@ class Mesher {
       id = static_cast<std::uint32_t>(std::lower_bound(ids.begin(), ids.end(), id) - ids.begin());
     }
     patch_normal_.assign(ids.size(), Vec(0, 0, 0));
+    patch_ids_ = ids;
     for (FH fh : mesh_.faces()) patch_normal_[mesh_.property(patch_, fh)] += face_cross(fh);
     keep_.assign(mesh_.n_vertices(), Keep::kRemove);
   }
@@ -285,6 +293,146 @@ class Mesher {
     }
   }
 
+  // The loops of boundary half-edges of the faces of patch p (inner side), as vertex lists.
+  // Returns false when the patch still has a vertex off its boundary.
+  bool patch_loops(std::uint32_t p, const std::vector<FH>& faces, std::vector<std::vector<VH>>& loops) {
+    auto in_patch = [&](HH h) { return !mesh_.is_boundary(h) && mesh_.property(patch_, mesh_.face_handle(h)) == p; };
+    std::vector<HH> boundary;
+    for (FH fh : faces) {
+      for (HH h : mesh_.fh_range(fh)) {
+        if (!in_patch(mesh_.opposite_halfedge_handle(h))) boundary.push_back(h);
+      }
+    }
+    for (FH fh : faces) {
+      for (VH vh : mesh_.fv_range(fh)) {
+        bool on_boundary = false;
+        for (HH h : boundary) on_boundary = on_boundary || mesh_.from_vertex_handle(h) == vh;
+        if (!on_boundary) return false;
+      }
+    }
+    std::sort(boundary.begin(), boundary.end(), [](HH a, HH b) { return a.idx() < b.idx(); });
+    std::vector<char> used(boundary.size(), 0);
+    auto index_of = [&](HH h) {
+      auto it = std::lower_bound(boundary.begin(), boundary.end(), h, [](HH a, HH b) { return a.idx() < b.idx(); });
+      return it != boundary.end() && *it == h ? static_cast<std::ptrdiff_t>(it - boundary.begin()) : -1;
+    };
+    for (size_t start = 0; start < boundary.size(); ++start) {
+      if (used[start]) continue;
+      std::vector<VH> loop;
+      HH h = boundary[start];
+      for (size_t guard = 0; guard <= boundary.size(); ++guard) {
+        auto at = index_of(h);
+        if (at < 0 || used[at]) break;
+        used[at] = 1;
+        loop.push_back(mesh_.from_vertex_handle(h));
+        // Next boundary half-edge: turn around to_vertex(h) through the patch's faces.
+        HH next = mesh_.next_halfedge_handle(h);
+        for (size_t turns = 0; in_patch(mesh_.opposite_halfedge_handle(next)) && turns < 1024; ++turns) {
+          next = mesh_.next_halfedge_handle(mesh_.opposite_halfedge_handle(next));
+        }
+        h = next;
+      }
+      if (h != boundary[start]) return false;  // a loop that does not close: leave the patch
+      loops.push_back(std::move(loop));
+    }
+    return true;
+  }
+
+  void retriangulate_patches() {
+    std::vector<std::vector<FH>> faces_of(patch_normal_.size());
+    for (FH fh : mesh_.faces()) {
+      if (!mesh_.status(fh).deleted()) faces_of[mesh_.property(patch_, fh)].push_back(fh);
+    }
+    for (std::uint32_t p = 0; p < faces_of.size(); ++p) {
+      if (faces_of[p].empty()) continue;
+      if (retriangulate(p, faces_of[p])) {
+        ++result_.planar_patches;
+      } else {
+        ++result_.collapse_patches;
+      }
+    }
+  }
+
+  bool retriangulate(std::uint32_t p, const std::vector<FH>& faces) {
+    std::vector<std::vector<VH>> loops;
+    if (!patch_loops(p, faces, loops) || loops.empty()) return false;
+    Vec normal = patch_normal_[p];
+    std::uint32_t original_id = patch_ids_[p];
+    if (original_id < input_.patch_plane_normal.size()) {
+      const auto& n = input_.patch_plane_normal[original_id];
+      normal = Vec(n.x, n.y, n.z);
+    }
+    if (dot3(normal, normal) <= 0) return false;
+    // Local points; the outer loop is the one of largest area seen from the normal.
+    std::vector<VH> local_to_vertex;
+    std::vector<PolygonPoint3> points;
+    std::vector<std::vector<std::uint32_t>> local_loops;
+    std::vector<double> area;
+    for (const auto& loop : loops) {
+      std::vector<std::uint32_t> local;
+      Vec newell(0, 0, 0);
+      for (size_t i = 0; i < loop.size(); ++i) {
+        auto it = std::find(local_to_vertex.begin(), local_to_vertex.end(), loop[i]);
+        std::uint32_t id;
+        if (it == local_to_vertex.end()) {
+          id = static_cast<std::uint32_t>(local_to_vertex.size());
+          local_to_vertex.push_back(loop[i]);
+          const auto& q = mesh_.point(loop[i]);
+          points.push_back({double(q[0]), double(q[1]), double(q[2])});
+        } else {
+          id = static_cast<std::uint32_t>(it - local_to_vertex.begin());
+        }
+        local.push_back(id);
+        newell += cross3(mesh_.point(loop[i]), mesh_.point(loop[(i + 1) % loop.size()]));
+      }
+      local_loops.push_back(std::move(local));
+      area.push_back(dot3(newell, normal));
+    }
+    size_t outer = std::max_element(area.begin(), area.end()) - area.begin();
+    if (area[outer] <= 0) return false;
+    std::swap(local_loops[0], local_loops[outer]);
+    auto forbidden = [&](std::uint32_t u, std::uint32_t v) {
+      HH h = mesh_.find_halfedge(local_to_vertex[u], local_to_vertex[v]);
+      if (!h.is_valid()) return false;
+      HH o = mesh_.opposite_halfedge_handle(h);
+      bool both_inside = !mesh_.is_boundary(h) && !mesh_.is_boundary(o) &&
+                         mesh_.property(patch_, mesh_.face_handle(h)) == p &&
+                         mesh_.property(patch_, mesh_.face_handle(o)) == p;
+      return !both_inside;
+    };
+    auto triangles = triangulate_polygon(points, local_loops, {double(normal[0]), double(normal[1]), double(normal[2])},
+                                         forbidden);
+    if (!triangles) return false;
+    // Replace the patch's faces; on any refusal put the old ones back.
+    std::vector<std::array<VH, 3>> old;
+    for (FH fh : faces) {
+      std::array<VH, 3> t;
+      int i = 0;
+      for (VH vh : mesh_.fv_range(fh)) t[i++] = vh;
+      old.push_back(t);
+      mesh_.delete_face(fh, false);
+    }
+    std::vector<FH> added;
+    bool ok = true;
+    for (const auto& t : *triangles) {
+      FH fh = mesh_.add_face(local_to_vertex[t[0]], local_to_vertex[t[1]], local_to_vertex[t[2]]);
+      if (!fh.is_valid()) {
+        ok = false;
+        break;
+      }
+      mesh_.property(patch_, fh) = p;
+      added.push_back(fh);
+    }
+    if (!ok) {
+      for (FH fh : added) mesh_.delete_face(fh, false);
+      for (const auto& t : old) {
+        FH fh = mesh_.add_face(t[0], t[1], t[2]);
+        if (fh.is_valid()) mesh_.property(patch_, fh) = p;
+      }
+    }
+    return ok;
+  }
+
   void phase_two() {
     for (bool progress = true; progress;) {
       progress = false;
@@ -333,6 +481,7 @@ class Mesher {
   OMesh mesh_;
   OpenMesh::FPropHandleT<std::uint32_t> patch_;
   std::vector<Vec> patch_normal_;  // by dense patch index
+  std::vector<std::uint32_t> patch_ids_;  // dense index -> input patch id
   std::vector<Keep> keep_;
   std::vector<std::pair<double, HH>> options_;  // scratch of try_remove
   PatchMesherResult result_;

@@ -28,6 +28,9 @@ struct PatchMesherInput {
   std::span<const std::uint32_t> face_patch;
   // Role of every vertex (size = positions).
   std::span<const VertexRole> vertex_role;
+  // Optional: the plane normal to triangulate each patch in, indexed by patch id (the centre of
+  // the patch's Gaussian triangle). Empty, or an id beyond it: the patch's mean face normal.
+  std::span<const format::Vec3f> patch_plane_normal = {};
 };
 
 // Counts of the patch graph the mesher built (DESIGN §1, "shape approximation").
@@ -49,6 +52,11 @@ struct PatchMesherResult {
   std::size_t kept_chain_vertices = 0;  // chain vertices kept to preserve topology
   std::size_t kept_interior_vertices = 0;  // patch-interior vertices kept (no legal collapse)
   std::size_t skipped_input_faces = 0;  // degenerate or non-manifold faces the mesher could not use
+  // Patches whose polygon was triangulated in its plane (stream/polygon_triangulation.h), and
+  // those that kept the triangulation the collapses left (polygon not simple in its plane,
+  // interior vertices left, or no triangulation without a duplicate edge).
+  std::size_t planar_patches = 0;
+  std::size_t collapse_patches = 0;
 };
 
 // Preconditions: face_patch.size() == mesh.triangles.size(), vertex_role.size() ==

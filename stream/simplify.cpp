@@ -60,7 +60,14 @@ format::Result<SimplifyResult> simplify_mesh(MeshView mesh, const SimplifyOption
     std::vector<VertexRole> roles(mesh.positions.size(), VertexRole::kNone);
     for (const auto& c : sampling.candidates) roles[c.vertex] = VertexRole::kCorner;
     for (const auto& s : sampling.samples) roles[s.vertex] = VertexRole::kSample;
-    auto meshed = mesh_patches({mesh, sampling.face_patch, roles});
+    // Each patch is triangulated in the plane of its Gaussian triangle (paper §5).
+    std::vector<format::Vec3f> plane(sampling.patch_label.size());
+    for (size_t p = 0; p < plane.size(); ++p) {
+      if (sampling.patch_label[p] == kNoLabel) continue;  // zero normal: mean normal instead
+      const Vec3d& c = best_gauss->triangle_center(sampling.patch_label[p]);
+      plane[p] = {float(c.x), float(c.y), float(c.z)};
+    }
+    auto meshed = mesh_patches({mesh, sampling.face_patch, roles, plane});
     if (!meshed) return meshed.status();
     result.mesh = std::move(meshed->mesh);
     result.birth = std::move(meshed->birth);
@@ -69,6 +76,8 @@ format::Result<SimplifyResult> simplify_mesh(MeshView mesh, const SimplifyOption
     result.kept_chain_vertices = meshed->kept_chain_vertices;
     result.kept_interior_vertices = meshed->kept_interior_vertices;
     result.skipped_input_faces = meshed->skipped_input_faces;
+    result.planar_patches = meshed->planar_patches;
+    result.collapse_patches = meshed->collapse_patches;
   }
   result.seconds_mesh = seconds_since(start);
   return result;

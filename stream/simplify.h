@@ -38,6 +38,7 @@ struct SimplifyResult {
   PatchGraphStats graph;             // per-patch mesher only
   std::size_t kept_corners = 0, kept_chain_vertices = 0, kept_interior_vertices = 0;
   std::size_t skipped_input_faces = 0;
+  std::size_t planar_patches = 0, collapse_patches = 0;  // see PatchMesherResult
   double seconds_sample = 0, seconds_mesh = 0;
 };
 

@@ -168,6 +168,9 @@ TEST(PatchMesher, ClosedSphereStaysClosedGenusZero) {
   expect_valid_approximation(sphere, labels, *result);
   EXPECT_EQ(result->skipped_input_faces, 0u);
   EXPECT_GE(result->graph.chains, 6u);
+  // Patches are triangulated in their plane; the collapse triangulation is the exception.
+  EXPECT_GT(result->planar_patches, 0u);
+  EXPECT_LE(result->collapse_patches, result->planar_patches / 10);
 }
 
 TEST(PatchMesher, TorusKeepsGenusOne) {
