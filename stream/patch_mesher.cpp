@@ -343,12 +343,34 @@ class Mesher {
     for (FH fh : mesh_.faces()) {
       if (!mesh_.status(fh).deleted()) faces_of[mesh_.property(patch_, fh)].push_back(fh);
     }
+    // A patch id may cover several edge-connected pieces: each is a polygon of its own.
+    std::vector<char> seen(mesh_.n_faces(), 0);
+    std::vector<FH> piece, stack;
     for (std::uint32_t p = 0; p < faces_of.size(); ++p) {
-      if (faces_of[p].empty()) continue;
-      if (retriangulate(p, faces_of[p])) {
-        ++result_.planar_patches;
-      } else {
-        ++result_.collapse_patches;
+      for (FH seed : faces_of[p]) {
+        if (seen[seed.idx()]) continue;
+        piece.clear();
+        stack.assign(1, seed);
+        seen[seed.idx()] = 1;
+        while (!stack.empty()) {
+          FH fh = stack.back();
+          stack.pop_back();
+          piece.push_back(fh);
+          for (HH h : mesh_.fh_range(fh)) {
+            HH o = mesh_.opposite_halfedge_handle(h);
+            if (mesh_.is_boundary(o)) continue;
+            FH g = mesh_.face_handle(o);
+            if (!seen[g.idx()] && mesh_.property(patch_, g) == p) {
+              seen[g.idx()] = 1;
+              stack.push_back(g);
+            }
+          }
+        }
+        if (retriangulate(p, piece)) {
+          ++result_.planar_patches;
+        } else {
+          ++result_.collapse_patches;
+        }
       }
     }
   }
