@@ -234,7 +234,8 @@ TEST(DracoWriter, CowRoundTrips) {
 }
 
 TEST(DracoWriter, GooglesDecoderReadsTheOutput) {
-  if (!std::filesystem::exists("/usr/bin/draco_decoder")) GTEST_SKIP() << "draco_decoder not installed";
+  ASSERT_TRUE(std::filesystem::exists("/usr/bin/draco_decoder"))
+      << "draco_decoder missing: Debian package draco, installed by scripts/bootstrap";
   PlainMesh cow = read_cow();
   ScratchDir dir;
   std::string drc = dir.file("cow.drc"), ply = dir.file("cow.ply");

@@ -600,21 +600,5 @@ TEST(PolygonTriangulation, NearlyDegenerateProjectionStaysConsistent) {
 
 // Not a timed test: prints the speed quoted in docs/polygon-triangulation.md. Run with
 // --gtest_also_run_disabled_tests --gtest_filter='*Speed*'.
-TEST(PolygonTriangulation, DISABLED_Speed) {
-  for (std::size_t n : {1000u, 10000u}) {
-    std::mt19937_64 rng(n);
-    const Polygon plain = random_polygon_with_holes(rng, n, 0);
-    const Polygon holed = random_polygon_with_holes(rng, n, 10);
-    for (const Polygon* p : {&plain, &holed}) {
-      const auto start = std::chrono::steady_clock::now();
-      auto result = triangulate_polygon_2d(p->points, p->loops);
-      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-      ASSERT_TRUE(result.is_ok()) << result.status().to_string();
-      std::printf("star polygon, %zu vertices, %zu holes: %zu triangles in %.1f ms\n", p->vertex_count(),
-                  p->loops.size() - 1, result.value().size(), ms);
-    }
-  }
-}
-
 }  // namespace
 }  // namespace gaussmesh::stream
