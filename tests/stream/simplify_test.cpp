@@ -50,6 +50,10 @@ Checked simplify_and_check(const Mesh& input, const SimplifyOptions& options, co
   EXPECT_EQ(c.out.zero_area_faces, 0u) << name;
   EXPECT_EQ(duplicate_faces(out), 0u) << name;
   EXPECT_EQ(c.out.unreferenced_vertices, 0u) << name;
+  if (c.in.is_manifold() && c.in.genus) {
+    // Holes survive (paper Fig. 19): every boundary loop of the input is still there.
+    EXPECT_EQ(c.out.boundary_loops, c.in.boundary_loops) << name;
+  }
   if (c.in.is_manifold() && c.in.is_closed() && c.in.genus) {
     EXPECT_TRUE(c.out.is_manifold()) << name;
     EXPECT_TRUE(c.out.is_closed()) << name;
