@@ -73,6 +73,24 @@ std::vector<std::array<std::uint32_t, 3>> base_polyhedron_faces(const std::vecto
   return faces;
 }
 
+// Cube map of the base faces a direction can pick (canonical frame): each cube face is split
+// into kCubeCells² gnomonic cells; a cell lists, in increasing id, every base face whose centre
+// can be the most aligned with some direction in the cell. A face is left out only when its
+// centre is farther (in angle) from every point of the cell, by 1e-6 rad, than some other
+// centre is from all of them: it can never win, not even by rounding, so the argmax over the
+// list (first maximum in id order) equals the argmax over all faces.
+constexpr int kCubeCells = 8;
+
+Vec3d cube_direction(int axis, int sign, double u, double v) {
+  double c[3];
+  c[axis] = sign;
+  c[(axis + 1) % 3] = u;
+  c[(axis + 2) % 3] = v;
+  return normalized(Vec3d{c[0], c[1], c[2]});
+}
+
+double angle_between(const Vec3d& a, const Vec3d& b) { return std::acos(std::clamp(dot(a, b), -1.0, 1.0)); }
+
 }  // namespace
 
 const char* gauss_base_name(GaussBase base) {
@@ -132,6 +150,38 @@ format::Result<GaussSphere> GaussSphere::create(const GaussSphereOptions& option
     const Vec3d& c = bv[face[2]];
     g.base_centers_.push_back(normalized(a + b + c));
     g.base_bary_.push_back({cross(b, c), cross(c, a), cross(a, b)});
+  }
+
+  // Cube map of candidate base faces (see cube_direction): cell (axis, sign, i, j).
+  {
+    const std::size_t cells = 6 * kCubeCells * kCubeCells;
+    g.cube_offsets_.assign(cells + 1, 0);
+    g.cube_faces_.clear();
+    const std::size_t nbf = g.base_centers_.size();
+    std::vector<double> gamma(nbf);
+    for (int axis = 0; axis < 3; ++axis)
+      for (int side = 0; side < 2; ++side)
+        for (int i = 0; i < kCubeCells; ++i)
+          for (int j = 0; j < kCubeCells; ++j) {
+            const double step = 2.0 / kCubeCells;
+            const double u0 = -1 + i * step, v0 = -1 + j * step;
+            const int sign = side == 0 ? 1 : -1;
+            const Vec3d d = cube_direction(axis, sign, u0 + step / 2, v0 + step / 2);
+            double radius = 0;
+            for (int corner = 0; corner < 4; ++corner)
+              radius = std::max(radius, angle_between(d, cube_direction(axis, sign, u0 + step * (corner & 1),
+                                                                           v0 + step * (corner >> 1))));
+            radius += 1e-6;
+            double best_far = 1e300;
+            for (std::size_t k = 0; k < nbf; ++k) {
+              gamma[k] = angle_between(d, g.base_centers_[k]);
+              best_far = std::min(best_far, gamma[k] + radius);
+            }
+            for (std::size_t k = 0; k < nbf; ++k)
+              if (gamma[k] - radius <= best_far + 1e-6) g.cube_faces_.push_back(static_cast<std::uint8_t>(k));
+            g.cube_offsets_[(axis * 2 + side) * kCubeCells * kCubeCells + i * kCubeCells + j + 1] =
+                static_cast<std::uint16_t>(g.cube_faces_.size());
+          }
   }
 
   // Base edges, numbered in order of their sorted endpoint pairs.
@@ -268,15 +318,44 @@ std::uint32_t GaussSphere::locate(const Vec3d& n) const {
   const Vec3d m{r[0][0] * n.x + r[1][0] * n.y + r[2][0] * n.z, r[0][1] * n.x + r[1][1] * n.y + r[2][1] * n.z,
                 r[0][2] * n.x + r[1][2] * n.y + r[2][2] * n.z};
   // All face planes are at the same distance from the centre, so the ray leaves the base
-  // polyhedron through the face whose centre direction is most aligned with it.
+  // polyhedron through the face whose centre direction is most aligned with it: the first
+  // maximum in id order, over the few faces the cube map cell of m lists (the others cannot
+  // win), or over all faces for a zero or non-finite m.
+  const double ax = std::abs(m.x), ay = std::abs(m.y), az = std::abs(m.z);
+  const std::uint8_t* candidates = nullptr;
+  std::uint32_t count = 0;
+  const double major = std::max({ax, ay, az});
+  if (major > 0 && major <= 1e300) {
+    const int axis = ax >= ay && ax >= az ? 0 : (ay >= az ? 1 : 2);
+    const double c[3] = {m.x, m.y, m.z};
+    const double inv = 1.0 / major;
+    const double half = 0.5 * kCubeCells;
+    const int i = std::clamp(static_cast<int>((c[(axis + 1) % 3] * inv + 1) * half), 0, kCubeCells - 1);
+    const int j = std::clamp(static_cast<int>((c[(axis + 2) % 3] * inv + 1) * half), 0, kCubeCells - 1);
+    const int cell = (axis * 2 + (c[axis] > 0 ? 0 : 1)) * kCubeCells * kCubeCells + i * kCubeCells + j;
+    candidates = cube_faces_.data() + cube_offsets_[cell];
+    count = cube_offsets_[cell + 1] - cube_offsets_[cell];
+  }
   std::uint32_t face = 0;
-  double best = dot(m, base_centers_[0]);
-  const std::uint32_t nf = static_cast<std::uint32_t>(base_centers_.size());
-  for (std::uint32_t i = 1; i < nf; ++i) {
-    const double d = dot(m, base_centers_[i]);
-    if (d > best) {
-      best = d;
-      face = i;
+  if (candidates) {
+    face = candidates[0];
+    double best = dot(m, base_centers_[face]);
+    for (std::uint32_t k = 1; k < count; ++k) {
+      const double d = dot(m, base_centers_[candidates[k]]);
+      if (d > best) {
+        best = d;
+        face = candidates[k];
+      }
+    }
+  } else {
+    double best = dot(m, base_centers_[0]);
+    const std::uint32_t nf = static_cast<std::uint32_t>(base_centers_.size());
+    for (std::uint32_t i = 1; i < nf; ++i) {
+      const double d = dot(m, base_centers_[i]);
+      if (d > best) {
+        best = d;
+        face = i;
+      }
     }
   }
   const auto& k = base_bary_[face];

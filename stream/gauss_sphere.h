@@ -104,6 +104,9 @@ class GaussSphere {
   std::vector<std::array<std::uint32_t, 3>> base_faces_;
   std::vector<Vec3d> base_centers_;
   std::vector<std::array<Vec3d, 3>> base_bary_;  // per face: B×C, C×A, A×B
+  // Cube map of candidate base faces for locate(): per cell, ids in increasing order.
+  std::vector<std::uint16_t> cube_offsets_;
+  std::vector<std::uint8_t> cube_faces_;
   // G.
   std::vector<Vec3d> vertices_;
   std::vector<std::array<std::uint32_t, 3>> triangle_vertices_;

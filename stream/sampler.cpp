@@ -546,6 +546,7 @@ format::Status sample_mesh(format::MeshView mesh, const GaussSphere& gauss, cons
         std::count_if(ws.plan.begin(), ws.plan.end(), [](std::uint32_t t) { return t != kNoPatch; }));
     if (merging == 0) break;  // every patch has a face: no target, no touched vertex
     result.stats.merged_patches += merging;
+    ++result.stats.merge_rounds;
     ws.merged_faces.clear();
     ws.touched.clear();
     for (std::size_t f = 0; f < nf; ++f) {
@@ -603,7 +604,50 @@ format::Status sample_mesh(format::MeshView mesh, const GaussSphere& gauss, cons
     }
     merged.insert(merged.end(), records.begin() + static_cast<std::ptrdiff_t>(i), records.end());
     records.swap(merged);
-    find_patches(adj, labels, feature, patches, ws.stack);
+    // Patches after the round, without a new traversal: relabelling only clears feature bits
+    // (a leaving patch takes its target's label whole), so the new patches are unions of old
+    // ones, joined across the cleared edges of relabelled faces. Old ids are ordered by lowest
+    // face, so numbering the unions by their lowest old id is find_patches' numbering.
+    const std::size_t np = patches.patch_label.size();
+    std::vector<std::uint32_t>& parent = ws.patch_parent;
+    parent.resize(np);
+    for (std::size_t p = 0; p < np; ++p) parent[p] = static_cast<std::uint32_t>(p);
+    auto find = [&parent](std::uint32_t x) {
+      while (parent[x] != x) x = parent[x] = parent[parent[x]];
+      return x;
+    };
+    for (std::uint32_t f : ws.merged_faces) {
+      for (int e = 0; e < 3; ++e) {
+        if (feature[f] >> e & 1) continue;
+        const std::uint32_t g = nb[3 * f + e];
+        const std::uint32_t a = find(patches.face_patch[f]), b = find(patches.face_patch[g]);
+        if (a != b) parent[std::max(a, b)] = std::min(a, b);
+      }
+    }
+    std::vector<std::uint32_t>& renumber = ws.patch_renumber;
+    renumber.resize(np);
+    std::vector<std::uint32_t>& old_label = ws.patch_old_label;
+    old_label.assign(patches.patch_label.begin(), patches.patch_label.end());
+    std::uint32_t next_id = 0;
+    for (std::size_t p = 0; p < np; ++p) {
+      const std::uint32_t root = find(static_cast<std::uint32_t>(p));
+      if (root == p) {
+        const std::uint32_t target = ws.plan[p];
+        patches.patch_label[next_id] = old_label[target == kNoPatch ? p : target];
+        patches.patch_size[next_id] = patches.patch_size[p];
+        renumber[p] = next_id++;
+      } else {
+        renumber[p] = renumber[root];
+        patches.patch_size[renumber[root]] += patches.patch_size[p];
+      }
+    }
+    patches.patch_label.resize(next_id);
+    patches.patch_size.resize(next_id);
+    std::uint32_t* face_patch = patches.face_patch.data();
+    const std::uint32_t* map = renumber.data();
+    for_faces(nf, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t f = begin; f < end; ++f) face_patch[f] = map[face_patch[f]];
+    });
   }
 
   // Patch graph inputs.

@@ -132,6 +132,7 @@ struct SamplingStats {
   std::size_t unwinding_filtered = 0;   // ... and for not winding around their v_G
   std::size_t noisy_filtered = 0;       // candidates removed by the noisy-sample filter
   std::size_t exact_samples = 0;        // vertices with a winding != 0 (either mode reports it)
+  std::size_t merge_rounds = 0;         // rounds of the untriangulatable-patch merge that merged
 };
 
 // What the patch graph / meshers (issue 4) consume. All per-face arrays have one entry per input
@@ -181,7 +182,8 @@ struct SamplerWorkspace {
   std::vector<std::uint8_t> is_candidate;
   Patches patches;
   MergePlanScratch plan_scratch;
-  std::vector<std::uint32_t> stack, plan, merged_faces, touched;
+  std::vector<std::uint32_t> stack, plan, merged_faces, touched, patch_parent, patch_renumber,
+      patch_old_label;
   std::vector<std::uint64_t> pair_keys;
 };
 

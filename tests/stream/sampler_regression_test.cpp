@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <gtest/gtest.h>
 
 #include "stream/exact_predicates.h"
@@ -30,6 +31,13 @@ namespace {
 using format::Triangle;
 
 constexpr double kMargin = 1e-3;  // the sampler's hemisphere margin (docs/sampling.md)
+
+// The reference's exact predicate: CGAL's, called directly (not the sampler's filtered one).
+int ref_orient(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  using P = CGAL::Exact_predicates_inexact_constructions_kernel::Point_3;
+  const CGAL::Orientation o = CGAL::orientation(P(0, 0, 0), P(a.x, a.y, a.z), P(b.x, b.y, b.z), P(c.x, c.y, c.z));
+  return o == CGAL::POSITIVE ? 1 : (o == CGAL::NEGATIVE ? -1 : 0);
+}
 
 bool collapsed(const Triangle& t) { return t.v[0] == t.v[1] || t.v[1] == t.v[2] || t.v[0] == t.v[2]; }
 Vec3d d3(const Vec3f& v) { return {v.x, v.y, v.z}; }
@@ -168,7 +176,7 @@ Containment contain(const GaussSphere& g, const Vec3d& n) {
     for (int i = 0; i < 3; ++i) {
       const Vec3d& a = g.vertex(v[i]);
       const Vec3d& b = g.vertex(v[(i + 1) % 3]);
-      if (orientation_sign(a, b, n) < 0) inside = false;
+      if (ref_orient(a, b, n) < 0) inside = false;
       if (std::abs(dot(cross(a, b), n)) < 1e-12 * len) {
         // Near this edge's great circle: only a boundary if also between a and b.
         if (dot(n, g.triangle_center(t)) >= len * (g.triangle_cap_cos(t) - 1e-6)) c.near_boundary = true;
@@ -257,9 +265,9 @@ int ref_winding(const std::vector<Vec3d>& poly, const Vec3d& g) {
   for (std::size_t i = 0; i < poly.size(); ++i) {
     const Vec3d& a = poly[i];
     const Vec3d& b = poly[(i + 1) % poly.size()];
-    const bool above_a = orientation_sign(a, g, d) > 0, above_b = orientation_sign(b, g, d) > 0;
-    if (!above_a && above_b && orientation_sign(a, b, g) > 0) ++w;
-    if (above_a && !above_b && orientation_sign(a, b, g) < 0) --w;
+    const bool above_a = ref_orient(a, g, d) > 0, above_b = ref_orient(b, g, d) > 0;
+    if (!above_a && above_b && ref_orient(a, b, g) > 0) ++w;
+    if (above_a && !above_b && ref_orient(a, b, g) < 0) --w;
   }
   return w;
 }
@@ -778,6 +786,75 @@ TEST(SamplerRegression, WholePassEqualsReference) {
           EXPECT_EQ(a.exact_samples, b.exact_samples);
         }
   }
+}
+
+// The sampler's orientation sign (a static filter in front of the exact predicate) against the
+// exact predicate alone: random unit vectors, nearly coplanar triples, exactly coplanar ones,
+// and tiny and huge magnitudes.
+TEST(SamplerRegression, FilteredOrientationSignEqualsExact) {
+  std::uint64_t state = 777;
+  auto next = [&state] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return double(state >> 11) * 0x1.0p-53 * 2 - 1;
+  };
+  for (int k = 0; k < 300000; ++k) {
+    Vec3d a{next(), next(), next()}, b{next(), next(), next()}, c{next(), next(), next()};
+    switch (k % 5) {
+      case 1: c = 0.3 * a + 0.7 * b + 1e-15 * c; break;       // nearly coplanar
+      case 2: c = 0.5 * a + 0.25 * b; break;                  // coplanar up to rounding
+      case 3: c = a; break;                                   // exactly degenerate
+      case 4: {
+        const double scale = k % 2 ? 1e-160 : 1e160;          // outside the filter's range
+        a = scale * a;
+        break;
+      }
+      default: break;
+    }
+    ASSERT_EQ(orientation_sign(a, b, c), ref_orient(a, b, c)) << "case " << k;
+  }
+}
+
+// locate() against brute-force exact containment on random directions, on every base, with
+// directions concentrated near base-face boundaries too (where the base-face choice is close).
+TEST(SamplerRegression, LocateEqualsBruteForceContainment) {
+  std::uint64_t state = 12345;
+  auto next = [&state] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return double(state >> 11) * 0x1.0p-53 * 2 - 1;
+  };
+  std::size_t ambiguous = 0, total = 0;
+  for (GaussBase base : {GaussBase::kTetrahedron, GaussBase::kOctahedron, GaussBase::kIcosahedron})
+    for (std::uint32_t f : {1u, 3u}) {
+      GaussSphereOptions o;
+      o.base = base;
+      o.frequency = f;
+      o.rotation = gauss_rotation_from_seed(f + 7);
+      const GaussSphere g = GaussSphere::create(o).value();
+      for (int k = 0; k < 40000; ++k) {
+        Vec3d n{next(), next(), next()};
+        if (k % 2) {
+          // Near the great circle through two Gaussian vertices (an edge of G or beyond).
+          const Vec3d& a = g.vertex(static_cast<std::uint32_t>((k / 2) % g.vertex_count()));
+          const Vec3d& b = g.vertex(static_cast<std::uint32_t>((k / 3) % g.vertex_count()));
+          const double t = 0.5 + 0.5 * next();
+          n = t * a + (1 - t) * b + 1e-9 * n;
+        }
+        if (dot(n, n) < 1e-12) continue;
+        ++total;
+        const std::uint32_t got = g.locate(n);
+        const Containment c = contain(g, n);
+        if (c.holders.size() == 1 && !c.near_boundary) {
+          ASSERT_EQ(got, c.holders[0]) << "direction " << n.x << " " << n.y << " " << n.z;
+        } else {
+          ++ambiguous;
+          const auto& tv = g.triangle_vertices(got);
+          double worst = 0;
+          for (int i = 0; i < 3; ++i) worst = std::min(worst, dot(cross(g.vertex(tv[i]), g.vertex(tv[(i + 1) % 3])), n));
+          EXPECT_GT(worst, -1e-12 * std::sqrt(dot(n, n)));
+        }
+      }
+    }
+  std::printf("locate: %zu of %zu directions within rounding of a cell boundary\n", ambiguous, total);
 }
 
 // Large enough (> 16384 faces, > 32768 vertices) for the parallel per-face and per-vertex paths
