@@ -68,12 +68,57 @@ Characteristic classify(int winding, double neighbour_side) {
 }
 
 // Scratch buffers reused across vertices (no per-vertex allocation).
+// A set of ids for one cap search: open addressing over a table that grows with the search
+// (never with G), cleared per search. Replaces linear scans that were quadratic on big caps.
+class IdSet {
+ public:
+  void clear() {
+    if (count_ > 0) std::fill(slots_.begin(), slots_.end(), 0u);
+    count_ = 0;
+  }
+  // True if id was not in the set (and is now).
+  bool insert(std::uint32_t id) {
+    if (2 * (count_ + 1) > slots_.size()) grow();
+    const std::size_t mask = slots_.size() - 1;
+    for (std::size_t k = hash(id) & mask;; k = (k + 1) & mask) {
+      if (slots_[k] == id + 1) return false;
+      if (slots_[k] == 0) {
+        slots_[k] = id + 1;
+        ++count_;
+        return true;
+      }
+    }
+  }
+  bool contains(std::uint32_t id) const {
+    if (slots_.empty()) return false;
+    const std::size_t mask = slots_.size() - 1;
+    for (std::size_t k = hash(id) & mask;; k = (k + 1) & mask) {
+      if (slots_[k] == id + 1) return true;
+      if (slots_[k] == 0) return false;
+    }
+  }
+
+ private:
+  static std::size_t hash(std::uint32_t id) { return (id * 0x9E3779B1u) >> 7; }
+  void grow() {
+    std::vector<std::uint32_t> old;
+    old.swap(slots_);
+    slots_.assign(old.empty() ? 64 : 2 * old.size(), 0u);
+    count_ = 0;
+    for (std::uint32_t v : old)
+      if (v != 0) insert(v - 1);
+  }
+  std::vector<std::uint32_t> slots_;  // id + 1; 0 is empty
+  std::size_t count_ = 0;
+};
+
 struct Scratch {
   std::vector<std::uint32_t> labels;    // fan-ordered labels of the current fan
   std::vector<std::uint32_t> distinct;  // distinct labels of the vertex
   std::vector<Vec3d> poly;
-  std::vector<std::uint32_t> visited;   // Gaussian triangles of the cap search
+  std::vector<std::uint32_t> visited;   // Gaussian triangles of the cap search, in visit order
   std::vector<std::uint32_t> gauss;     // Gaussian vertices to test
+  IdSet visited_set, gauss_set;         // membership of the two lists above
 };
 
 // acos(clamp(x, -1, 1)) <= t, decided with cosines where the answer is clear by a margin of
@@ -98,24 +143,31 @@ void gauss_vertices_in_cap(const GaussSphere& gauss, const Vec3d& c, double cos_
   const double vertex_cos = ct - 1e-9 * st;  // cos(theta + 1e-9) to O(1e-18)
   s.visited.clear();
   s.gauss.clear();
+  s.visited_set.clear();
+  s.gauss_set.clear();
   s.visited.push_back(gauss.locate(c));
+  s.visited_set.insert(s.visited[0]);
   for (std::size_t k = 0; k < s.visited.size() && s.visited.size() < 4096; ++k) {
     const std::uint32_t t = s.visited[k];
     for (std::uint32_t g : gauss.triangle_vertices(t)) {
+      if (s.gauss_set.contains(g)) continue;
       const double gc = dot(gauss.vertex(g), c);
-      if (gc > kHemisphereMargin && angle_within(std::min(gc, 1.0), vertex_t, vertex_cos) &&
-          std::find(s.gauss.begin(), s.gauss.end(), g) == s.gauss.end()) {
+      if (gc > kHemisphereMargin && angle_within(std::min(gc, 1.0), vertex_t, vertex_cos)) {
+        s.gauss_set.insert(g);
         s.gauss.push_back(g);
       }
     }
     for (std::uint32_t n : gauss.triangle_neighbors(t)) {
-      if (std::find(s.visited.begin(), s.visited.end(), n) != s.visited.end()) continue;
+      if (s.visited_set.contains(n)) continue;
       const double alpha = gauss.triangle_cap_angle(n);
       const double reach = theta + alpha + 1e-9;
       const double ca = gauss.triangle_cap_angle_cos(n), sa = gauss.triangle_cap_angle_sin(n);
       // cos(theta + alpha + 1e-9) = cos(theta + alpha) - 1e-9 sin(theta + alpha) + O(1e-18).
       const double reach_cos = (ct * ca - st * sa) - 1e-9 * (st * ca + ct * sa);
-      if (angle_within(dot(gauss.triangle_center(n), c), reach, reach_cos)) s.visited.push_back(n);
+      if (angle_within(dot(gauss.triangle_center(n), c), reach, reach_cos)) {
+        s.visited.push_back(n);
+        s.visited_set.insert(n);
+      }
     }
   }
   std::sort(s.gauss.begin(), s.gauss.end());

@@ -4,7 +4,7 @@
 // second of wall time. Each step runs twice: "cold" into new arrays (first touch of fresh
 // pages, ~10-15 µs per 4 KiB here) and "warm" into the same, reused arrays (what a chunk loop
 // with one workspace per thread pays).
-// Usage: bench_sampler [TRIANGLES (default 20000000)] [FREQUENCY (default 8)] [THREADS (default 1)]
+// Usage: bench_sampler [TRIANGLES (default 20000000) | MESH_FILE] [FREQUENCY (default 8)] [THREADS (default 1)]
 #include <sys/resource.h>
 
 #include <chrono>
@@ -78,12 +78,23 @@ struct Timer {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::size_t triangles = argc > 1 ? std::strtoull(argv[1], nullptr, 10) : 20000000;
+  const bool from_file = argc > 1 && !(argv[1][0] >= '0' && argv[1][0] <= '9');
+  const std::size_t triangles = argc > 1 && !from_file ? std::strtoull(argv[1], nullptr, 10) : 20000000;
   const std::uint32_t frequency = argc > 2 ? static_cast<std::uint32_t>(std::strtoul(argv[2], nullptr, 10)) : 8;
   const int threads = argc > 3 ? std::atoi(argv[3]) : 1;
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   Timer t;
-  const Mesh mesh = make_grid_torus(triangles);
+  Mesh mesh;
+  if (from_file) {
+    auto loaded = stream::load_mesh(argv[1]);
+    if (!loaded) {
+      std::fprintf(stderr, "bench_sampler: cannot read %s\n", argv[1]);
+      return 2;
+    }
+    mesh = std::move(loaded).value();
+  } else {
+    mesh = make_grid_torus(triangles);
+  }
   const std::size_t nf = mesh.triangles.size();
   const auto nv = static_cast<std::uint32_t>(mesh.positions.size());
   t.n = nf;
