@@ -126,9 +126,7 @@ Status read_mesh(ByteSource& source, const ReadOptions& options, MeshSink& sink)
     case MeshFormat::kOff: return read_off(source, options, sink);
     case MeshFormat::kObj: return read_obj(source, options, sink);
     case MeshFormat::kStl: return read_stl(source, options, sink);
-    case MeshFormat::kDraco:
-      return Status::error(Code::kBadInput, source.name(),
-                           "Draco input is not supported yet (convert it with draco_decoder first)");
+    case MeshFormat::kDraco: return read_draco(source, options, sink);
     case MeshFormat::kUnknown: break;
   }
   return unknown_format(source);

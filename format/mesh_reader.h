@@ -32,10 +32,13 @@ Status read_mesh(ByteSource& source, const ReadOptions& options, MeshSink& sink)
 // Opens path ("-" for stdin) and reads it.
 Status read_mesh_file(const std::string& path, const ReadOptions& options, MeshSink& sink);
 
-// Per-format readers (ply_reader.cpp, off_reader.cpp, obj_reader.cpp, stl_reader.cpp).
+// Per-format readers (ply_reader.cpp, off_reader.cpp, obj_reader.cpp, stl_reader.cpp,
+// draco_reader.cpp).
 Status read_ply(ByteSource& source, const ReadOptions& options, MeshSink& sink);
 Status read_off(ByteSource& source, const ReadOptions& options, MeshSink& sink);
 Status read_obj(ByteSource& source, const ReadOptions& options, MeshSink& sink);
 Status read_stl(ByteSource& source, const ReadOptions& options, MeshSink& sink);
+// Draco (draco_reader.cpp): decoded whole in memory — Draco has no streaming decoder.
+Status read_draco(ByteSource& source, const ReadOptions& options, MeshSink& sink);
 
 }  // namespace gaussmesh::format
