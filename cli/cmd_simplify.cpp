@@ -60,6 +60,10 @@ int run_simplify(const SimplifyArgs& args) {
   auto mesh = stream::load_mesh(args.input, read_options);
   if (!mesh) return report_error(mesh.status());
   double seconds_read = seconds_since(t);
+  if (mesh->triangles.empty()) {
+    return report_error(Status::error(Code::kBadInput, args.input == "-" ? "<stdin>" : args.input,
+                                      "no faces to simplify (" + std::to_string(mesh->positions.size()) + " vertices)"));
+  }
 
   stream::SimplifyOptions options;
   options.spheres = *spheres;

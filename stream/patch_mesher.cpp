@@ -134,6 +134,22 @@ class Mesher {
     return degree;
   }
 
+  // A boundary vertex where the boundary turns by more than kBoundaryTurnDegrees. Normals
+  // cannot see a boundary's curvature within its surface (paper §5, "Handling Meshes with
+  // Boundaries": such curves are otherwise filled); without this a flat square became a
+  // triangle. A decision of the vertex and its two boundary neighbours only.
+  bool is_boundary_turn(VH vh) const {
+    static constexpr double kBoundaryTurnDegrees = 30;
+    if (!mesh_.is_boundary(vh)) return false;
+    HH out = mesh_.halfedge_handle(vh);  // OpenMesh keeps a boundary half-edge here
+    if (!mesh_.is_boundary(out)) return false;
+    Vec a = mesh_.point(vh) - mesh_.point(mesh_.from_vertex_handle(mesh_.prev_halfedge_handle(out)));
+    Vec b = mesh_.point(mesh_.to_vertex_handle(out)) - mesh_.point(vh);
+    double la = std::sqrt(dot3(a, a)), lb = std::sqrt(dot3(b, b));
+    if (la == 0 || lb == 0) return false;
+    return dot3(a, b) < std::cos(kBoundaryTurnDegrees * 3.14159265358979323846 / 180) * la * lb;
+  }
+
   void find_patch_graph() {
     for (EH eh : mesh_.edges()) result_.graph.feature_edges += is_feature(eh) ? 1 : 0;
     for (VH vh : mesh_.vertices()) {
@@ -142,7 +158,7 @@ class Mesher {
       int degree = feature_degree(vh);
       if (role == VertexRole::kSample) {
         keep_[vh.idx()] = Keep::kSample;
-      } else if (role == VertexRole::kCorner || degree >= 3 || degree == 1) {
+      } else if (role == VertexRole::kCorner || degree >= 3 || degree == 1 || is_boundary_turn(vh)) {
         keep_[vh.idx()] = Keep::kCorner;
       }
       if (degree >= 3 || (degree > 0 && role != VertexRole::kNone)) ++result_.graph.corners;

@@ -208,6 +208,31 @@ TEST(PatchMesher, OnePatchWithoutCornersKeepsAGuardTriangle) {
   EXPECT_GE(result->kept_chain_vertices, 3u);
 }
 
+TEST(PatchMesher, FlatSquareKeepsItsFourCorners) {
+  // One patch, no samples: only the boundary's turns hold the shape (a square, not a triangle).
+  Mesh square;
+  const int n = 20;
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) square.positions.push_back({float(i), float(j), 0});
+  }
+  for (int i = 0; i + 1 < n; ++i) {
+    for (int j = 0; j + 1 < n; ++j) {
+      format::VertexIndex a = i * n + j;
+      square.triangles.push_back({{a, a + n, a + 1}});
+      square.triangles.push_back({{a + 1, a + n, a + n + 1}});
+    }
+  }
+  std::vector<std::uint32_t> one_patch(square.triangles.size(), 0);
+  std::vector<VertexRole> none(square.positions.size(), VertexRole::kNone);
+  auto result = mesh_patches({square.view(), one_patch, none});
+  ASSERT_TRUE(result.is_ok()) << result.status().to_string();
+  EXPECT_EQ(result->mesh.positions.size(), 4u);
+  EXPECT_EQ(result->mesh.triangles.size(), 2u);
+  for (const auto& p : result->mesh.positions) {
+    EXPECT_TRUE((p.x == 0 || p.x == n - 1) && (p.y == 0 || p.y == n - 1)) << p.x << "," << p.y;
+  }
+}
+
 TEST(PatchMesher, RejectsMismatchedInputs) {
   Mesh sphere = uv_sphere(8, 8);
   std::vector<std::uint32_t> too_short(3, 0);
