@@ -387,7 +387,7 @@ int main(int argc, char** argv) {
   for (const auto& line : generator_lines) std::printf("%s\n", line.c_str());
   std::printf("\ncompare seconds (not in the table):");
   for (const Row& r : rows) {
-    if (r.note.empty()) std::printf(" %s@%llu %.1f;", r.tool.c_str(), (unsigned long long)r.input_faces, r.compare_seconds);
+    if (r.hausdorff_pct) std::printf(" %s@%llu %.1f;", r.tool.c_str(), (unsigned long long)r.input_faces, r.compare_seconds);
   }
   std::printf("\nloadavg at end: %s\n", read_line("/proc/loadavg").c_str());
   if (keep) {
