@@ -27,7 +27,6 @@ constexpr std::size_t kLeafSize = 4;
 // The most area samples one mesh may get (a limit on time, not memory: samples are not kept).
 constexpr std::size_t kMaxSamples = std::size_t{1} << 32;
 
-Vec3d to_double(const Vec3f& p) { return {p.x, p.y, p.z}; }
 double length_squared(const Vec3d& v) { return dot(v, v); }
 
 // Squared distance from p to segment [a, b], and the nearest point.
@@ -272,8 +271,8 @@ Status validate(MeshView mesh, const char* name) {
 }
 
 double triangle_area(MeshView mesh, const Triangle& t) {
-  const Vec3d a = to_double(mesh.positions[t.v[0]]);
-  const Vec3d n = cross(to_double(mesh.positions[t.v[1]]) - a, to_double(mesh.positions[t.v[2]]) - a);
+  const Vec3d a = to_d(mesh.positions[t.v[0]]);
+  const Vec3d n = cross(to_d(mesh.positions[t.v[1]]) - a, to_d(mesh.positions[t.v[2]]) - a);
   return 0.5 * std::sqrt(length_squared(n));
 }
 
@@ -319,13 +318,13 @@ OneSidedDistance one_sided(MeshView from, const std::vector<double>& areas, doub
         std::uint32_t hint = 0;
         for (std::size_t t = range.begin(); t != range.end(); ++t) {
           const Triangle& tri = from.triangles[t];
-          const Vec3d a = to_double(from.positions[tri.v[0]]);
-          const Vec3d b = to_double(from.positions[tri.v[1]]);
-          const Vec3d c = to_double(from.positions[tri.v[2]]);
+          const Vec3d a = to_d(from.positions[tri.v[0]]);
+          const Vec3d b = to_d(from.positions[tri.v[1]]);
+          const Vec3d c = to_d(from.positions[tri.v[2]]);
           for (int k = 0; k < 3; ++k) {
             const format::VertexIndex v = tri.v[k];
             if (first_face[v] == t && (k == 0 || v != tri.v[0]) && (k < 2 || v != tri.v[1])) {
-              acc.add_feature(tree.nearest_distance_squared(to_double(from.positions[v]), &hint));
+              acc.add_feature(tree.nearest_distance_squared(to_d(from.positions[v]), &hint));
             }
           }
           acc.add_feature(tree.nearest_distance_squared(0.5 * (a + b), &hint));
@@ -364,7 +363,7 @@ double referenced_diagonal(MeshView mesh) {
   Vec3d lo{kInfinity, kInfinity, kInfinity}, hi{-kInfinity, -kInfinity, -kInfinity};
   for (const Triangle& t : mesh.triangles) {
     for (format::VertexIndex v : t.v) {
-      const Vec3d p = to_double(mesh.positions[v]);
+      const Vec3d p = to_d(mesh.positions[v]);
       lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
       hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
     }

@@ -24,15 +24,6 @@ using format::Vec3f;
 constexpr double kDegenerateRatio = 1e-7;  // |cross| <= this × sum of squared edge lengths
 constexpr double kHemisphereMargin = 1e-3;  // polygon vertices and g must have n·c above this
 
-Vec3d to_d(const Vec3f& v) { return {v.x, v.y, v.z}; }
-
-Vec3f unit_f(const Vec3d& v) {
-  const double len = std::sqrt(dot(v, v));
-  if (!(len > 0)) return {};
-  const double s = 1.0 / len;
-  return {static_cast<float>(v.x * s), static_cast<float>(v.y * s), static_cast<float>(v.z * s)};
-}
-
 // Winding number, around unit-ish direction g, of the closed spherical polygon poly (great arcs
 // between consecutive normals, the last joined to the first). Precondition: every poly[i] and g
 // lie in the open hemisphere around some direction c. Central projection onto the plane tangent

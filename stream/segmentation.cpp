@@ -26,15 +26,6 @@ using format::Vec3f;
 constexpr std::uint32_t kNone = 0xFFFFFFFFu;
 constexpr double kLengthTieBreak = 1e-3;  // × centroid distance / bounding-box diagonal
 
-Vec3d to_d(const Vec3f& v) { return {v.x, v.y, v.z}; }
-
-Vec3f unit_f(const Vec3d& v) {
-  const double len = std::sqrt(dot(v, v));
-  if (!(len > 0)) return {};
-  const double s = 1.0 / len;
-  return {static_cast<float>(v.x * s), static_cast<float>(v.y * s), static_cast<float>(v.z * s)};
-}
-
 Status bad_input(const std::string& message) { return Status::error(Code::kBadInput, "segment", message); }
 
 // Face areas as the sampler's filter weighs them (0 for faces without a normal of their own).

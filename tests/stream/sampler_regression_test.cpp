@@ -103,7 +103,7 @@ MeshAdjacency ref_adjacency(const Mesh& m) {
 
 // ---- Reference normals (double, then rounded to float) -----------------------------------------
 
-Vec3f unit_f(const Vec3d& v) {
+Vec3f reference_unit(const Vec3d& v) {
   const double len = std::sqrt(dot(v, v));
   if (!(len > 0)) return {};
   const double s = 1.0 / len;
@@ -138,7 +138,7 @@ FaceNormals ref_normals(const Mesh& m, const MeshAdjacency& a, std::uint32_t smo
       const std::uint32_t g = a.edge_neighbor[3 * f + i];
       if (g != MeshAdjacency::kNoFace && !out.degenerate[g]) sum = sum + area[g] * d3(out.normal[g]);
     }
-    inherited[f] = unit_f(sum);
+    inherited[f] = reference_unit(sum);
   }
   out.normal = inherited;
   for (std::uint32_t it = 0; it < smooth; ++it) {
@@ -149,7 +149,7 @@ FaceNormals ref_normals(const Mesh& m, const MeshAdjacency& a, std::uint32_t smo
         const std::uint32_t g = a.edge_neighbor[3 * f + i];
         if (g != MeshAdjacency::kNoFace) sum = sum + area[g] * d3(out.normal[g]);
       }
-      const Vec3f u = unit_f(sum);
+      const Vec3f u = reference_unit(sum);
       next[f] = (u.x == 0 && u.y == 0 && u.z == 0) ? out.normal[f] : u;
     }
     out.normal = next;
