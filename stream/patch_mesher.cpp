@@ -204,7 +204,8 @@ class Mesher {
           // A loop through one corner: two more vertices make it a triangle.
           guard(path, 3);
         } else {
-          auto key = std::minmax(start.idx(), end.idx());
+          // Not std::minmax: it would return references to the temporaries idx() makes.
+          const std::pair<int, int> key{std::min(start.idx(), end.idx()), std::max(start.idx(), end.idx())};
           if (chains_between[key]++ > 0 && inner > 0) guard(path, 2);
         }
       }
@@ -376,6 +377,8 @@ class Mesher {
             HH o = mesh_.opposite_halfedge_handle(h);
             if (mesh_.is_boundary(o)) continue;
             FH g = mesh_.face_handle(o);
+            // Faces added by earlier pieces' triangulations have indices past the start.
+            if (static_cast<size_t>(g.idx()) >= seen.size()) seen.resize(mesh_.n_faces(), 0);
             if (!seen[g.idx()] && mesh_.property(patch_, g) == p) {
               seen[g.idx()] = 1;
               stack.push_back(g);
