@@ -34,6 +34,7 @@
 #include <vector>
 
 #include "format/output_file.h"
+#include "stream/exact_predicates.h"
 #include "stream/mesh.h"
 #include "tests/support/test_util.h"
 
@@ -43,14 +44,8 @@ namespace {
 using format::Code;
 using format::Status;
 
-struct Vec3d {
-  double x = 0, y = 0, z = 0;
-};
-Vec3d operator+(Vec3d a, Vec3d b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-Vec3d operator-(Vec3d a, Vec3d b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-Vec3d operator*(double s, Vec3d a) { return {s * a.x, s * a.y, s * a.z}; }
-double dot(Vec3d a, Vec3d b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-Vec3d cross(Vec3d a, Vec3d b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+// stream::Vec3d and its operators, dot and cross (stream/exact_predicates.h).
+using stream::Vec3d;
 Vec3d normalized(Vec3d a) {
   double n = std::sqrt(dot(a, a));
   return n > 0 ? (1.0 / n) * a : Vec3d{0, 0, 1};

@@ -13,6 +13,8 @@
 // on a convex surface, and each adds a saddle to the Gauss map (spurious samples).
 #include "tests/support/shapes.h"
 
+#include "stream/exact_predicates.h"
+
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 
 #include <algorithm>
@@ -41,18 +43,9 @@ constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 // ---------------------------------------------------------------------------------------------
 // Small double-precision vector algebra for the generators.
 
-struct Vec3d {
-  double x = 0, y = 0, z = 0;
-};
-Vec3d operator+(Vec3d a, Vec3d b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-Vec3d operator-(Vec3d a, Vec3d b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-Vec3d operator*(double s, Vec3d a) { return {s * a.x, s * a.y, s * a.z}; }
-double dot(Vec3d a, Vec3d b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-Vec3d cross(Vec3d a, Vec3d b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
+// stream::Vec3d and its operators, dot and cross (stream/exact_predicates.h).
+using stream::Vec3d;
 double norm(Vec3d a) { return std::sqrt(dot(a, a)); }
-Vec3d to_double(const Vec3f& p) { return {p.x, p.y, p.z}; }
 Vec3f to_float(Vec3d p) {
   return {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)};
 }
@@ -352,7 +345,7 @@ std::vector<Vec3f> rotated_floats(const std::vector<Vec3d>& points, const std::a
 
 void add_noise(Mesh& mesh, const ShapeOptions& options) {
   if (options.noise <= 0 || mesh.positions.empty()) return;
-  Vec3d lo = to_double(mesh.positions[0]), hi = lo;
+  Vec3d lo = stream::to_d(mesh.positions[0]), hi = lo;
   for (const Vec3f& p : mesh.positions) {
     lo = {std::min(lo.x, double(p.x)), std::min(lo.y, double(p.y)), std::min(lo.z, double(p.z))};
     hi = {std::max(hi.x, double(p.x)), std::max(hi.y, double(p.y)), std::max(hi.z, double(p.z))};
@@ -361,7 +354,7 @@ void add_noise(Mesh& mesh, const ShapeOptions& options) {
   Random random(options.seed ^ 0x9e3779b97f4a7c15ull);
   for (Vec3f& p : mesh.positions) {
     const double dx = random.normal(), dy = random.normal(), dz = random.normal();
-    p = to_float(to_double(p) + sigma * Vec3d{dx, dy, dz});
+    p = to_float(stream::to_d(p) + sigma * Vec3d{dx, dy, dz});
   }
 }
 
@@ -447,8 +440,8 @@ void align_edges_with_curvature(Mesh& mesh, const std::vector<Vec3d>& unrotated,
     return kNone;
   };
   auto normal = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
-    const Vec3d pa = to_double(mesh.positions[a]);
-    return cross(to_double(mesh.positions[b]) - pa, to_double(mesh.positions[c]) - pa);
+    const Vec3d pa = stream::to_d(mesh.positions[a]);
+    return cross(stream::to_d(mesh.positions[b]) - pa, stream::to_d(mesh.positions[c]) - pa);
   };
   std::vector<std::pair<std::uint32_t, std::uint32_t>> queue;
   for (const Triangle& t : mesh.triangles) {
@@ -807,7 +800,7 @@ Mesh make_dented_sphere(double dent_depth, const ShapeOptions& options) {
   std::vector<Vec3d> points;
   points.reserve(hull.positions.size());
   for (const Vec3f& p : hull.positions) {
-    const Vec3d d = to_double(p);
+    const Vec3d d = stream::to_d(p);
     points.push_back((dent_radius(d, dent_depth) / norm(d)) * d);
   }
   auto f = [dent_depth](Vec3d p) { return norm(p) - dent_radius(p, dent_depth); };
@@ -841,7 +834,7 @@ Mesh make_genus2(const ShapeOptions& options) {
 
 LocalShape genus2_local_shape(const Vec3f& unrotated_point) {
   const std::function<double(Vec3d)> f = genus2_function;
-  return classify_implicit(f, project_to_surface(f, to_double(unrotated_point)));
+  return classify_implicit(f, project_to_surface(f, stream::to_d(unrotated_point)));
 }
 
 }  // namespace gaussmesh::testing
