@@ -123,6 +123,13 @@ int run_simplify(const SimplifyArgs& args) {
     report["skipped_input_faces"] = result->skipped_input_faces;
     report["planar_patches"] = result->planar_patches;
     report["collapse_patches"] = result->collapse_patches;
+    report["mesher_rounds"] = result->polygon.rounds;
+    report["densified_patches"] = result->polygon.densified_patches;
+    report["original_patches"] = result->polygon.original_patches;
+    report["interior_samples"] = result->polygon.interior_samples;
+    report["guards"] = result->polygon.guards;
+    report["mesher_fallback"] = result->mesher_fallback;
+    if (result->mesher_fallback) report["mesher_fallback_reason"] = result->mesher_fallback_reason;
     report["output_vertices"] = result->mesh.positions.size();
     report["output_faces"] = result->mesh.triangles.size();
     report["output_bytes"] = *bytes;

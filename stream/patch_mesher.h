@@ -19,6 +19,7 @@ enum class VertexRole : std::uint8_t {
   kNone = 0,    // not a candidate: removed
   kCorner = 1,  // candidate that is not a sample: a patch corner, removed last if possible
   kSample = 2,  // sample: always kept
+  kGuard = 3,   // not a sample, but kept (topology guard, or a vertex the polygon mesher needed)
 };
 
 struct PatchMesherInput {
@@ -31,6 +32,9 @@ struct PatchMesherInput {
   // Optional: the plane normal to triangulate each patch in, indexed by patch id (the centre of
   // the patch's Gaussian triangle). Empty, or an id beyond it: the patch's mean face normal.
   std::span<const format::Vec3f> patch_plane_normal = {};
+  // Phase 2 only: the mesh is already one triangulation per patch over kept vertices (the
+  // polygon mesher's output); only kCorner vertices may go, by collapses along feature edges.
+  bool corners_only = false;
 };
 
 // Counts of the patch graph the mesher built (DESIGN §1, "shape approximation").

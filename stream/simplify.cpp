@@ -67,8 +67,19 @@ format::Result<SimplifyResult> simplify_mesh(MeshView mesh, const SimplifyOption
       const Vec3d& c = best_gauss->triangle_center(sampling.patch_label[p]);
       plane[p] = {float(c.x), float(c.y), float(c.z)};
     }
-    auto meshed = mesh_patches({mesh, sampling.face_patch, roles, plane});
-    if (!meshed) return meshed.status();
+    const PatchMesherInput input{mesh, sampling.face_patch, roles, plane};
+    auto polygons = mesh_patch_polygons(input);
+    std::optional<PatchMesherResult> meshed;
+    if (polygons) {
+      result.polygon = polygons->stats;
+      meshed = std::move(polygons->mesh);
+    } else {
+      result.mesher_fallback = true;
+      result.mesher_fallback_reason = polygons.status().to_string();
+      auto collapsed = mesh_patches(input);
+      if (!collapsed) return collapsed.status();
+      meshed = std::move(collapsed).value();
+    }
     result.mesh = std::move(meshed->mesh);
     result.birth = std::move(meshed->birth);
     result.graph = meshed->graph;

@@ -5,12 +5,14 @@
 
 #include <array>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "format/status.h"
 #include "stream/gauss_sphere.h"
 #include "stream/mesh.h"
 #include "stream/patch_mesher.h"
+#include "stream/polygon_mesher.h"
 #include "stream/sampler.h"
 
 namespace gaussmesh::stream {
@@ -39,6 +41,11 @@ struct SimplifyResult {
   std::size_t kept_corners = 0, kept_chain_vertices = 0, kept_interior_vertices = 0;
   std::size_t skipped_input_faces = 0;
   std::size_t planar_patches = 0, collapse_patches = 0;  // see PatchMesherResult
+  PolygonMesherStats polygon;  // the polygon-first mesher's figures (per-patch mesher)
+  // The polygon-first mesher refused (its output would not have been a valid mesh) and the
+  // collapse mesher (mesh_patches) built the result instead; the reason is kept.
+  bool mesher_fallback = false;
+  std::string mesher_fallback_reason;
   double seconds_sample = 0, seconds_mesh = 0;
 };
 

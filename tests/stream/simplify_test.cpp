@@ -68,6 +68,8 @@ Checked simplify_and_check(const Mesh& input, const SimplifyOptions& options, co
   }
   if (options.mesher == MesherKind::kPatch) {
     EXPECT_GE(out.positions.size(), result->samples) << name;
+    // The polygon-first mesher built it (the collapse mesher is only a safety net).
+    EXPECT_FALSE(result->mesher_fallback) << name << ": " << result->mesher_fallback_reason;
   }
   DistanceOptions distance_options;
   distance_options.samples = 100000;

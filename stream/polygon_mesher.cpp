@@ -1,0 +1,563 @@
+// Shape approximation, polygon first (paper §5 "Shape Approximation", per-patch approach):
+// patch loops, canonical guards, planar triangulation per patch, densify-and-retry, then the
+// corner collapses of stream/patch_mesher on the output-sized mesh. See polygon_mesher.h.
+#include "stream/polygon_mesher.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numbers>
+#include <string>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
+#include <vector>
+
+#include "stream/mesh_adjacency.h"
+#include "stream/polygon_triangulation.h"
+
+namespace gaussmesh::stream {
+namespace {
+
+constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+constexpr double kBoundaryTurnDegrees = 30;  // as the collapse mesher: a boundary corner
+constexpr std::size_t kMaxRounds = 8;
+
+enum class Keep : std::uint8_t { kNo = 0, kCorner, kGuard, kSample };
+
+// One boundary loop of a patch: the vertices of its half-edges in walking order (the patch on
+// the left), and per half-edge whether it is a break edge (boundary, non-manifold).
+struct Loop {
+  std::uint32_t patch = 0;
+  std::vector<std::uint32_t> vertices;
+  std::vector<std::uint8_t> is_break;
+};
+
+enum class PatchMode : std::uint8_t { kReduced, kDensified, kOriginal };
+
+std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
+  return a < b ? std::uint64_t{a} << 32 | b : std::uint64_t{b} << 32 | a;
+}
+
+bool is_collapsed(const format::Triangle& t) { return t.v[0] == t.v[1] || t.v[1] == t.v[2] || t.v[0] == t.v[2]; }
+
+class PolygonMesher {
+ public:
+  PolygonMesher(const PatchMesherInput& input, MeshAdjacency adjacency)
+      : in_(input), adj_(std::move(adjacency)), tris_(input.mesh.triangles.data()) {}
+
+  format::Result<PolygonMesherResult> run() {
+    group_faces();
+    walk_loops();
+    count_feature_degrees();
+    choose_kept();
+    mode_.assign(patch_count_, PatchMode::kReduced);
+    for (std::size_t round = 0; round < kMaxRounds; ++round) {
+      ++result_.stats.rounds;
+      std::vector<std::uint32_t> failed;
+      triangulate_all(failed);
+      if (failed.empty()) return finish();
+      for (std::uint32_t p : failed) densify(p);
+    }
+    return format::Status::error(format::Code::kProcessing, "polygon mesher",
+                                 "patches still failing after " + std::to_string(kMaxRounds) + " rounds");
+  }
+
+ private:
+  std::uint32_t vertex(std::uint32_t f, int i) const { return tris_[f].v[i]; }
+  std::uint32_t neighbor(std::uint32_t f, int i) const { return adj_.edge_neighbor[3 * std::size_t{f} + i]; }
+  bool is_border(std::uint32_t f, int i) const {
+    const std::uint32_t g = neighbor(f, i);
+    return g == MeshAdjacency::kNoFace || in_.face_patch[g] != in_.face_patch[f];
+  }
+
+  // Faces by patch (CSR, ascending face ids); collapsed faces take no part.
+  void group_faces() {
+    const std::size_t nf = in_.mesh.triangles.size();
+    std::uint32_t max_patch = 0;
+    for (std::size_t f = 0; f < nf; ++f) max_patch = std::max(max_patch, in_.face_patch[f]);
+    patch_count_ = nf == 0 ? 0 : std::size_t{max_patch} + 1;
+    patch_offset_.assign(patch_count_ + 1, 0);
+    for (std::size_t f = 0; f < nf; ++f) {
+      if (is_collapsed(tris_[f])) {
+        ++result_.mesh.skipped_input_faces;
+        continue;
+      }
+      ++patch_offset_[in_.face_patch[f] + 1];
+    }
+    for (std::size_t p = 0; p < patch_count_; ++p) patch_offset_[p + 1] += patch_offset_[p];
+    patch_faces_.resize(patch_offset_[patch_count_]);
+    std::vector<std::uint32_t> cursor(patch_offset_.begin(), patch_offset_.end() - 1);
+    for (std::size_t f = 0; f < nf; ++f) {
+      if (!is_collapsed(tris_[f])) patch_faces_[cursor[in_.face_patch[f]]++] = static_cast<std::uint32_t>(f);
+    }
+  }
+
+  // The half-edge after (f, i) on the border of f's patch: turn around its end vertex through
+  // the patch's faces until a border half-edge leaves it.
+  std::pair<std::uint32_t, int> next_border(std::uint32_t f, int i) const {
+    const std::uint32_t b = vertex(f, (i + 1) % 3);
+    std::uint32_t g = f;
+    int j = (i + 1) % 3;
+    const std::size_t bound = adj_.star_end(b) - adj_.star_begin(b) + 2;
+    for (std::size_t step = 0; step < bound; ++step) {
+      if (is_border(g, j)) return {g, j};
+      const std::uint32_t h = neighbor(g, j);
+      int k = 0;
+      while (k < 3 && vertex(h, k) != b) ++k;
+      if (k == 3) break;
+      g = h;
+      j = k;
+    }
+    return {kNone, 0};
+  }
+
+  void walk_loops() {
+    std::vector<std::uint8_t> visited(3 * in_.mesh.triangles.size(), 0);
+    patch_loop_offset_.assign(patch_count_ + 1, 0);
+    for (std::uint32_t p = 0; p < patch_count_; ++p) {
+      for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
+        const std::uint32_t f0 = patch_faces_[k];
+        for (int i0 = 0; i0 < 3; ++i0) {
+          if (visited[3 * std::size_t{f0} + i0] || !is_border(f0, i0)) continue;
+          Loop loop;
+          loop.patch = p;
+          std::uint32_t f = f0;
+          int i = i0;
+          bool closed = false;
+          for (std::size_t guard = 0; guard < visited.size(); ++guard) {
+            visited[3 * std::size_t{f} + i] = 1;
+            loop.vertices.push_back(vertex(f, i));
+            loop.is_break.push_back(neighbor(f, i) == MeshAdjacency::kNoFace);
+            const auto [g, j] = next_border(f, i);
+            if (g == kNone) break;
+            if (g == f0 && j == i0) {
+              closed = true;
+              break;
+            }
+            if (visited[3 * std::size_t{g} + j]) break;
+            f = g;
+            i = j;
+          }
+          if (!closed) broken_patch_.push_back(p);  // cannot happen on a valid adjacency
+          loops_.push_back(std::move(loop));
+        }
+      }
+      patch_loop_offset_[p + 1] = static_cast<std::uint32_t>(loops_.size());
+    }
+  }
+
+  // Distinct feature edges at each vertex: a manifold border counted once (from the face
+  // where it runs from the lower id), every break edge once per face holding it.
+  void count_feature_degrees() {
+    degree_.assign(in_.mesh.positions.size(), 0);
+    for (std::uint32_t p = 0; p < patch_count_; ++p) {
+      for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
+        const std::uint32_t f = patch_faces_[k];
+        for (int i = 0; i < 3; ++i) {
+          if (!is_border(f, i)) continue;
+          const std::uint32_t a = vertex(f, i), b = vertex(f, (i + 1) % 3);
+          if (neighbor(f, i) != MeshAdjacency::kNoFace && a > b) continue;
+          ++degree_[a];
+          ++degree_[b];
+          ++result_.mesh.graph.feature_edges;
+        }
+      }
+    }
+  }
+
+  bool is_boundary_turn(const Loop& loop, std::size_t k) const {
+    const std::size_t n = loop.vertices.size();
+    const std::size_t prev = (k + n - 1) % n;
+    if (!loop.is_break[prev] || !loop.is_break[k]) return false;
+    const auto& pa = in_.mesh.positions[loop.vertices[prev]];
+    const auto& pv = in_.mesh.positions[loop.vertices[k]];
+    const auto& pb = in_.mesh.positions[loop.vertices[(k + 1) % n]];
+    const double ax = double(pv.x) - pa.x, ay = double(pv.y) - pa.y, az = double(pv.z) - pa.z;
+    const double bx = double(pb.x) - pv.x, by = double(pb.y) - pv.y, bz = double(pb.z) - pv.z;
+    const double la = std::sqrt(ax * ax + ay * ay + az * az), lb = std::sqrt(bx * bx + by * by + bz * bz);
+    if (la == 0 || lb == 0) return false;
+    return ax * bx + ay * by + az * bz < std::cos(kBoundaryTurnDegrees * std::numbers::pi / 180) * la * lb;
+  }
+
+  void keep(std::uint32_t v, Keep k) {
+    if (keep_[v] < k) keep_[v] = k;
+  }
+
+  void choose_kept() {
+    const std::size_t nv = in_.mesh.positions.size();
+    keep_.assign(nv, Keep::kNo);
+    for (std::size_t v = 0; v < nv; ++v) {
+      if (in_.vertex_role[v] == VertexRole::kSample) keep_[v] = Keep::kSample;
+      else if (in_.vertex_role[v] == VertexRole::kGuard) keep_[v] = Keep::kGuard;
+      else if (degree_[v] > 0 && (in_.vertex_role[v] == VertexRole::kCorner || degree_[v] == 1 || degree_[v] >= 3))
+        keep_[v] = Keep::kCorner;
+    }
+    for (const Loop& loop : loops_) {
+      for (std::size_t k = 0; k < loop.vertices.size(); ++k) {
+        if (degree_[loop.vertices[k]] == 2 && is_boundary_turn(loop, k)) keep(loop.vertices[k], Keep::kCorner);
+      }
+    }
+    for (std::size_t v = 0; v < nv; ++v) {
+      if (degree_[v] > 0 && (degree_[v] != 2 || keep_[v] != Keep::kNo)) ++result_.mesh.graph.corners;
+    }
+    // Samples off every feature edge are inserted into their patch.
+    interior_of_patch_.assign(patch_count_, {});
+    for (std::size_t v = 0; v < nv; ++v) {
+      if (keep_[v] != Keep::kSample || degree_[v] != 0 || adj_.star_end(v) == adj_.star_begin(v)) continue;
+      const std::uint32_t f = adj_.vertex_corners[adj_.star_begin(v)] / 3;
+      interior_of_patch_[in_.face_patch[f]].push_back(static_cast<std::uint32_t>(v));
+      ++result_.stats.interior_samples;
+    }
+    choose_guards();
+  }
+
+  // Chains between stops, canonical (the same whichever patch's loop they are read from), and
+  // the guard rules over them.
+  void choose_guards() {
+    auto is_stop = [&](std::uint32_t v) { return keep_[v] != Keep::kNo || degree_[v] != 2; };
+    struct Chain {
+      std::vector<std::uint32_t> path;  // stop, inner..., stop; canonical direction
+    };
+    std::vector<Chain> chains;
+    std::vector<std::uint32_t> closed_loop_min;  // lowest id of each loop without a stop
+    std::vector<std::uint32_t> guards;
+    for (const Loop& loop : loops_) {
+      const std::size_t n = loop.vertices.size();
+      std::size_t first = n;
+      for (std::size_t k = 0; k < n; ++k) {
+        if (is_stop(loop.vertices[k])) {
+          first = k;
+          break;
+        }
+      }
+      if (first == n) {
+        // A closed loop with no corner: 3 vertices, spread from its lowest id, walking towards
+        // its lower-id neighbour (the same on both sides of the loop).
+        const auto low = std::min_element(loop.vertices.begin(), loop.vertices.end()) - loop.vertices.begin();
+        const std::uint32_t next = loop.vertices[(low + 1) % n], prev = loop.vertices[(low + n - 1) % n];
+        const std::ptrdiff_t step = next < prev ? 1 : -1;
+        closed_loop_min.push_back(loop.vertices[low]);
+        for (std::size_t j = 0; j < std::min<std::size_t>(n, 3); ++j) {
+          const std::ptrdiff_t at = (low + step * static_cast<std::ptrdiff_t>(j * n / 3)) % static_cast<std::ptrdiff_t>(n);
+          guards.push_back(loop.vertices[(at + static_cast<std::ptrdiff_t>(n)) % static_cast<std::ptrdiff_t>(n)]);
+        }
+        continue;
+      }
+      for (std::size_t k = first, seen = 0; seen < n;) {
+        Chain c;
+        c.path.push_back(loop.vertices[k]);
+        do {
+          k = (k + 1) % n;
+          ++seen;
+          c.path.push_back(loop.vertices[k]);
+        } while (!is_stop(loop.vertices[k]));
+        const std::uint32_t a = c.path.front(), b = c.path.back();
+        if (a > b || (a == b && c.path.size() > 3 && c.path[1] > c.path[c.path.size() - 2]))
+          std::reverse(c.path.begin(), c.path.end());
+        chains.push_back(std::move(c));
+      }
+    }
+    std::sort(chains.begin(), chains.end(), [](const Chain& x, const Chain& y) { return x.path < y.path; });
+    chains.erase(std::unique(chains.begin(), chains.end(), [](const Chain& x, const Chain& y) { return x.path == y.path; }),
+                 chains.end());
+    std::sort(closed_loop_min.begin(), closed_loop_min.end());
+    result_.mesh.graph.closed_loops =
+        std::unique(closed_loop_min.begin(), closed_loop_min.end()) - closed_loop_min.begin();
+    result_.mesh.graph.chains = chains.size();
+    for (std::size_t i = 0; i < chains.size();) {
+      const auto& path = chains[i].path;
+      std::size_t j = i + 1;
+      while (j < chains.size() && chains[j].path.front() == path.front() && chains[j].path.back() == path.back()) ++j;
+      for (std::size_t k = i; k < j; ++k) {
+        const auto& q = chains[k].path;
+        const std::size_t m = q.size() - 1;  // edges
+        if (q.front() == q.back()) {
+          // A loop through one corner: two more vertices make it a triangle.
+          if (m >= 3) {
+            guards.push_back(q[m / 3]);
+            guards.push_back(q[2 * m / 3]);
+          } else if (m == 2) {
+            guards.push_back(q[1]);
+          }
+        } else if (j - i > 1 && m >= 2) {
+          guards.push_back(q[m / 2]);  // one of several chains joining the same two corners
+        }
+      }
+      i = j;
+    }
+    for (std::uint32_t g : guards) {
+      if (keep_[g] == Keep::kNo) ++result_.stats.guards;
+      keep(g, Keep::kGuard);
+    }
+  }
+
+  void densify(std::uint32_t p) {
+    if (mode_[p] == PatchMode::kReduced) {
+      mode_[p] = PatchMode::kDensified;
+      ++result_.stats.densified_patches;
+      for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l)
+        for (std::uint32_t v : loops_[l].vertices) keep(v, Keep::kGuard);
+    } else if (mode_[p] == PatchMode::kDensified) {
+      mode_[p] = PatchMode::kOriginal;
+      ++result_.stats.original_patches;
+      for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k)
+        for (std::uint32_t v : tris_[patch_faces_[k]].v) keep(v, Keep::kGuard);
+    }
+  }
+
+  std::vector<std::uint32_t> reduced(const Loop& loop) const {
+    std::vector<std::uint32_t> out;
+    for (std::uint32_t v : loop.vertices)
+      if (keep_[v] != Keep::kNo) out.push_back(v);
+    return out;
+  }
+
+  // One round: every patch in id order, against the edges made so far. Fills out_ and lists
+  // the patches that failed.
+  void triangulate_all(std::vector<std::uint32_t>& failed) {
+    out_tris_.clear();
+    out_patch_.clear();
+    edges_.clear();
+    result_.mesh.planar_patches = 0;
+    // Chain edges first: a reduced loop edge appears once per side (twice for a border, once
+    // for a break edge); more means two chains landed on one edge.
+    std::unordered_map<std::uint64_t, std::uint32_t> uses;
+    std::vector<std::vector<std::uint32_t>> reduced_loops(loops_.size());
+    for (std::size_t l = 0; l < loops_.size(); ++l) {
+      if (mode_[loops_[l].patch] == PatchMode::kOriginal) continue;
+      reduced_loops[l] = reduced(loops_[l]);
+      const auto& r = reduced_loops[l];
+      for (std::size_t k = 0; k < r.size(); ++k) ++uses[edge_key(r[k], r[(k + 1) % r.size()])];
+    }
+    for (const auto& [key, count] : uses) edges_.insert(key);
+    std::vector<std::uint8_t> failing(patch_count_, 0);
+    for (std::uint32_t p : broken_patch_) failing[p] = 1;
+    for (std::size_t l = 0; l < loops_.size(); ++l) {
+      const auto& r = reduced_loops[l];
+      if (mode_[loops_[l].patch] == PatchMode::kOriginal) continue;
+      if (r.size() < 3) failing[loops_[l].patch] = 1;
+      for (std::size_t k = 0; k < r.size(); ++k) {
+        const std::uint32_t a = r[k], b = r[(k + 1) % r.size()];
+        if (a == b || uses[edge_key(a, b)] > 2) failing[loops_[l].patch] = 1;
+      }
+    }
+    // Patches that keep their input triangles go first: their edges are fixed.
+    for (std::uint32_t p = 0; p < patch_count_; ++p) {
+      if (mode_[p] != PatchMode::kOriginal) continue;
+      for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
+        const auto& t = tris_[patch_faces_[k]];
+        out_tris_.push_back({t.v[0], t.v[1], t.v[2]});
+        out_patch_.push_back(p);
+        for (int i = 0; i < 3; ++i) edges_.insert(edge_key(t.v[i], t.v[(i + 1) % 3]));
+      }
+    }
+    for (std::uint32_t p = 0; p < patch_count_; ++p) {
+      if (mode_[p] == PatchMode::kOriginal || patch_offset_[p] == patch_offset_[p + 1]) continue;
+      if (failing[p] || !triangulate_patch(p, reduced_loops)) {
+        failed.push_back(p);
+      } else {
+        ++result_.mesh.planar_patches;
+      }
+    }
+  }
+
+  bool triangulate_patch(std::uint32_t p, const std::vector<std::vector<std::uint32_t>>& reduced_loops) {
+    const std::uint32_t lb = patch_loop_offset_[p], le = patch_loop_offset_[p + 1];
+    if (lb == le) return false;  // a closed patch with no border: nothing to build it from
+    std::vector<std::uint32_t> local_to_vertex;
+    std::vector<PolygonPoint3> points;
+    auto local_id = [&](std::uint32_t v) {
+      for (std::size_t i = 0; i < local_to_vertex.size(); ++i)
+        if (local_to_vertex[i] == v) return static_cast<std::uint32_t>(i);
+      const auto& q = in_.mesh.positions[v];
+      local_to_vertex.push_back(v);
+      points.push_back({double(q.x), double(q.y), double(q.z)});
+      return static_cast<std::uint32_t>(local_to_vertex.size() - 1);
+    };
+    // The plane: the patch's Gaussian triangle, else its mean face normal.
+    PolygonPoint3 normal{0, 0, 0};
+    if (p < in_.patch_plane_normal.size()) {
+      const auto& n = in_.patch_plane_normal[p];
+      normal = {double(n.x), double(n.y), double(n.z)};
+    }
+    if (normal[0] == 0 && normal[1] == 0 && normal[2] == 0) {
+      for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
+        const auto& t = tris_[patch_faces_[k]];
+        const auto& a = in_.mesh.positions[t.v[0]];
+        const auto& b = in_.mesh.positions[t.v[1]];
+        const auto& c = in_.mesh.positions[t.v[2]];
+        const double ux = double(b.x) - a.x, uy = double(b.y) - a.y, uz = double(b.z) - a.z;
+        const double vx = double(c.x) - a.x, vy = double(c.y) - a.y, vz = double(c.z) - a.z;
+        normal[0] += uy * vz - uz * vy;
+        normal[1] += uz * vx - ux * vz;
+        normal[2] += ux * vy - uy * vx;
+      }
+    }
+    if (!(normal[0] != 0 || normal[1] != 0 || normal[2] != 0) || !std::isfinite(normal[0] + normal[1] + normal[2]))
+      return false;
+    std::vector<std::vector<std::uint32_t>> local_loops;
+    std::vector<double> area;
+    for (std::uint32_t l = lb; l < le; ++l) {
+      std::vector<std::uint32_t> local;
+      double newell[3] = {0, 0, 0};
+      const auto& r = reduced_loops[l];
+      for (std::size_t k = 0; k < r.size(); ++k) {
+        local.push_back(local_id(r[k]));
+        const auto& a = in_.mesh.positions[r[k]];
+        const auto& b = in_.mesh.positions[r[(k + 1) % r.size()]];
+        newell[0] += double(a.y) * b.z - double(a.z) * b.y;
+        newell[1] += double(a.z) * b.x - double(a.x) * b.z;
+        newell[2] += double(a.x) * b.y - double(a.y) * b.x;
+      }
+      local_loops.push_back(std::move(local));
+      area.push_back(newell[0] * normal[0] + newell[1] * normal[1] + newell[2] * normal[2]);
+    }
+    const std::size_t outer = std::max_element(area.begin(), area.end()) - area.begin();
+    if (!(area[outer] > 0)) return false;
+    std::swap(local_loops[0], local_loops[outer]);
+    const std::size_t loop_points = points.size();
+    for (std::uint32_t v : interior_of_patch_[p]) local_id(v);
+    if (points.size() != loop_points + interior_of_patch_[p].size()) return false;  // a sample on a loop twice
+    const std::vector<PolygonPoint2> plane = project_to_plane(points, normal, points[local_loops[0][0]]);
+    auto forbidden = [&](std::uint32_t u, std::uint32_t v) {
+      return edges_.count(edge_key(local_to_vertex[u], local_to_vertex[v])) != 0;
+    };
+    auto triangles = triangulate_polygon_2d(std::span(plane).first(loop_points), local_loops, forbidden);
+    if (!triangles) return false;
+    std::vector<PolygonTriangle> tri = std::move(triangles).value();
+    for (std::size_t i = loop_points; i < points.size(); ++i) {
+      if (!insert_point(plane, static_cast<std::uint32_t>(i), tri)) return false;
+    }
+    for (const auto& t : tri) {
+      out_tris_.push_back({local_to_vertex[t[0]], local_to_vertex[t[1]], local_to_vertex[t[2]]});
+      out_patch_.push_back(p);
+      for (int i = 0; i < 3; ++i) edges_.insert(edge_key(local_to_vertex[t[i]], local_to_vertex[t[(i + 1) % 3]]));
+    }
+    return true;
+  }
+
+  // Splits the triangle holding point x (strictly inside: 3 triangles; on an edge between two
+  // triangles: 4). False when x lies outside, on a loop edge or on a vertex.
+  static bool insert_point(const std::vector<PolygonPoint2>& pt, std::uint32_t x, std::vector<PolygonTriangle>& tri) {
+    for (std::size_t t = 0; t < tri.size(); ++t) {
+      const auto [a, b, c] = tri[t];
+      const int s[3] = {orientation_2d(pt[a], pt[b], pt[x]), orientation_2d(pt[b], pt[c], pt[x]),
+                        orientation_2d(pt[c], pt[a], pt[x])};
+      if (s[0] < 0 || s[1] < 0 || s[2] < 0) continue;
+      const int zeros = (s[0] == 0) + (s[1] == 0) + (s[2] == 0);
+      if (zeros == 0) {
+        tri[t] = {a, b, x};
+        tri.push_back({b, c, x});
+        tri.push_back({c, a, x});
+        return true;
+      }
+      if (zeros > 1) return false;
+      // On edge (u, v) of t, opposite w; the triangle across it holds (v, u).
+      const int e = s[0] == 0 ? 0 : (s[1] == 0 ? 1 : 2);
+      const std::uint32_t u = tri[t][e], v = tri[t][(e + 1) % 3], w = tri[t][(e + 2) % 3];
+      for (std::size_t o = 0; o < tri.size(); ++o) {
+        for (int k = 0; k < 3; ++k) {
+          if (tri[o][k] != v || tri[o][(k + 1) % 3] != u) continue;
+          const std::uint32_t z = tri[o][(k + 2) % 3];
+          tri[t] = {u, x, w};
+          tri.push_back({x, v, w});
+          tri[o] = {v, x, z};
+          tri.push_back({x, u, z});
+          return true;
+        }
+      }
+      return false;
+    }
+    return false;
+  }
+
+  // Checks the triangles make a valid mesh, then runs the corner collapses on it.
+  format::Result<PolygonMesherResult> finish() {
+    auto fail = [](const std::string& what) {
+      return format::Status::error(format::Code::kProcessing, "polygon mesher", what);
+    };
+    // Every directed edge at most once (orientation consistent, edges manifold), no repeated
+    // triangle.
+    std::unordered_set<std::uint64_t> directed;
+    directed.reserve(3 * out_tris_.size());
+    std::vector<std::array<std::uint32_t, 3>> sorted;
+    sorted.reserve(out_tris_.size());
+    for (const auto& t : out_tris_) {
+      for (int i = 0; i < 3; ++i) {
+        if (!directed.insert(std::uint64_t{t[i]} << 32 | t[(i + 1) % 3]).second)
+          return fail("edge " + std::to_string(t[i]) + "-" + std::to_string(t[(i + 1) % 3]) + " used twice");
+      }
+      auto key = t;
+      std::sort(key.begin(), key.end());
+      sorted.push_back(key);
+    }
+    std::sort(sorted.begin(), sorted.end());
+    if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()) return fail("a triangle made twice");
+    // Output vertices: those used, in input id order.
+    std::vector<std::uint32_t> used;
+    used.reserve(3 * out_tris_.size());
+    for (const auto& t : out_tris_) used.insert(used.end(), t.begin(), t.end());
+    std::sort(used.begin(), used.end());
+    used.erase(std::unique(used.begin(), used.end()), used.end());
+    Mesh mesh;
+    std::vector<VertexRole> roles;
+    for (std::uint32_t v : used) {
+      mesh.positions.push_back(in_.mesh.positions[v]);
+      roles.push_back(keep_[v] == Keep::kSample   ? VertexRole::kSample
+                      : keep_[v] == Keep::kCorner ? VertexRole::kCorner
+                                                  : VertexRole::kGuard);
+    }
+    auto index_of = [&](std::uint32_t v) {
+      return static_cast<format::VertexIndex>(std::lower_bound(used.begin(), used.end(), v) - used.begin());
+    };
+    for (const auto& t : out_tris_) mesh.triangles.push_back({{index_of(t[0]), index_of(t[1]), index_of(t[2])}});
+    std::vector<format::Vec3f> plane(in_.patch_plane_normal.begin(), in_.patch_plane_normal.end());
+    PatchMesherInput phase_two{mesh.view(), out_patch_, roles, plane, true};
+    auto collapsed = mesh_patches(phase_two);
+    if (!collapsed) return collapsed.status();
+    if (collapsed->skipped_input_faces > 0) return fail("a vertex of the output would not be manifold");
+    PolygonMesherResult out;
+    out.stats = result_.stats;
+    out.mesh = std::move(collapsed).value();
+    for (auto& b : out.mesh.birth) b = used[b];
+    out.mesh.graph = result_.mesh.graph;
+    out.mesh.skipped_input_faces = result_.mesh.skipped_input_faces;
+    out.mesh.planar_patches = result_.mesh.planar_patches;
+    out.mesh.collapse_patches = 0;
+    return out;
+  }
+
+  const PatchMesherInput& in_;
+  MeshAdjacency adj_;
+  const format::Triangle* tris_;
+  std::size_t patch_count_ = 0;
+  std::vector<std::uint32_t> patch_offset_, patch_faces_;
+  std::vector<Loop> loops_;
+  std::vector<std::uint32_t> patch_loop_offset_;
+  std::vector<std::uint32_t> broken_patch_;
+  std::vector<std::uint32_t> degree_;
+  std::vector<Keep> keep_;
+  std::vector<std::vector<std::uint32_t>> interior_of_patch_;
+  std::vector<PatchMode> mode_;
+  std::unordered_set<std::uint64_t> edges_;
+  std::vector<std::array<std::uint32_t, 3>> out_tris_;
+  std::vector<std::uint32_t> out_patch_;
+  PolygonMesherResult result_;
+};
+
+}  // namespace
+
+format::Result<PolygonMesherResult> mesh_patch_polygons(const PatchMesherInput& input) {
+  const std::size_t vertices = input.mesh.positions.size();
+  if (input.face_patch.size() != input.mesh.triangles.size() || input.vertex_role.size() != vertices) {
+    return format::Status::error(format::Code::kProcessing, "polygon mesher",
+                                 "face_patch or vertex_role does not match the mesh");
+  }
+  auto adjacency = build_mesh_adjacency(input.mesh);
+  if (!adjacency) return adjacency.status();
+  PolygonMesher mesher(input, std::move(adjacency).value());
+  return mesher.run();
+}
+
+}  // namespace gaussmesh::stream

@@ -1,0 +1,47 @@
+// Shape approximation, polygon first (paper §5; docs/simplify.md, docs/out-of-core.md): the
+// per-patch mesher whose output is a pure function of the patch graph — kept vertices, patch
+// boundary loops, plane normals — so that the out-of-core stitch, which sees records and never
+// the input mesh, can reach the same triangles.
+//
+//   1. patch boundary loops are walked on the input (feature edges: patch borders and breaks);
+//   2. kept vertices = samples ∪ corners (role kCorner, feature degree 1 or >= 3, boundary
+//      turns > 30°) ∪ guards chosen by canonical rules on the chains between them (a closed
+//      loop keeps 3 vertices spread from its lowest id, a loop through one corner 2 more, and
+//      each of several chains joining the same two corners its middle vertex);
+//   3. each patch's loops, reduced to kept vertices, are triangulated in the plane of its
+//      Gaussian triangle (stream/polygon_triangulation.h), patches in id order, never making an
+//      edge that already exists; samples inside a patch are inserted into its triangulation;
+//   4. a patch that cannot be triangulated keeps every vertex of its loops (so do its
+//      neighbours along the shared chains), and the whole triangulation is redone; one that
+//      still fails keeps its input triangles (all its vertices);
+//   5. non-sample corners are removed by collapses along feature edges on the output-sized mesh
+//      (stream/patch_mesher.h, corners_only).
+#pragma once
+
+#include "format/status.h"
+#include "stream/patch_mesher.h"
+
+namespace gaussmesh::stream {
+
+struct PolygonMesherStats {
+  std::size_t rounds = 0;             // triangulation rounds (1 when no patch had to be densified)
+  std::size_t densified_patches = 0;  // patches that kept every vertex of their loops
+  std::size_t original_patches = 0;   // patches that kept their input triangles
+  std::size_t interior_samples = 0;   // samples inside a patch (inserted into its triangulation)
+  std::size_t guards = 0;             // guard vertices chosen by the chain rules
+};
+
+struct PolygonMesherResult {
+  PatchMesherResult mesh;  // planar_patches: triangulated in their plane; collapse_patches: 0
+  PolygonMesherStats stats;
+};
+
+// Same input and preconditions as mesh_patches (patch ids are expected to be the sampler's:
+// edge-connected, numbered by lowest face). Output: a manifold mesh with no degenerate or
+// duplicate faces whose vertices are input vertices; a closed manifold input gives a closed
+// manifold output of the same Euler characteristic. Memory: O(patch boundaries + output) on
+// top of the input's adjacency. Errors: kProcessing when the preconditions do not hold, or when
+// the result would not be a valid mesh (the caller may fall back to mesh_patches).
+format::Result<PolygonMesherResult> mesh_patch_polygons(const PatchMesherInput& input);
+
+}  // namespace gaussmesh::stream
