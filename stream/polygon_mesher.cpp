@@ -43,12 +43,15 @@ bool is_collapsed(const format::Triangle& t) { return t.v[0] == t.v[1] || t.v[1]
 
 class PolygonMesher {
  public:
-  PolygonMesher(const PatchMesherInput& input, MeshAdjacency adjacency)
-      : in_(input), adj_(std::move(adjacency)), tris_(input.mesh.triangles.data()) {}
+  // skip[f]: a face left out (collapsed, or a repeat of an earlier face's vertex set); the
+  // adjacency is the mesh's without them.
+  PolygonMesher(const PatchMesherInput& input, MeshAdjacency adjacency, std::vector<std::uint8_t> skip)
+      : in_(input), adj_(std::move(adjacency)), tris_(input.mesh.triangles.data()), skip_(std::move(skip)) {}
 
   format::Result<PolygonMesherResult> run() {
     group_faces();
     walk_loops();
+    count_boundary_loops();
     count_feature_degrees();
     choose_kept();
     mode_.assign(patch_count_, PatchMode::kReduced);
@@ -79,7 +82,7 @@ class PolygonMesher {
     patch_count_ = nf == 0 ? 0 : std::size_t{max_patch} + 1;
     patch_offset_.assign(patch_count_ + 1, 0);
     for (std::size_t f = 0; f < nf; ++f) {
-      if (is_collapsed(tris_[f])) {
+      if (skip_[f]) {
         ++result_.mesh.skipped_input_faces;
         continue;
       }
@@ -89,19 +92,19 @@ class PolygonMesher {
     patch_faces_.resize(patch_offset_[patch_count_]);
     std::vector<std::uint32_t> cursor(patch_offset_.begin(), patch_offset_.end() - 1);
     for (std::size_t f = 0; f < nf; ++f) {
-      if (!is_collapsed(tris_[f])) patch_faces_[cursor[in_.face_patch[f]]++] = static_cast<std::uint32_t>(f);
+      if (!skip_[f]) patch_faces_[cursor[in_.face_patch[f]]++] = static_cast<std::uint32_t>(f);
     }
   }
 
-  // The half-edge after (f, i) on the border of f's patch: turn around its end vertex through
-  // the patch's faces until a border half-edge leaves it.
-  std::pair<std::uint32_t, int> next_border(std::uint32_t f, int i) const {
+  // The half-edge after (f, i) on the border of f's patch (by_patch) or on a break edge (not
+  // by_patch): turn around its end vertex through the faces until such a half-edge leaves it.
+  std::pair<std::uint32_t, int> next_border(std::uint32_t f, int i, bool by_patch = true) const {
     const std::uint32_t b = vertex(f, (i + 1) % 3);
     std::uint32_t g = f;
     int j = (i + 1) % 3;
     const std::size_t bound = adj_.star_end(b) - adj_.star_begin(b) + 2;
     for (std::size_t step = 0; step < bound; ++step) {
-      if (is_border(g, j)) return {g, j};
+      if (by_patch ? is_border(g, j) : neighbor(g, j) == MeshAdjacency::kNoFace) return {g, j};
       const std::uint32_t h = neighbor(g, j);
       int k = 0;
       while (k < 3 && vertex(h, k) != b) ++k;
@@ -110,6 +113,26 @@ class PolygonMesher {
       j = k;
     }
     return {kNone, 0};
+  }
+
+  // Loops of break edges (holes of the input), for the report.
+  void count_boundary_loops() {
+    std::vector<std::uint8_t> visited(3 * in_.mesh.triangles.size(), 0);
+    for (std::uint32_t f0 : patch_faces_) {
+      for (int i0 = 0; i0 < 3; ++i0) {
+        if (visited[3 * std::size_t{f0} + i0] || neighbor(f0, i0) != MeshAdjacency::kNoFace) continue;
+        ++result_.mesh.graph.boundary_loops;
+        std::uint32_t f = f0;
+        int i = i0;
+        for (std::size_t guard = 0; guard < visited.size() && !visited[3 * std::size_t{f} + i]; ++guard) {
+          visited[3 * std::size_t{f} + i] = 1;
+          const auto [g, j] = next_border(f, i, false);
+          if (g == kNone) break;
+          f = g;
+          i = j;
+        }
+      }
+    }
   }
 
   void walk_loops() {
@@ -258,7 +281,11 @@ class PolygonMesher {
         chains.push_back(std::move(c));
       }
     }
-    std::sort(chains.begin(), chains.end(), [](const Chain& x, const Chain& y) { return x.path < y.path; });
+    // By end points, then path: chains joining the same two stops are neighbours.
+    std::sort(chains.begin(), chains.end(), [](const Chain& x, const Chain& y) {
+      const auto kx = std::pair(x.path.front(), x.path.back()), ky = std::pair(y.path.front(), y.path.back());
+      return kx != ky ? kx < ky : x.path < y.path;
+    });
     chains.erase(std::unique(chains.begin(), chains.end(), [](const Chain& x, const Chain& y) { return x.path == y.path; }),
                  chains.end());
     std::sort(closed_loop_min.begin(), closed_loop_min.end());
@@ -531,6 +558,7 @@ class PolygonMesher {
   const PatchMesherInput& in_;
   MeshAdjacency adj_;
   const format::Triangle* tris_;
+  std::vector<std::uint8_t> skip_;
   std::size_t patch_count_ = 0;
   std::vector<std::uint32_t> patch_offset_, patch_faces_;
   std::vector<Loop> loops_;
@@ -554,9 +582,39 @@ format::Result<PolygonMesherResult> mesh_patch_polygons(const PatchMesherInput& 
     return format::Status::error(format::Code::kProcessing, "polygon mesher",
                                  "face_patch or vertex_role does not match the mesh");
   }
-  auto adjacency = build_mesh_adjacency(input.mesh);
+  // Faces the mesher leaves out, as the collapse mesher does: repeated indices, and repeats of an
+  // earlier face's vertex set (which would make its edges non-manifold).
+  const auto& tris = input.mesh.triangles;
+  std::vector<std::uint8_t> skip(tris.size(), 0);
+  std::vector<std::pair<std::array<std::uint32_t, 3>, std::uint32_t>> keys;
+  keys.reserve(tris.size());
+  for (std::uint32_t f = 0; f < tris.size(); ++f) {
+    if (is_collapsed(tris[f])) {
+      skip[f] = 1;
+      continue;
+    }
+    std::array<std::uint32_t, 3> key{tris[f].v[0], tris[f].v[1], tris[f].v[2]};
+    std::sort(key.begin(), key.end());
+    keys.emplace_back(key, f);
+  }
+  std::sort(keys.begin(), keys.end());
+  bool any_repeat = false;
+  for (std::size_t k = 1; k < keys.size(); ++k) {
+    if (keys[k].first == keys[k - 1].first) skip[keys[k].second] = any_repeat = 1;
+  }
+  keys = {};
+  format::Result<MeshAdjacency> adjacency = format::Status();
+  if (any_repeat) {
+    std::vector<format::Triangle> kept(tris.begin(), tris.end());
+    for (std::size_t f = 0; f < kept.size(); ++f) {
+      if (skip[f]) kept[f] = {{tris[f].v[0], tris[f].v[0], tris[f].v[0]}};  // collapsed: in no star
+    }
+    adjacency = build_mesh_adjacency({input.mesh.positions, kept});
+  } else {
+    adjacency = build_mesh_adjacency(input.mesh);
+  }
   if (!adjacency) return adjacency.status();
-  PolygonMesher mesher(input, std::move(adjacency).value());
+  PolygonMesher mesher(input, std::move(adjacency).value(), std::move(skip));
   return mesher.run();
 }
 

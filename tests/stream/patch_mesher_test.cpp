@@ -1,6 +1,9 @@
-// Tests of the per-patch mesher: topology is kept, samples survive, no degenerate or duplicate
-// faces, on tiny meshes built in code with a stand-in labelling (octant of the face normal).
+// Tests of the per-patch meshers — the collapse mesher (mesh_patches) and the polygon-first
+// mesher (mesh_patch_polygons) run the same tests: topology is kept, samples survive, no
+// degenerate or duplicate faces, on tiny meshes built in code with a stand-in labelling
+// (octant of the face normal).
 #include "stream/patch_mesher.h"
+#include "stream/polygon_mesher.h"
 
 #include <gtest/gtest.h>
 
@@ -81,6 +84,25 @@ Labelled octant_labels(const Mesh& m) {
     auto d = [&](const std::array<double, 3>& e) { return n[0] * e[0] + n[1] * e[1] + n[2] * e[2] > 0; };
     out.face_patch.push_back(std::uint32_t(d(a)) | std::uint32_t(d(b)) << 1 | std::uint32_t(d(c)) << 2);
   }
+  // Patches are edge-connected, as the sampler's are: each octant's components get ids of their
+  // own, numbered by lowest face.
+  std::map<std::pair<format::VertexIndex, format::VertexIndex>, std::vector<std::uint32_t>> faces_of;
+  for (std::uint32_t f = 0; f < m.triangles.size(); ++f) {
+    for (int k = 0; k < 3; ++k) faces_of[std::minmax(m.triangles[f].v[k], m.triangles[f].v[(k + 1) % 3])].push_back(f);
+  }
+  std::vector<std::uint32_t> parent(m.triangles.size());
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto find = [&](std::uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (auto& [e, fs] : faces_of) {
+    if (fs.size() == 2 && out.face_patch[fs[0]] == out.face_patch[fs[1]]) {
+      const std::uint32_t a = find(fs[0]), b = find(fs[1]);
+      parent[std::max(a, b)] = std::min(a, b);
+    }
+  }
+  for (std::uint32_t f = 0; f < m.triangles.size(); ++f) out.face_patch[f] = find(f);
   // Count feature edges per vertex.
   std::map<std::pair<format::VertexIndex, format::VertexIndex>, std::vector<std::uint32_t>> edges;
   for (size_t f = 0; f < m.triangles.size(); ++f) {
@@ -160,10 +182,22 @@ void expect_valid_approximation(const Mesh& input, const Labelled& labels, const
   EXPECT_LT(r.mesh.triangles.size(), input.triangles.size());
 }
 
-TEST(PatchMesher, ClosedSphereStaysClosedGenusZero) {
+// Runs the mesher the test is instantiated for.
+class Meshers : public ::testing::TestWithParam<std::string> {
+ protected:
+  format::Result<PatchMesherResult> run(const PatchMesherInput& input) const {
+    if (GetParam() == "collapse") return mesh_patches(input);
+    auto result = mesh_patch_polygons(input);
+    if (!result) return result.status();
+    return std::move(result->mesh);
+  }
+  bool is_polygon() const { return GetParam() == "polygon"; }
+};
+
+TEST_P(Meshers, ClosedSphereStaysClosedGenusZero) {
   Mesh sphere = uv_sphere(40, 64);
   Labelled labels = octant_labels(sphere);
-  auto result = mesh_patches({sphere.view(), labels.face_patch, labels.role});
+  auto result = run({sphere.view(), labels.face_patch, labels.role});
   ASSERT_TRUE(result.is_ok()) << result.status().to_string();
   expect_valid_approximation(sphere, labels, *result);
   EXPECT_EQ(result->skipped_input_faces, 0u);
@@ -171,35 +205,36 @@ TEST(PatchMesher, ClosedSphereStaysClosedGenusZero) {
   // Patches are triangulated in their plane; the collapse triangulation is the exception.
   EXPECT_GT(result->planar_patches, 0u);
   EXPECT_LE(result->collapse_patches, result->planar_patches / 10);
+  if (is_polygon()) EXPECT_EQ(result->collapse_patches, 0u);
 }
 
-TEST(PatchMesher, TorusKeepsGenusOne) {
+TEST_P(Meshers, TorusKeepsGenusOne) {
   Mesh torus = torus_grid(60, 30, 1.0, 0.35);
   Labelled labels = octant_labels(torus);
-  auto result = mesh_patches({torus.view(), labels.face_patch, labels.role});
+  auto result = run({torus.view(), labels.face_patch, labels.role});
   ASSERT_TRUE(result.is_ok()) << result.status().to_string();
   expect_valid_approximation(torus, labels, *result);
   EXPECT_EQ(topology(result->mesh).euler, 0);
 }
 
-TEST(PatchMesher, HoleWithFeatureVerticesSurvives) {
+TEST_P(Meshers, HoleWithFeatureVerticesSurvives) {
   Mesh open = uv_sphere(40, 64, 6);
   ASSERT_GT(topology(open).boundary_edges, 0u);
   Labelled labels = octant_labels(open);
-  auto result = mesh_patches({open.view(), labels.face_patch, labels.role});
+  auto result = run({open.view(), labels.face_patch, labels.role});
   ASSERT_TRUE(result.is_ok()) << result.status().to_string();
   expect_valid_approximation(open, labels, *result);
   EXPECT_EQ(result->graph.boundary_loops, 1u);
   EXPECT_GE(topology(result->mesh).boundary_edges, 3u);
 }
 
-TEST(PatchMesher, OnePatchWithoutCornersKeepsAGuardTriangle) {
+TEST_P(Meshers, OnePatchWithoutCornersKeepsAGuardTriangle) {
   // Every face in one patch and no samples: the only feature loop is the hole's boundary,
   // which must keep three vertices rather than vanish.
   Mesh open = uv_sphere(20, 24, 3);
   std::vector<std::uint32_t> one_patch(open.triangles.size(), 7);
   std::vector<VertexRole> none(open.positions.size(), VertexRole::kNone);
-  auto result = mesh_patches({open.view(), one_patch, none});
+  auto result = run({open.view(), one_patch, none});
   ASSERT_TRUE(result.is_ok()) << result.status().to_string();
   Topology after = topology(result->mesh);
   EXPECT_EQ(after.euler, topology(open).euler);
@@ -208,7 +243,7 @@ TEST(PatchMesher, OnePatchWithoutCornersKeepsAGuardTriangle) {
   EXPECT_GE(result->kept_chain_vertices, 3u);
 }
 
-TEST(PatchMesher, FlatSquareKeepsItsFourCorners) {
+TEST_P(Meshers, FlatSquareKeepsItsFourCorners) {
   // One patch, no samples: only the boundary's turns hold the shape (a square, not a triangle).
   Mesh square;
   const int n = 20;
@@ -224,7 +259,7 @@ TEST(PatchMesher, FlatSquareKeepsItsFourCorners) {
   }
   std::vector<std::uint32_t> one_patch(square.triangles.size(), 0);
   std::vector<VertexRole> none(square.positions.size(), VertexRole::kNone);
-  auto result = mesh_patches({square.view(), one_patch, none});
+  auto result = run({square.view(), one_patch, none});
   ASSERT_TRUE(result.is_ok()) << result.status().to_string();
   EXPECT_EQ(result->mesh.positions.size(), 4u);
   EXPECT_EQ(result->mesh.triangles.size(), 2u);
@@ -233,25 +268,28 @@ TEST(PatchMesher, FlatSquareKeepsItsFourCorners) {
   }
 }
 
-TEST(PatchMesher, RejectsMismatchedInputs) {
+TEST_P(Meshers, RejectsMismatchedInputs) {
   Mesh sphere = uv_sphere(8, 8);
   std::vector<std::uint32_t> too_short(3, 0);
   std::vector<VertexRole> roles(sphere.positions.size(), VertexRole::kNone);
-  auto result = mesh_patches({sphere.view(), too_short, roles});
+  auto result = run({sphere.view(), too_short, roles});
   ASSERT_FALSE(result.is_ok());
   EXPECT_EQ(result.status().code(), format::Code::kProcessing);
 }
 
-TEST(PatchMesher, DegenerateAndNonManifoldFacesAreSkippedNotFatal) {
+TEST_P(Meshers, DegenerateAndNonManifoldFacesAreSkippedNotFatal) {
   Mesh sphere = uv_sphere(12, 16);
   sphere.triangles.push_back({{1, 1, 2}});          // repeated index
   sphere.triangles.push_back(sphere.triangles[5]);  // duplicate: third face on two edges
   Labelled labels = octant_labels(sphere);
-  auto result = mesh_patches({sphere.view(), labels.face_patch, labels.role});
+  auto result = run({sphere.view(), labels.face_patch, labels.role});
   ASSERT_TRUE(result.is_ok()) << result.status().to_string();
   EXPECT_EQ(result->skipped_input_faces, 2u);
   EXPECT_EQ(topology(result->mesh).non_manifold_edges, 0u);
 }
+
+INSTANTIATE_TEST_SUITE_P(PatchMesher, Meshers, ::testing::Values("collapse", "polygon"),
+                         [](const auto& info) { return info.param; });
 
 }  // namespace
 }  // namespace gaussmesh::stream
