@@ -541,6 +541,16 @@ void evaluate_vertices(format::MeshView mesh, const MeshAdjacency& adjacency, co
   evaluate_many(in, end - begin, [begin](std::size_t k) { return static_cast<std::uint32_t>(begin + k); }, out);
 }
 
+void evaluate_vertex_list(format::MeshView mesh, const MeshAdjacency& adjacency, const FaceNormals& normals,
+                          const std::vector<std::uint32_t>& labels, const std::vector<std::uint8_t>& feature,
+                          const GaussSphere& gauss, bool run_exact_test, std::span<const std::uint32_t> vertices,
+                          std::vector<VertexRecord>& out) {
+  if (vertices.empty()) return;
+  const VertexInputs in{mesh, adjacency, normals, labels.data(), feature.data(), gauss, run_exact_test};
+  const std::uint32_t* list = vertices.data();
+  evaluate_many(in, vertices.size(), [list](std::size_t k) { return list[k]; }, out);
+}
+
 SamplerWorkspace::SamplerWorkspace() = default;
 SamplerWorkspace::~SamplerWorkspace() = default;
 

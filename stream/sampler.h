@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include "format/mesh_types.h"
@@ -107,6 +108,12 @@ void evaluate_vertices(format::MeshView mesh, const MeshAdjacency& adjacency, co
                        const std::vector<std::uint32_t>& labels, const std::vector<std::uint8_t>& feature,
                        const GaussSphere& gauss, bool run_exact_test, std::uint32_t begin, std::uint32_t end,
                        std::vector<VertexRecord>& out);
+
+// The same for an explicit list of vertices (a chunk's owned vertices), appended in list order.
+void evaluate_vertex_list(format::MeshView mesh, const MeshAdjacency& adjacency, const FaceNormals& normals,
+                          const std::vector<std::uint32_t>& labels, const std::vector<std::uint8_t>& feature,
+                          const GaussSphere& gauss, bool run_exact_test, std::span<const std::uint32_t> vertices,
+                          std::vector<VertexRecord>& out);
 
 // How many vertex rings around an owned vertex a chunk must hold for every decision of steps
 // 1 and 2 about that vertex to equal the whole mesh's (DESIGN §2): its star, one ring for the
