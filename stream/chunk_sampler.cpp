@@ -1,0 +1,151 @@
+// Pass 2 of the out-of-core pipeline for sampling: per-chunk steps 1-2 of the sampler for owned
+// vertices, chunks in parallel. See chunk_sampler.h.
+#include "stream/chunk_sampler.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cassert>
+#include <chrono>
+#include <mutex>
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+namespace gaussmesh::stream {
+
+void ChunkSamplingStats::add(const ChunkSamplingStats& o) {
+  owned_vertices += o.owned_vertices;
+  owned_faces += o.owned_faces;
+  chunk_faces += o.chunk_faces;
+  degenerate_faces += o.degenerate_faces;
+  unlabelled_faces += o.unlabelled_faces;
+  candidates_initial += o.candidates_initial;
+  exact_samples += o.exact_samples;
+}
+
+format::Status sample_chunk(const ChunkMesh& chunk, const GaussSphere& gauss, const SamplerOptions& options,
+                            ChunkSamplerWorkspace& ws, std::vector<GlobalSample>& samples, ChunkSamplingStats& stats) {
+  assert(options.sample_test == SampleTest::kExact);
+  const format::MeshView mesh = chunk.view();
+  GM_RETURN_IF_ERROR(build_mesh_adjacency(mesh, ws.adjacency));
+  compute_face_normals(mesh, ws.adjacency, options.smooth_iterations, ws.normals, ws.area, ws.smoothed);
+  compute_face_labels(ws.normals, gauss, ws.labels);
+  compute_feature_edges(ws.adjacency, ws.labels, ws.feature);
+  ws.owned.clear();
+  for (std::uint32_t v = 0; v < chunk.owned_vertex.size(); ++v) {
+    if (chunk.owned_vertex[v]) ws.owned.push_back(v);
+  }
+  ws.records.clear();
+  evaluate_vertex_list(mesh, ws.adjacency, ws.normals, ws.labels, ws.feature, gauss, true, ws.owned, ws.records);
+  ChunkSamplingStats s;
+  s.owned_vertices = ws.owned.size();
+  s.chunk_faces = chunk.triangles.size();
+  for (std::size_t f = 0; f < chunk.triangles.size(); ++f) {
+    if (!chunk.owned_face[f]) continue;
+    ++s.owned_faces;
+    s.degenerate_faces += ws.normals.degenerate[f];
+    s.unlabelled_faces += ws.labels[f] == kNoLabel;
+  }
+  for (const VertexRecord& r : ws.records) {
+    s.candidates_initial += r.is_candidate;
+    if (!r.is_exact_sample) continue;
+    ++s.exact_samples;
+    samples.push_back({chunk.global_vertex[r.vertex], chunk.positions[r.vertex], r.exact_gauss_vertex,
+                       r.exact_characteristic});
+  }
+  stats.add(s);
+  return format::Status();
+}
+
+format::Result<OutOfCoreSampling> sample_out_of_core(const std::string& input_path, const format::ReadOptions& read,
+                                                     const OutOfCoreSamplingOptions& options) {
+  if (options.sampler.sample_test != SampleTest::kExact) {
+    return format::Status::error(format::Code::kUsage, "sample",
+                                 "out of core (--memory) runs the exact sample test only: the paper test's "
+                                 "patch-level filters need the cross-chunk stitch, which is not built yet");
+  }
+  if (options.spheres.empty() || options.threads == 0) {
+    return format::Status::error(format::Code::kUsage, "sample", "no orientation, or 0 threads");
+  }
+  std::vector<GaussSphere> spheres;
+  for (const auto& o : options.spheres) {
+    auto g = GaussSphere::create(o);
+    if (!g) return g.status();
+    spheres.push_back(std::move(g).value());
+  }
+  PartitionOptions partition_options = options.partition;
+  partition_options.rings = required_overlap_rings(options.sampler.smooth_iterations);
+  partition_options.threads = options.threads;
+  auto partition = partition_mesh(input_path, read, partition_options);
+  if (!partition) return partition.status();
+
+  OutOfCoreSampling out;
+  out.vertices = partition->vertices;
+  out.faces = partition->faces;
+  out.chunks = partition->chunks.size();
+  out.seconds_ingest = partition->seconds_ingest;
+  out.seconds_partition = partition->seconds_partition;
+  const auto start = std::chrono::steady_clock::now();
+
+  // Per chunk and orientation: the chunk's samples and counts (output-sized).
+  const std::size_t nc = partition->chunks.size(), no = spheres.size();
+  std::vector<std::vector<GlobalSample>> samples(nc * no);
+  std::vector<ChunkSamplingStats> stats(nc * no);
+  std::vector<format::Status> errors(nc);
+  std::atomic<bool> failed{false};
+  std::atomic<std::size_t> done{0};
+  std::mutex progress_mutex;
+  tbb::enumerable_thread_specific<ChunkSamplerWorkspace> workspaces;
+  tbb::task_arena arena(static_cast<int>(options.threads));
+  arena.execute([&] {
+    tbb::parallel_for(std::size_t{0}, nc, [&](std::size_t c) {
+      if (failed) return;
+      auto chunk = load_chunk(partition->chunks[c]);
+      if (!chunk) {
+        errors[c] = chunk.status();
+        failed = true;
+        return;
+      }
+      ChunkSamplerWorkspace& ws = workspaces.local();
+      for (std::size_t k = 0; k < no; ++k) {
+        format::Status st = sample_chunk(*chunk, spheres[k], options.sampler, ws, samples[c * no + k], stats[c * no + k]);
+        if (!st) {
+          errors[c] = st;
+          failed = true;
+          return;
+        }
+      }
+      const std::size_t n = ++done;
+      if (options.progress) {
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        options.progress(n, nc, partition->faces);
+      }
+    });
+  });
+  for (const format::Status& e : errors) {
+    if (!e) return e;
+  }
+  out.bytes_spilled = partition->bytes_spilled;
+  partition->remove_temp();
+
+  // The orientation with the fewest samples, then its samples in vertex order.
+  for (std::size_t k = 0; k < no; ++k) {
+    std::size_t n = 0;
+    for (std::size_t c = 0; c < nc; ++c) n += samples[c * no + k].size();
+    out.samples_per_orientation.push_back(n);
+    if (n < out.samples_per_orientation[out.chosen]) out.chosen = k;
+  }
+  for (std::size_t c = 0; c < nc; ++c) {
+    auto& part = samples[c * no + out.chosen];
+    out.samples.insert(out.samples.end(), part.begin(), part.end());
+    out.stats.add(stats[c * no + out.chosen]);
+  }
+  std::sort(out.samples.begin(), out.samples.end(),
+            [](const GlobalSample& a, const GlobalSample& b) { return a.vertex < b.vertex; });
+  out.gauss.emplace(std::move(spheres[out.chosen]));
+  out.seconds_sample = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
+}  // namespace gaussmesh::stream

@@ -1,0 +1,91 @@
+// Pass 2 of the out-of-core pipeline for sampling (DESIGN §2, docs/out-of-core.md): every chunk
+// of a Partition is loaded, sampled for the vertices it owns with the sampler's local functions
+// (stream/sampler.h, steps 1-2), and released, chunks in parallel (oneTBB) in bounded memory.
+// The exact sample test is a per-vertex decision, so the samples equal the in-core run's for any
+// chunking (the locality contract, tests/stream/locality_test.cpp). The patch-level filters —
+// the untriangulatable merge and the paper test's noisy filter — need the stitch of patch
+// pieces across chunks, which is not built yet: the paper test is in core only.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "format/mesh_reader.h"
+#include "format/status.h"
+#include "stream/chunk_partition.h"
+#include "stream/gauss_sphere.h"
+#include "stream/sampler.h"
+
+namespace gaussmesh::stream {
+
+// A sample with its global input vertex id and a copy of its position (no mesh is kept).
+struct GlobalSample {
+  std::uint32_t vertex = 0;
+  format::Vec3f position;
+  std::uint32_t gauss_vertex = kNoGaussVertex;
+  Characteristic characteristic = Characteristic::kNone;
+};
+
+// Counts over the vertices and faces a chunk owns (so they add up over chunks to the whole
+// mesh's).
+struct ChunkSamplingStats {
+  std::size_t owned_vertices = 0, owned_faces = 0, chunk_faces = 0;
+  std::size_t degenerate_faces = 0, unlabelled_faces = 0;
+  std::size_t candidates_initial = 0, exact_samples = 0;
+  void add(const ChunkSamplingStats& o);
+};
+
+// Buffers reused across the chunks one thread samples.
+struct ChunkSamplerWorkspace {
+  MeshAdjacency adjacency;
+  FaceNormals normals;
+  std::vector<float> area;
+  std::vector<format::Vec3f> smoothed;
+  std::vector<std::uint32_t> labels, owned;
+  std::vector<std::uint8_t> feature;
+  std::vector<VertexRecord> records;
+};
+
+// Samples one chunk for the exact test: appends the chunk's owned exact samples to `samples`
+// (ascending global id) and adds its counts to `stats`. Precondition: the chunk holds
+// required_overlap_rings(options.smooth_iterations) rings around its owned vertices, and
+// options.sample_test is kExact (asserted). Errors: those of build_mesh_adjacency.
+format::Status sample_chunk(const ChunkMesh& chunk, const GaussSphere& gauss, const SamplerOptions& options,
+                            ChunkSamplerWorkspace& workspace, std::vector<GlobalSample>& samples,
+                            ChunkSamplingStats& stats);
+
+struct OutOfCoreSamplingOptions {
+  PartitionOptions partition;  // memory, tmp dir; rings and threads are set from the fields below
+  std::uint32_t threads = 1;   // chunks in flight (--threads)
+  std::vector<GaussSphereOptions> spheres = {GaussSphereOptions{}};  // orientations to try
+  SamplerOptions sampler;
+  // Called after each chunk of pass 2 with (chunks done, chunks, input faces), from one thread
+  // at a time.
+  std::function<void(std::size_t, std::size_t, std::uint64_t)> progress;
+};
+
+struct OutOfCoreSampling {
+  std::optional<GaussSphere> gauss;  // the chosen orientation's sphere
+  std::size_t chosen = 0;            // index into spheres
+  std::vector<std::size_t> samples_per_orientation;
+  std::vector<GlobalSample> samples;  // of the chosen orientation, ascending vertex id
+  ChunkSamplingStats stats;           // of the chosen orientation
+  std::uint64_t vertices = 0, faces = 0;
+  std::size_t chunks = 0;
+  std::uint64_t bytes_spilled = 0;
+  double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0;
+};
+
+// Passes 0-2 for `gaussmesh sample --memory`: partition input_path ("-": stdin), then sample
+// every chunk once for all orientations, keeping the one with the fewest samples (ties: the
+// earliest). Memory: the partition's budget; pass 2 holds `threads` chunks (the partition sizes
+// them for it) plus the samples. Errors: kUsage for the paper test or bad G options; the
+// partition's (bad input, temp files, resources); kBadInput for a damaged chunk file. The
+// temporary directory is gone when this returns.
+format::Result<OutOfCoreSampling> sample_out_of_core(const std::string& input_path, const format::ReadOptions& read,
+                                                     const OutOfCoreSamplingOptions& options);
+
+}  // namespace gaussmesh::stream
