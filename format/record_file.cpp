@@ -51,24 +51,51 @@ bool pread_all(int fd, void* out, std::size_t size, std::uint64_t offset) {
 
 // ---------------------------------------------------------------------------------------------
 
+Result<std::unique_ptr<RecordCompressor>> RecordCompressor::create(int level) {
+  std::unique_ptr<RecordCompressor> compressor(new RecordCompressor());
+  ZSTD_CCtx* cctx = ZSTD_createCCtx();
+  if (cctx == nullptr) return Status::error(Code::kResources, "", "cannot create a zstd context");
+  compressor->cctx_ = cctx;
+  ZSTD_CCtx_setParameter(cctx, ZSTD_c_compressionLevel, level);
+  ZSTD_CCtx_setParameter(cctx, ZSTD_c_checksumFlag, 1);
+  return compressor;
+}
+
+RecordCompressor::~RecordCompressor() { ZSTD_freeCCtx(static_cast<ZSTD_CCtx*>(cctx_)); }
+
+// ---------------------------------------------------------------------------------------------
+
 Result<std::unique_ptr<RecordWriter>> RecordWriter::create(const std::string& path, std::uint32_t kind,
                                                            std::uint32_t record_size, int level,
                                                            std::size_t frame_bytes) {
+  RecordWriterOptions options;
+  options.level = level;
+  options.frame_bytes = frame_bytes;
+  return create(path, kind, record_size, options);
+}
+
+Result<std::unique_ptr<RecordWriter>> RecordWriter::create(const std::string& path, std::uint32_t kind,
+                                                           std::uint32_t record_size,
+                                                           const RecordWriterOptions& options) {
   if (record_size == 0 || record_size > kMaxRecordFrameBytes) {
     return Status::error(Code::kProcessing, path, "record size " + std::to_string(record_size) + " out of range");
   }
   std::unique_ptr<RecordWriter> writer(new RecordWriter());
   writer->path_ = path;
   writer->record_size_ = record_size;
-  std::size_t limit = std::min(std::max<std::size_t>(frame_bytes, record_size), kMaxRecordFrameBytes);
+  writer->shared_ = options.shared;
+  writer->keep_open_ = options.keep_open;
+  std::size_t limit = std::min(std::max<std::size_t>(options.frame_bytes, record_size), kMaxRecordFrameBytes);
   writer->frame_limit_ = limit - limit % record_size;
   writer->fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
   if (writer->fd_ < 0) return Status::error(Code::kOutput, path, "cannot create record file: " + errno_text());
-  ZSTD_CCtx* cctx = ZSTD_createCCtx();
-  if (cctx == nullptr) return Status::error(Code::kResources, path, "cannot create a zstd context");
-  writer->cctx_ = cctx;
-  ZSTD_CCtx_setParameter(cctx, ZSTD_c_compressionLevel, level);
-  ZSTD_CCtx_setParameter(cctx, ZSTD_c_checksumFlag, 1);
+  if (writer->shared_ == nullptr) {
+    ZSTD_CCtx* cctx = ZSTD_createCCtx();
+    if (cctx == nullptr) return Status::error(Code::kResources, path, "cannot create a zstd context");
+    writer->cctx_ = cctx;
+    ZSTD_CCtx_setParameter(cctx, ZSTD_c_compressionLevel, options.level);
+    ZSTD_CCtx_setParameter(cctx, ZSTD_c_checksumFlag, 1);
+  }
   writer->pending_.reserve(writer->frame_limit_);
   std::byte header[kHeaderBytes] = {};
   std::memcpy(header, kMagic, sizeof kMagic);
@@ -76,12 +103,34 @@ Result<std::unique_ptr<RecordWriter>> RecordWriter::create(const std::string& pa
   put<std::uint32_t>(header + 12, kind);
   put<std::uint32_t>(header + 16, record_size);
   GM_RETURN_IF_ERROR(writer->write_raw(header, sizeof header));
+  if (!writer->keep_open_) GM_RETURN_IF_ERROR(writer->close_file());
   return writer;
 }
 
 RecordWriter::~RecordWriter() {
   if (fd_ >= 0) ::close(fd_);
   ZSTD_freeCCtx(static_cast<ZSTD_CCtx*>(cctx_));
+}
+
+Status RecordWriter::reopen() {
+  if (fd_ >= 0) return {};
+  fd_ = ::open(path_.c_str(), O_WRONLY | O_APPEND | O_CLOEXEC);
+  if (fd_ < 0) {
+    failed_ = true;
+    return Status::error(Code::kOutput, path_, "cannot reopen record file: " + errno_text());
+  }
+  return {};
+}
+
+Status RecordWriter::close_file() {
+  if (fd_ < 0) return {};
+  const int fd = fd_;
+  fd_ = -1;
+  if (::close(fd) != 0) {
+    failed_ = true;
+    return Status::error(Code::kOutput, path_, "close failed: " + errno_text());
+  }
+  return {};
 }
 
 Status RecordWriter::write_raw(const void* data, std::size_t size) {
@@ -100,19 +149,28 @@ Status RecordWriter::write_raw(const void* data, std::size_t size) {
   return {};
 }
 
-Status RecordWriter::flush_frame() {
-  if (pending_.empty()) return {};
-  compressed_.resize(kFrameHeaderBytes + ZSTD_compressBound(pending_.size()));
-  std::size_t size = ZSTD_compress2(static_cast<ZSTD_CCtx*>(cctx_), compressed_.data() + kFrameHeaderBytes,
-                                    compressed_.size() - kFrameHeaderBytes, pending_.data(), pending_.size());
+Status RecordWriter::write_frame(std::span<const std::byte> plain) {
+  ZSTD_CCtx* cctx = static_cast<ZSTD_CCtx*>(shared_ != nullptr ? shared_->cctx_ : cctx_);
+  std::vector<std::byte>& compressed = shared_ != nullptr ? shared_->buffer_ : compressed_;
+  compressed.resize(kFrameHeaderBytes + ZSTD_compressBound(plain.size()));
+  std::size_t size = ZSTD_compress2(cctx, compressed.data() + kFrameHeaderBytes, compressed.size() - kFrameHeaderBytes,
+                                    plain.data(), plain.size());
   if (ZSTD_isError(size)) {
     failed_ = true;
     return Status::error(Code::kProcessing, path_, std::string("zstd: ") + ZSTD_getErrorName(size));
   }
-  put<std::uint32_t>(compressed_.data(), static_cast<std::uint32_t>(size));
-  put<std::uint32_t>(compressed_.data() + 4, static_cast<std::uint32_t>(pending_.size()));
+  put<std::uint32_t>(compressed.data(), static_cast<std::uint32_t>(size));
+  put<std::uint32_t>(compressed.data() + 4, static_cast<std::uint32_t>(plain.size()));
   frame_offsets_.push_back(file_bytes_);
-  GM_RETURN_IF_ERROR(write_raw(compressed_.data(), kFrameHeaderBytes + size));
+  GM_RETURN_IF_ERROR(reopen());
+  GM_RETURN_IF_ERROR(write_raw(compressed.data(), kFrameHeaderBytes + size));
+  if (!keep_open_) GM_RETURN_IF_ERROR(close_file());
+  return {};
+}
+
+Status RecordWriter::flush_frame() {
+  if (pending_.empty()) return {};
+  GM_RETURN_IF_ERROR(write_frame(pending_));
   pending_.clear();
   return {};
 }
@@ -124,6 +182,12 @@ Status RecordWriter::append(std::span<const std::byte> bytes) {
   }
   records_ += bytes.size() / record_size_;
   while (!bytes.empty()) {
+    if (pending_.empty() && bytes.size() >= frame_limit_) {
+      // A whole frame: compressed straight from the caller's bytes, never copied.
+      GM_RETURN_IF_ERROR(write_frame(bytes.first(frame_limit_)));
+      bytes = bytes.subspan(frame_limit_);
+      continue;
+    }
     std::size_t room = frame_limit_ - pending_.size();
     std::size_t take = std::min(room, bytes.size());
     pending_.insert(pending_.end(), bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(take));
@@ -143,13 +207,9 @@ Status RecordWriter::finish() {
   put<std::uint32_t>(footer + 8, static_cast<std::uint32_t>(frame_offsets_.size()));
   put<std::uint32_t>(footer + 12, 0);
   std::memcpy(footer + 16, kSeekMagic, sizeof kSeekMagic);
+  GM_RETURN_IF_ERROR(reopen());
   GM_RETURN_IF_ERROR(write_raw(table.data(), table.size()));
-  if (::close(fd_) != 0) {
-    fd_ = -1;
-    failed_ = true;
-    return Status::error(Code::kOutput, path_, "close failed: " + errno_text());
-  }
-  fd_ = -1;
+  GM_RETURN_IF_ERROR(close_file());
   finished_ = true;
   std::vector<std::byte>().swap(pending_);
   std::vector<std::byte>().swap(compressed_);

@@ -20,6 +20,33 @@ inline constexpr std::uint32_t kRecordFileVersion = 1;
 // Largest uncompressed frame; writers cut frames at whole records below it.
 inline constexpr std::size_t kMaxRecordFrameBytes = std::size_t{4} << 20;
 
+// A zstd compression context and its output buffer, shared by many RecordWriters so that
+// hundreds of writers open at once cost only their pending frames (a context is ~1 MB).
+// Not thread-safe: the writers sharing one are used from one thread at a time.
+class RecordCompressor {
+ public:
+  // level is zstd's (1 = fast; negative levels are faster still).
+  static Result<std::unique_ptr<RecordCompressor>> create(int level = 1);
+  ~RecordCompressor();
+  RecordCompressor(const RecordCompressor&) = delete;
+  RecordCompressor& operator=(const RecordCompressor&) = delete;
+
+ private:
+  friend class RecordWriter;
+  RecordCompressor() = default;
+  void* cctx_ = nullptr;  // ZSTD_CCtx
+  std::vector<std::byte> buffer_;
+};
+
+struct RecordWriterOptions {
+  int level = 1;                               // zstd level of the writer's own context
+  std::size_t frame_bytes = std::size_t{1} << 20;  // frames are cut at whole records below this
+  RecordCompressor* shared = nullptr;          // if set: used instead of an own context (not owned)
+  // false: no descriptor is held between frames; the file is reopened (append) for each frame
+  // and closed after it, so thousands of writers fit under the open-file limit.
+  bool keep_open = true;
+};
+
 class RecordWriter {
  public:
   // Creates path (truncating it). kind names what the records are (readers check it);
@@ -27,12 +54,19 @@ class RecordWriter {
   static Result<std::unique_ptr<RecordWriter>> create(const std::string& path, std::uint32_t kind,
                                                       std::uint32_t record_size, int level = 1,
                                                       std::size_t frame_bytes = std::size_t{1} << 20);
+  // The same with every option; memory per writer is one pending frame (frame_bytes) plus, without
+  // options.shared, a zstd context and a compressed-frame buffer.
+  static Result<std::unique_ptr<RecordWriter>> create(const std::string& path, std::uint32_t kind,
+                                                      std::uint32_t record_size, const RecordWriterOptions& options);
   ~RecordWriter();
   RecordWriter(const RecordWriter&) = delete;
   RecordWriter& operator=(const RecordWriter&) = delete;
 
   // Appends whole records: bytes.size() must be a multiple of record_size (kProcessing if not).
+  // Whole frames handed over when nothing is pending are compressed in place, never copied.
   Status append(std::span<const std::byte> bytes);
+  // Bytes per frame, a whole number of records (options.frame_bytes rounded down).
+  std::size_t frame_limit() const { return frame_limit_; }
   // Writes the last frame and the seek table, and closes the file. Required for a valid file.
   Status finish();
   std::uint64_t records() const { return records_; }
@@ -41,13 +75,18 @@ class RecordWriter {
  private:
   RecordWriter() = default;
   Status flush_frame();
+  Status write_frame(std::span<const std::byte> plain);
   Status write_raw(const void* data, std::size_t size);
+  Status reopen();
+  Status close_file();
 
   int fd_ = -1;
   std::string path_;
   std::uint32_t record_size_ = 0;
   std::size_t frame_limit_ = 0;
-  void* cctx_ = nullptr;  // ZSTD_CCtx
+  void* cctx_ = nullptr;  // ZSTD_CCtx, owned unless shared_
+  RecordCompressor* shared_ = nullptr;
+  bool keep_open_ = true;
   std::vector<std::byte> pending_, compressed_;
   std::vector<std::uint64_t> frame_offsets_;
   std::uint64_t records_ = 0, file_bytes_ = 0;

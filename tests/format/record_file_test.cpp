@@ -70,6 +70,46 @@ TEST(RecordFile, RoundTripAcrossManyFrames) {
   EXPECT_EQ(std::memcmp(back->data(), items.data(), items.size() * sizeof(Item)), 0);
 }
 
+TEST(RecordFile, ManyWritersShareOneContextWithoutHoldingFiles) {
+  // 300 writers, one zstd context, no descriptor held between frames; records interleaved, some
+  // appends a whole frame at once (compressed in place) — every file reads back exactly.
+  testing::ScratchDir dir;
+  auto compressor = RecordCompressor::create(1);
+  ASSERT_TRUE(compressor.is_ok());
+  RecordWriterOptions options;
+  options.frame_bytes = 100 * sizeof(Item);
+  options.shared = compressor->get();
+  options.keep_open = false;
+  const size_t writers = 300;
+  std::vector<std::unique_ptr<RecordWriter>> open;
+  for (size_t w = 0; w < writers; ++w) {
+    auto writer = RecordWriter::create(dir.file("w" + std::to_string(w)), 42, sizeof(Item), options);
+    ASSERT_TRUE(writer.is_ok()) << writer.status().to_string();
+    EXPECT_EQ((*writer)->frame_limit(), 100 * sizeof(Item));
+    open.push_back(std::move(*writer));
+  }
+  auto items = make_items(1000);
+  for (size_t round = 0; round < 4; ++round)
+    for (size_t w = 0; w < writers; ++w) {
+      const size_t n = round == 2 ? 100 : 37;  // round 2: exactly one frame per append
+      const size_t at = (round * 37 + w) % 800;
+      ASSERT_TRUE(open[w]->append(std::as_bytes(std::span(items.data() + at, n))).is_ok());
+    }
+  for (auto& writer : open) ASSERT_TRUE(writer->finish().is_ok());
+  for (size_t w = 0; w < writers; ++w) {
+    auto back = read_items(dir.file("w" + std::to_string(w)));
+    ASSERT_TRUE(back.is_ok()) << back.status().to_string();
+    std::vector<Item> expected;
+    for (size_t round = 0; round < 4; ++round) {
+      const size_t n = round == 2 ? 100 : 37;
+      const size_t at = (round * 37 + w) % 800;
+      expected.insert(expected.end(), items.begin() + at, items.begin() + at + n);
+    }
+    ASSERT_EQ(back->size(), expected.size());
+    EXPECT_EQ(std::memcmp(back->data(), expected.data(), expected.size() * sizeof(Item)), 0) << "writer " << w;
+  }
+}
+
 TEST(RecordFile, EmptyFileIsValid) {
   testing::ScratchDir dir;
   ASSERT_TRUE(write_items(dir.file("e.bin"), {}).is_ok());
