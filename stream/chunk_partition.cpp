@@ -1,0 +1,1202 @@
+// Passes 0 and 1 of the out-of-core pipeline (DESIGN §2; docs/partition.md has the design and
+// the measurements): ingest to spill files, Morton-ordered cell histogram, ring expansion of
+// per-vertex chunk sets, chunk face record files. Vertex-indexed data lives in spill files
+// behind one bounded block cache (pread/pwrite, CLOCK replacement, fixed byte budget); faces
+// are only ever read sequentially.
+#include "stream/chunk_partition.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <condition_variable>
+#include <cstring>
+#include <deque>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <span>
+#include <system_error>
+#include <thread>
+
+#include "format/record_file.h"
+#include "format/temp_registry.h"
+
+namespace gaussmesh::stream {
+namespace {
+
+using format::Code;
+using format::Result;
+using format::Status;
+using format::Triangle;
+using format::Vec3f;
+
+static_assert(sizeof(Vec3f) == 12 && sizeof(Triangle) == 12, "spill layouts assume packed values");
+
+std::string errno_text() { return std::strerror(errno); }
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+bool write_all(int fd, const void* data, std::size_t size, std::uint64_t offset, bool positioned) {
+  const char* bytes = static_cast<const char*>(data);
+  while (size > 0) {
+    ssize_t put = positioned ? ::pwrite(fd, bytes, size, static_cast<off_t>(offset)) : ::write(fd, bytes, size);
+    if (put < 0 && errno == EINTR) continue;
+    if (put <= 0) {
+      if (put == 0) errno = EIO;
+      return false;
+    }
+    bytes += put;
+    size -= static_cast<std::size_t>(put);
+    offset += static_cast<std::uint64_t>(put);
+  }
+  return true;
+}
+
+// Reads up to size bytes at offset; returns the count read (short at end of file), -1 on error.
+std::int64_t read_some(int fd, void* out, std::size_t size, std::uint64_t offset) {
+  char* bytes = static_cast<char*>(out);
+  std::size_t done = 0;
+  while (done < size) {
+    ssize_t got = ::pread(fd, bytes + done, size - done, static_cast<off_t>(offset + done));
+    if (got < 0 && errno == EINTR) continue;
+    if (got < 0) return -1;
+    if (got == 0) break;
+    done += static_cast<std::size_t>(got);
+  }
+  return static_cast<std::int64_t>(done);
+}
+
+// ---- Sequential spill files (pass 0 writes, later scans read) --------------------------------
+
+class SpillWriter {
+ public:
+  ~SpillWriter() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  Status open(const std::string& path, std::size_t buffer_bytes) {
+    path_ = path;
+    fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    if (fd_ < 0) return Status::error(Code::kOutput, path, "cannot create temporary file: " + errno_text());
+    buffer_.reset(new std::byte[buffer_bytes]);
+    capacity_ = buffer_bytes;
+    return {};
+  }
+  Status write(const void* data, std::size_t size) {
+    const auto* bytes = static_cast<const std::byte*>(data);
+    while (size > 0) {
+      if (used_ == capacity_) GM_RETURN_IF_ERROR(flush());
+      const std::size_t take = std::min(size, capacity_ - used_);
+      std::memcpy(buffer_.get() + used_, bytes, take);
+      used_ += take;
+      bytes += take;
+      size -= take;
+    }
+    return {};
+  }
+  Status close() {
+    GM_RETURN_IF_ERROR(flush());
+    buffer_.reset();
+    const int fd = fd_;
+    fd_ = -1;
+    if (fd >= 0 && ::close(fd) != 0) return Status::error(Code::kOutput, path_, "close failed: " + errno_text());
+    return {};
+  }
+  std::uint64_t bytes() const { return total_; }
+
+ private:
+  Status flush() {
+    if (used_ == 0) return {};
+    if (!write_all(fd_, buffer_.get(), used_, 0, false)) {
+      return Status::error(Code::kOutput, path_, "write failed: " + errno_text());
+    }
+    total_ += used_;
+    used_ = 0;
+    return {};
+  }
+  int fd_ = -1;
+  std::string path_;
+  std::unique_ptr<std::byte[]> buffer_;
+  std::size_t capacity_ = 0, used_ = 0;
+  std::uint64_t total_ = 0;
+};
+
+// ---- The bounded block cache over vertex-indexed spill files ---------------------------------
+
+// Slot size: a multiple of 192 so that 12-, 16- and 64-byte records tile a block exactly.
+constexpr std::size_t kSlotBytes = 12288;
+
+// Blocks of several files in a fixed arena of budget bytes. Accessors copy values in and out
+// (never hold a block pointer across another access: the next miss may evict it). Blocks never
+// written read as zeros. I/O errors are sticky: accessors then see a zero block and status()
+// says what failed; callers check it after every batch.
+class BlockCache {
+ public:
+  explicit BlockCache(std::size_t budget_bytes) {
+    slot_count_ = std::max<std::size_t>(budget_bytes / kSlotBytes, 16);
+    arena_.reset(new std::byte[slot_count_ * kSlotBytes]);  // untouched until used
+    slots_.assign(slot_count_, Slot{});
+    std::size_t capacity = 1;
+    while (capacity < 2 * slot_count_) capacity *= 2;
+    table_.assign(capacity, kNoSlot);
+    table_mask_ = capacity - 1;
+    tlb_.fill(Tlb{});
+  }
+  ~BlockCache() {
+    for (File& file : files_)
+      if (file.fd >= 0) ::close(file.fd);
+  }
+  BlockCache(const BlockCache&) = delete;
+  BlockCache& operator=(const BlockCache&) = delete;
+
+  Result<int> add_file(const std::string& path) {
+    const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    if (fd < 0) return Status::error(Code::kOutput, path, "cannot create temporary file: " + errno_text());
+    files_.push_back(File{fd, path});
+    return static_cast<int>(files_.size() - 1);
+  }
+  // Opens an existing file read-only (a spill written sequentially).
+  Result<int> open_file(const std::string& path) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return Status::error(Code::kBadInput, path, "cannot open temporary file: " + errno_text());
+    files_.push_back(File{fd, path});
+    return static_cast<int>(files_.size() - 1);
+  }
+
+  // The block; mark it dirty when it will be written. Valid until the next call.
+  std::byte* block(int file, std::uint64_t index, bool dirty) {
+    const std::uint64_t key = (static_cast<std::uint64_t>(file) + 1) << 48 | index;
+    Tlb& entry = tlb_[(index + static_cast<std::uint64_t>(file) * 7) & (kTlbSize - 1)];
+    std::uint32_t slot = entry.slot;
+    if (entry.key != key || slots_[slot].key != key) [[unlikely]] {
+      slot = lookup(file, index, key);
+      entry.key = key;
+      entry.slot = slot;
+    }
+    Slot& s = slots_[slot];
+    s.referenced = true;
+    s.dirty |= dirty;
+    return arena_.get() + std::size_t{slot} * kSlotBytes;
+  }
+
+  // Forgets every block of file without writing it back and truncates the file: it reads as
+  // zeros again.
+  void discard(int file) {
+    for (std::uint32_t slot = 0; slot < slot_count_; ++slot) {
+      if (slots_[slot].key >> 48 == static_cast<std::uint64_t>(file) + 1) {
+        erase(slots_[slot].key);
+        slots_[slot] = Slot{};
+        free_.push_back(slot);
+      }
+    }
+    if (::ftruncate(files_[file].fd, 0) != 0 && status_.is_ok()) {
+      status_ = Status::error(Code::kOutput, files_[file].path, "truncate failed: " + errno_text());
+    }
+  }
+
+  const Status& status() const { return status_; }
+  std::uint64_t misses() const { return misses_; }
+  std::uint64_t bytes_written() const { return bytes_written_; }
+
+ private:
+  static constexpr std::uint32_t kNoSlot = 0xFFFFFFFFu;
+  static constexpr std::uint64_t kFree = 0;
+  static constexpr std::size_t kTlbSize = 64;
+  struct Slot {
+    std::uint64_t key = kFree;
+    bool dirty = false, referenced = false;
+  };
+  struct File {
+    int fd = -1;
+    std::string path;
+  };
+  struct Tlb {
+    std::uint64_t key = kFree;
+    std::uint32_t slot = kNoSlot;
+  };
+
+  std::size_t home(std::uint64_t key) const { return (key * 0x9E3779B97F4A7C15ull >> 20) & table_mask_; }
+  std::uint32_t find(std::uint64_t key) const {
+    for (std::size_t at = home(key);; at = (at + 1) & table_mask_) {
+      const std::uint32_t slot = table_[at];
+      if (slot == kNoSlot) return kNoSlot;
+      if (slots_[slot].key == key) return slot;
+    }
+  }
+  void insert(std::uint64_t key, std::uint32_t slot) {
+    std::size_t at = home(key);
+    while (table_[at] != kNoSlot) at = (at + 1) & table_mask_;
+    table_[at] = slot;
+  }
+  // Linear-probing deletion by backward shift (no tombstones).
+  void erase(std::uint64_t key) {
+    std::size_t at = home(key);
+    while (slots_[table_[at]].key != key) at = (at + 1) & table_mask_;
+    std::size_t gap = at;
+    for (std::size_t next = (gap + 1) & table_mask_; table_[next] != kNoSlot; next = (next + 1) & table_mask_) {
+      const std::size_t want = home(slots_[table_[next]].key);
+      // Move the entry at next into the gap unless its home lies cyclically in (gap, next].
+      const bool stays = gap <= next ? (want > gap && want <= next) : (want > gap || want <= next);
+      if (!stays) {
+        table_[gap] = table_[next];
+        gap = next;
+      }
+    }
+    table_[gap] = kNoSlot;
+  }
+  std::uint32_t victim() {
+    if (!free_.empty()) {
+      const std::uint32_t slot = free_.back();
+      free_.pop_back();
+      return slot;
+    }
+    if (next_unused_ < slot_count_) return static_cast<std::uint32_t>(next_unused_++);
+    for (;;) {
+      Slot& s = slots_[hand_];
+      const std::uint32_t slot = static_cast<std::uint32_t>(hand_);
+      hand_ = hand_ + 1 == slot_count_ ? 0 : hand_ + 1;
+      if (!s.referenced) return slot;
+      s.referenced = false;
+    }
+  }
+  [[gnu::noinline]] std::uint32_t lookup(int file, std::uint64_t index, std::uint64_t key) {
+    const std::uint32_t slot = find(key);
+    return slot != kNoSlot ? slot : load(file, index, key);
+  }
+  std::uint32_t load(int file, std::uint64_t index, std::uint64_t key) {
+    ++misses_;
+    const std::uint32_t slot = victim();
+    Slot& s = slots_[slot];
+    std::byte* data = arena_.get() + std::size_t{slot} * kSlotBytes;
+    if (s.key != kFree) {
+      if (s.dirty) {
+        const File& owner = files_[(s.key >> 48) - 1];
+        const std::uint64_t at = (s.key & ((std::uint64_t{1} << 48) - 1)) * kSlotBytes;
+        if (!write_all(owner.fd, data, kSlotBytes, at, true)) {
+          if (status_.is_ok()) status_ = Status::error(Code::kOutput, owner.path, "write failed: " + errno_text());
+        } else {
+          bytes_written_ += kSlotBytes;
+        }
+      }
+      erase(s.key);
+    }
+    const std::int64_t got = status_.is_ok() ? read_some(files_[file].fd, data, kSlotBytes, index * kSlotBytes) : 0;
+    if (got < 0) {
+      status_ = Status::error(Code::kOutput, files_[file].path, "read failed: " + errno_text());
+      std::memset(data, 0, kSlotBytes);
+    } else {
+      std::memset(data + got, 0, kSlotBytes - static_cast<std::size_t>(got));
+    }
+    s.key = key;
+    s.dirty = false;
+    s.referenced = true;
+    insert(key, slot);
+    return slot;
+  }
+
+  std::size_t slot_count_ = 0, next_unused_ = 0, hand_ = 0, table_mask_ = 0;
+  std::unique_ptr<std::byte[]> arena_;
+  std::vector<Slot> slots_;
+  std::vector<std::uint32_t> table_, free_;
+  std::array<Tlb, kTlbSize> tlb_;
+  std::vector<File> files_;
+  Status status_;
+  std::uint64_t misses_ = 0, bytes_written_ = 0;
+};
+
+// A vertex- (or node-) indexed array of T in a cached file.
+template <class T>
+class CachedArray {
+ public:
+  static constexpr std::uint64_t kPerBlock = kSlotBytes / sizeof(T);
+  static_assert(kSlotBytes % sizeof(T) == 0);
+  CachedArray(BlockCache& cache, int file) : cache_(&cache), file_(file) {}
+  T get(std::uint64_t i) const {
+    const std::byte* block = cache_->block(file_, i / kPerBlock, false);
+    T value;
+    std::memcpy(&value, block + (i % kPerBlock) * sizeof(T), sizeof(T));
+    return value;
+  }
+  void set(std::uint64_t i, const T& value) {
+    std::byte* block = cache_->block(file_, i / kPerBlock, true);
+    std::memcpy(block + (i % kPerBlock) * sizeof(T), &value, sizeof(T));
+  }
+
+ private:
+  BlockCache* cache_;
+  int file_;
+};
+
+class CachedBitmap {
+ public:
+  static constexpr std::uint64_t kPerBlock = kSlotBytes * 8;
+  CachedBitmap(BlockCache& cache, int file) : cache_(&cache), file_(file) {}
+  bool test(std::uint64_t i) const {
+    const std::byte* block = cache_->block(file_, i / kPerBlock, false);
+    const std::uint64_t bit = i % kPerBlock;
+    return (std::to_integer<unsigned>(block[bit / 8]) >> (bit % 8)) & 1u;
+  }
+  void set(std::uint64_t i) {
+    std::byte* block = cache_->block(file_, i / kPerBlock, true);
+    const std::uint64_t bit = i % kPerBlock;
+    block[bit / 8] |= std::byte{static_cast<unsigned char>(1u << (bit % 8))};
+  }
+  void clear() { cache_->discard(file_); }
+
+ private:
+  BlockCache* cache_;
+  int file_;
+};
+
+// ---- Per-vertex chunk sets beyond the owner ---------------------------------------------------
+
+// Entry = chunk id (low 24 bits) | ring that added it (high 8 bits). A vertex's owner is never
+// stored: it is a function of the position.
+constexpr std::uint32_t kChunkMask = 0x00FFFFFFu;
+inline std::uint32_t entry_chunk(std::uint32_t entry) { return entry & kChunkMask; }
+inline std::uint32_t entry_ring(std::uint32_t entry) { return entry >> 24; }
+
+// Up to three entries inline in a 16-byte vertex slot; more move to a chain of 64-byte nodes
+// (14 entries each, newest node first). Never truncated: a vertex of any valence keeps all.
+struct ExtraSlot {
+  std::uint32_t count = 0;
+  std::uint32_t e[3] = {0, 0, 0};  // entries, or e[0] = head node id when count > 3
+};
+struct ExtraNode {
+  std::uint32_t next = 0;  // node id + 1 of the next node; 0 ends the chain
+  std::uint32_t used = 0;
+  std::uint32_t e[14] = {};
+};
+static_assert(sizeof(ExtraSlot) == 16 && sizeof(ExtraNode) == 64);
+
+class ChunkSets {
+ public:
+  ChunkSets(BlockCache& cache, int slot_file, int node_file) : slots_(cache, slot_file), nodes_(cache, node_file) {}
+
+  // Calls fn(entry) for every entry of v.
+  template <class Fn>
+  void for_each(std::uint64_t v, Fn&& fn) const {
+    const ExtraSlot slot = slots_.get(v);
+    if (slot.count <= 3) {
+      for (std::uint32_t i = 0; i < slot.count; ++i) fn(slot.e[i]);
+      return;
+    }
+    std::uint64_t node_id = slot.e[0];
+    std::uint64_t seen = 0;
+    for (;;) {
+      const ExtraNode node = nodes_.get(node_id);
+      const std::uint32_t used = std::min<std::uint32_t>(node.used, 14);
+      for (std::uint32_t i = 0; i < used; ++i) fn(node.e[i]);
+      seen += used;
+      if (node.next == 0 || seen >= slot.count) break;
+      node_id = node.next - 1;
+    }
+  }
+  bool contains(std::uint64_t v, std::uint32_t chunk) const {
+    bool found = false;
+    for_each(v, [&](std::uint32_t e) { found |= entry_chunk(e) == chunk; });
+    return found;
+  }
+  void add(std::uint64_t v, std::uint32_t entry) {
+    ExtraSlot slot = slots_.get(v);
+    if (slot.count < 3) {
+      slot.e[slot.count++] = entry;
+    } else if (slot.count == 3) {
+      ExtraNode node;
+      node.used = 4;
+      std::copy(slot.e, slot.e + 3, node.e);
+      node.e[3] = entry;
+      slot.e[0] = static_cast<std::uint32_t>(node_count_);
+      nodes_.set(node_count_++, node);
+      ++slot.count;
+      ++overflowed_;
+    } else {
+      ExtraNode head = nodes_.get(slot.e[0]);
+      if (head.used < 14) {
+        head.e[head.used++] = entry;
+        nodes_.set(slot.e[0], head);
+      } else {
+        ExtraNode node;
+        node.next = slot.e[0] + 1;
+        node.used = 1;
+        node.e[0] = entry;
+        slot.e[0] = static_cast<std::uint32_t>(node_count_);
+        nodes_.set(node_count_++, node);
+      }
+      ++slot.count;
+    }
+    slots_.set(v, slot);
+  }
+  std::uint64_t overflowed() const { return overflowed_; }
+  std::uint64_t nodes() const { return node_count_; }
+
+ private:
+  CachedArray<ExtraSlot> slots_;
+  CachedArray<ExtraNode> nodes_;
+  std::uint64_t node_count_ = 0, overflowed_ = 0;
+};
+
+// ---- The cell grid --------------------------------------------------------------------------
+
+constexpr std::uint32_t kCellBits = 18;  // at most 2^18 cells: histogram and table 1 MiB each
+
+struct Grid {
+  double lo[3] = {0, 0, 0}, scale[3] = {0, 0, 0};
+  std::uint32_t bits[3] = {0, 0, 0};
+  std::uint32_t n[3] = {1, 1, 1};
+
+  // Per-axis bits so that cells are as close to cubes as 2^kCellBits cells allow.
+  static Grid make(const Vec3f& lo, const Vec3f& hi) {
+    Grid g;
+    const double l[3] = {lo.x, lo.y, lo.z}, h[3] = {hi.x, hi.y, hi.z};
+    double extent[3];
+    for (int a = 0; a < 3; ++a) {
+      g.lo[a] = l[a];
+      extent[a] = h[a] - l[a];
+      if (!(extent[a] > 0) || !std::isfinite(extent[a])) extent[a] = 0;
+    }
+    for (std::uint32_t b = 0; b < kCellBits; ++b) {
+      int best = -1;
+      double best_size = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double size = std::ldexp(extent[a], -static_cast<int>(g.bits[a]));
+        if (extent[a] > 0 && size > best_size) {
+          best = a;
+          best_size = size;
+        }
+      }
+      if (best < 0) break;
+      ++g.bits[best];
+    }
+    for (int a = 0; a < 3; ++a) {
+      g.n[a] = 1u << g.bits[a];
+      g.scale[a] = extent[a] > 0 ? g.n[a] / extent[a] : 0;
+    }
+    return g;
+  }
+  std::size_t cells() const { return std::size_t{n[0]} * n[1] * n[2]; }
+  std::uint32_t axis(int a, float value) const {
+    const double t = (static_cast<double>(value) - lo[a]) * scale[a];
+    if (!(t >= 0)) return 0;  // below, or NaN
+    if (t >= n[a]) return n[a] - 1;
+    return static_cast<std::uint32_t>(t);
+  }
+  std::uint32_t cell(const Vec3f& p) const {
+    return axis(0, p.x) + n[0] * (axis(1, p.y) + n[1] * axis(2, p.z));
+  }
+  // Z-order code of a cell: bits interleaved from the top level down; an axis with fewer bits
+  // joins the interleave at its own top level.
+  std::uint32_t morton(std::uint32_t linear) const {
+    const std::uint32_t i[3] = {linear % n[0], (linear / n[0]) % n[1], linear / (n[0] * n[1])};
+    std::uint32_t code = 0;
+    const std::uint32_t top = std::max({bits[0], bits[1], bits[2]});
+    for (std::uint32_t level = top; level-- > 0;)
+      for (int a = 0; a < 3; ++a)
+        if (level < bits[a]) code = code << 1 | ((i[a] >> level) & 1u);
+    return code;
+  }
+};
+
+// ---- Pass 0: ingest ----------------------------------------------------------------------------
+
+class IngestSink final : public format::MeshSink {
+ public:
+  IngestSink(SpillWriter& positions, SpillWriter& faces) : positions_(positions), faces_(faces) {}
+  Status on_vertices(std::span<const Vec3f> batch) override {
+    if (vertices_ + batch.size() > format::kMaxVertices) {
+      return Status::error(Code::kResources, "", "more than " + std::to_string(format::kMaxVertices) +
+                                                     " vertices: chunk records hold 32-bit vertex ids");
+    }
+    for (const Vec3f& p : batch) {
+      const float c[3] = {p.x, p.y, p.z};
+      for (int a = 0; a < 3; ++a) {
+        if (!std::isfinite(c[a])) continue;
+        lo_[a] = std::min(lo_[a], c[a]);
+        hi_[a] = std::max(hi_[a], c[a]);
+      }
+    }
+    vertices_ += batch.size();
+    return positions_.write(batch.data(), batch.size_bytes());
+  }
+  Status on_triangles(std::span<const Triangle> batch) override {
+    faces_count_ += batch.size();
+    return faces_.write(batch.data(), batch.size_bytes());
+  }
+  std::uint64_t vertices() const { return vertices_; }
+  std::uint64_t faces() const { return faces_count_; }
+  void bounds(Vec3f& lo, Vec3f& hi) const {
+    float l[3], h[3];
+    for (int a = 0; a < 3; ++a) {
+      const bool any = lo_[a] <= hi_[a];
+      l[a] = any ? lo_[a] : 0;
+      h[a] = any ? hi_[a] : 0;
+    }
+    lo = {l[0], l[1], l[2]};
+    hi = {h[0], h[1], h[2]};
+  }
+
+ private:
+  SpillWriter& positions_;
+  SpillWriter& faces_;
+  std::uint64_t vertices_ = 0, faces_count_ = 0;
+  float lo_[3] = {INFINITY, INFINITY, INFINITY}, hi_[3] = {-INFINITY, -INFINITY, -INFINITY};
+};
+
+// ---- Sequential scans ----------------------------------------------------------------------------
+
+// Reads a spill file of fixed-size items in buffer-sized pieces: fn(first_index, span).
+template <class T, class Fn>
+Status scan_spill(const std::string& path, std::uint64_t expected, std::size_t buffer_bytes, Fn&& fn) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return Status::error(Code::kBadInput, path, "cannot open temporary file: " + errno_text());
+  const std::size_t per = std::max<std::size_t>(buffer_bytes / sizeof(T), 1);
+  std::unique_ptr<T[]> buffer(new T[per]);
+  std::uint64_t done = 0;
+  Status status;
+  while (done < expected && status.is_ok()) {
+    const std::size_t want = static_cast<std::size_t>(std::min<std::uint64_t>(per, expected - done));
+    const std::int64_t got = read_some(fd, buffer.get(), want * sizeof(T), done * sizeof(T));
+    if (got != static_cast<std::int64_t>(want * sizeof(T))) {
+      status = Status::error(Code::kBadInput, path + ": byte " + std::to_string(done * sizeof(T)),
+                             got < 0 ? "read failed: " + errno_text() : "temporary file is shorter than written");
+      break;
+    }
+    status = fn(done, std::span<const T>(buffer.get(), want));
+    done += want;
+  }
+  ::close(fd);
+  return status;
+}
+
+void remove_tree(const std::string& dir) {
+  std::error_code ec;
+  std::filesystem::remove_all(dir, ec);
+}
+
+// ---- Chunk output -------------------------------------------------------------------------------
+
+// Records bound for a set of chunk writers, staged in one frame-sized buffer per chunk. A full
+// buffer is one frame: compressed straight from the buffer (RecordWriter::append never copies a
+// whole frame), inline or — with background — by one compression thread fed through a queue
+// (frames of one chunk stay in order: one consumer, FIFO). Memory: (chunks + kSpare) frames.
+class ChunkOutput {
+ public:
+  static constexpr std::size_t kSpare = 4;
+
+  ChunkOutput(std::vector<std::unique_ptr<format::RecordWriter>>& writers, std::size_t frame_bytes, bool background)
+      : writers_(writers), frame_bytes_(frame_bytes) {
+    const std::size_t buffers = writers.size() + (background ? kSpare : 0);
+    arena_.reset(new std::byte[buffers * frame_bytes]);  // touched only as records arrive
+    for (std::size_t i = 0; i < writers.size(); ++i) staged_.push_back({arena_.get() + i * frame_bytes, 0});
+    for (std::size_t i = writers.size(); i < buffers; ++i) free_.push_back(arena_.get() + i * frame_bytes);
+    if (background) {
+      try {
+        worker_ = std::thread([this] { work(); });
+      } catch (const std::system_error&) {
+        free_.clear();  // no thread: compress inline
+      }
+    }
+  }
+  ~ChunkOutput() { stop(); }
+
+  // Appends one record to chunk index i (0-based within the writers).
+  void add(std::size_t i, const std::byte* record, std::size_t size) {
+    Staged& s = staged_[i];
+    std::memcpy(s.data + s.used, record, size);
+    s.used += size;
+    if (s.used + size > frame_bytes_) submit(i);
+  }
+  bool failed() const { return failed_.load(std::memory_order_relaxed); }
+  // Writes what is staged, waits for the compression thread, finishes every writer.
+  Status finish() {
+    stop();
+    for (std::size_t i = 0; i < staged_.size() && status_.is_ok(); ++i) {
+      if (staged_[i].used > 0) status_ = writers_[i]->append({staged_[i].data, staged_[i].used});
+      staged_[i].used = 0;
+    }
+    for (auto& writer : writers_) {
+      if (!status_.is_ok()) break;
+      status_ = writer->finish();
+    }
+    return status_;
+  }
+
+ private:
+  struct Staged {
+    std::byte* data;
+    std::size_t used;
+  };
+  struct Job {
+    std::size_t writer;
+    std::byte* data;
+    std::size_t used;
+  };
+
+  void submit(std::size_t i) {
+    Staged& s = staged_[i];
+    if (!worker_.joinable()) {
+      if (status_.is_ok()) status_ = writers_[i]->append({s.data, s.used});
+      if (!status_.is_ok()) failed_ = true;
+      s.used = 0;
+      return;
+    }
+    std::unique_lock<std::mutex> lock(mutex_);
+    jobs_.push_back({i, s.data, s.used});
+    wake_worker_.notify_one();
+    buffer_free_.wait(lock, [&] { return !free_.empty(); });
+    s.data = free_.back();
+    s.used = 0;
+    free_.pop_back();
+  }
+  void work() {
+    for (;;) {
+      Job job;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        wake_worker_.wait(lock, [&] { return !jobs_.empty() || stopping_; });
+        if (jobs_.empty()) return;
+        job = jobs_.front();
+        jobs_.pop_front();
+      }
+      Status status = failed() ? Status{} : writers_[job.writer]->append({job.data, job.used});
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!status.is_ok() && status_.is_ok()) {
+        status_ = status;
+        failed_ = true;
+      }
+      free_.push_back(job.data);
+      buffer_free_.notify_one();
+    }
+  }
+  void stop() {
+    if (!worker_.joinable()) return;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stopping_ = true;
+    }
+    wake_worker_.notify_one();
+    worker_.join();
+  }
+
+  std::vector<std::unique_ptr<format::RecordWriter>>& writers_;
+  const std::size_t frame_bytes_;
+  std::unique_ptr<std::byte[]> arena_;
+  std::vector<Staged> staged_;
+  std::vector<std::byte*> free_;
+  std::deque<Job> jobs_;
+  std::mutex mutex_;
+  std::condition_variable wake_worker_, buffer_free_;
+  std::thread worker_;
+  bool stopping_ = false;
+  std::atomic<bool> failed_{false};
+  Status status_;  // first error (written by the worker under mutex_, read after stop())
+};
+
+// ---- Pass 1 -------------------------------------------------------------------------------------
+
+struct Planner {
+  Grid grid;
+  std::vector<std::uint32_t> cell_chunk;  // linear cell -> chunk
+  std::uint32_t chunks = 0;
+  std::vector<std::uint64_t> owned_vertices;
+  std::uint32_t owner(const Vec3f& p) const { return cell_chunk[grid.cell(p)]; }
+};
+
+// A vertex as the scans see it: position and owning chunk, written once after the histogram.
+struct SpillVertex {
+  Vec3f position;
+  std::uint32_t owner = 0;
+};
+static_assert(sizeof(SpillVertex) == 16);
+
+class PartitionRun {
+ public:
+  PartitionRun(const PartitionOptions& options, Partition& out) : options_(options), out_(out) {}
+  Status run(const std::string& input_path, const format::ReadOptions& read);
+
+ private:
+  Status ingest(const std::string& input_path, const format::ReadOptions& read);
+  Status plan();
+  // Calls fn(face id, triangle) for every face in order; after each batch, stops early when
+  // the cache has failed or stop() says so.
+  template <class Fn, class Stop>
+  Status scan_faces(Fn&& fn, Stop&& stop);
+  template <class Fn>
+  Status scan_faces(Fn&& fn) {
+    return scan_faces(fn, [] { return false; });
+  }
+  Status expand_rings();
+  Status write_chunks();
+
+  const PartitionOptions& options_;
+  Partition& out_;
+  std::string positions_path_, faces_path_, vertices_path_;
+  Planner planner_;
+  std::unique_ptr<BlockCache> cache_;
+  std::unique_ptr<CachedArray<SpillVertex>> vertices_;
+  std::unique_ptr<ChunkSets> sets_;
+  std::unique_ptr<CachedBitmap> has_extras_;
+  std::unique_ptr<CachedBitmap> frontier_[2];
+  std::uint64_t bytes_spilled_ = 0;
+};
+
+Status PartitionRun::ingest(const std::string& input_path, const format::ReadOptions& read) {
+  positions_path_ = out_.dir + "/positions.bin";
+  faces_path_ = out_.dir + "/faces.bin";
+  SpillWriter positions, faces;
+  GM_RETURN_IF_ERROR(positions.open(positions_path_, std::size_t{1} << 20));
+  GM_RETURN_IF_ERROR(faces.open(faces_path_, std::size_t{1} << 20));
+  IngestSink sink(positions, faces);
+  Status status = format::read_mesh_file(input_path, read, sink);
+  if (!status.is_ok()) {
+    // A sink error has no place of its own: name the input.
+    if (status.where().empty()) return Status::error(status.code(), input_path == "-" ? "<stdin>" : input_path, status.message());
+    return status;
+  }
+  GM_RETURN_IF_ERROR(positions.close());
+  GM_RETURN_IF_ERROR(faces.close());
+  out_.vertices = sink.vertices();
+  out_.faces = sink.faces();
+  sink.bounds(out_.lo, out_.hi);
+  bytes_spilled_ += positions.bytes() + faces.bytes();
+  return {};
+}
+
+Status PartitionRun::plan() {
+  Planner& p = planner_;
+  p.grid = Grid::make(out_.lo, out_.hi);
+  const std::size_t cells = p.grid.cells();
+  std::vector<std::uint32_t> histogram(cells, 0);
+  GM_RETURN_IF_ERROR(scan_spill<Vec3f>(positions_path_, out_.vertices, std::size_t{1} << 20,
+                                       [&](std::uint64_t, std::span<const Vec3f> batch) {
+                                         for (const Vec3f& v : batch) ++histogram[p.grid.cell(v)];
+                                         return Status{};
+                                       }));
+  // Chunk size: faces per chunk from the budget, of which a chunk owns about 3/4; vertices per
+  // chunk from the input's vertex/face ratio.
+  const std::uint64_t chunk_faces = options_.max_chunk_faces > 0
+                                        ? options_.max_chunk_faces
+                                        : std::max<std::uint64_t>(options_.memory_bytes / options_.threads / kChunkBytesPerFace, 1);
+  const double owned_faces = std::max(0.75 * static_cast<double>(chunk_faces), 1.0);
+  const double ratio = out_.faces > 0 ? static_cast<double>(out_.vertices) / static_cast<double>(out_.faces) : 1.0;
+  const std::uint64_t target = std::max<std::uint64_t>(static_cast<std::uint64_t>(std::ceil(owned_faces * ratio)), 1);
+  // Cells in Morton order; cell of Morton code m is order[m].
+  std::vector<std::uint32_t> order(cells);
+  for (std::uint32_t c = 0; c < cells; ++c) order[p.grid.morton(c)] = c;
+  p.cell_chunk.assign(cells, 0);
+  std::uint64_t before = 0, last_raw = ~std::uint64_t{0};
+  std::uint32_t chunk = 0;
+  bool any = false;
+  for (std::uint32_t c : order) {
+    if (histogram[c] > 0) {
+      const std::uint64_t raw = before / target;
+      if (any && raw != last_raw) ++chunk;
+      if (!any || raw != last_raw) p.owned_vertices.push_back(0);
+      any = true;
+      last_raw = raw;
+      p.owned_vertices[chunk] += histogram[c];
+      before += histogram[c];
+    }
+    p.cell_chunk[c] = chunk;
+  }
+  p.chunks = any ? chunk + 1 : 0;
+  // Owner pass: positions + owner per vertex, so that no later scan recomputes cells.
+  vertices_path_ = out_.dir + "/vertices.bin";
+  SpillWriter vertices;
+  GM_RETURN_IF_ERROR(vertices.open(vertices_path_, std::size_t{1} << 20));
+  GM_RETURN_IF_ERROR(scan_spill<Vec3f>(positions_path_, out_.vertices, std::size_t{1} << 20,
+                                       [&](std::uint64_t, std::span<const Vec3f> batch) {
+                                         SpillVertex records[256];
+                                         for (std::size_t at = 0; at < batch.size(); at += 256) {
+                                           const std::size_t n = std::min<std::size_t>(256, batch.size() - at);
+                                           for (std::size_t i = 0; i < n; ++i) records[i] = {batch[at + i], p.owner(batch[at + i])};
+                                           GM_RETURN_IF_ERROR(vertices.write(records, n * sizeof(SpillVertex)));
+                                         }
+                                         return Status{};
+                                       }));
+  GM_RETURN_IF_ERROR(vertices.close());
+  bytes_spilled_ += vertices.bytes();
+  ::unlink(positions_path_.c_str());
+  std::vector<std::uint32_t>().swap(p.cell_chunk);
+  return {};
+}
+
+template <class Fn, class Stop>
+Status PartitionRun::scan_faces(Fn&& fn, Stop&& stop) {
+  const std::uint64_t nv = out_.vertices;
+  return scan_spill<Triangle>(faces_path_, out_.faces, std::size_t{1} << 20,
+                              [&](std::uint64_t first, std::span<const Triangle> batch) -> Status {
+                                for (std::size_t i = 0; i < batch.size(); ++i) {
+                                  const Triangle& t = batch[i];
+                                  if (t.v[0] >= nv || t.v[1] >= nv || t.v[2] >= nv) {
+                                    return Status::error(Code::kBadInput, faces_path_,
+                                                         "face " + std::to_string(first + i) +
+                                                             " refers to a vertex out of range (temporary file damaged)");
+                                  }
+                                  fn(first + i, t);
+                                }
+                                if (stop()) return Status::error(Code::kOutput, out_.dir, "stopped");
+                                return cache_->status();
+                              });
+}
+
+// Rounds 1..k-1 of T_i(v) = union over faces f at v of union over corners w of f of T_{i-1}(w),
+// with T_0(v) = {owner(v)}; only entries added in round i-1 (the frontier) travel in round i.
+Status PartitionRun::expand_rings() {
+  const std::uint32_t k = options_.rings;
+  std::vector<std::uint32_t> incoming;
+  for (std::uint32_t round = 1; round < k; ++round) {
+    CachedBitmap& next = *frontier_[round % 2];
+    const CachedBitmap& previous = *frontier_[(round + 1) % 2];
+    const bool keep_frontier = round + 1 < k;
+    std::uint64_t added = 0;
+    auto add = [&](std::uint32_t v, std::uint32_t owner, std::uint32_t chunk) {
+      if (chunk == owner || sets_->contains(v, chunk)) return;
+      sets_->add(v, chunk | round << 24);
+      has_extras_->set(v);
+      if (keep_frontier) next.set(v);
+      ++added;
+    };
+    GM_RETURN_IF_ERROR(scan_faces([&](std::uint64_t, const Triangle& t) {
+      std::uint32_t owner[3];
+      if (round == 1) {
+        for (int j = 0; j < 3; ++j) owner[j] = vertices_->get(t.v[j]).owner;
+        if (owner[0] == owner[1] && owner[1] == owner[2]) return;
+        for (int j = 0; j < 3; ++j)
+          for (int i = 0; i < 3; ++i) add(t.v[j], owner[j], owner[i]);
+        return;
+      }
+      const bool in[3] = {previous.test(t.v[0]), previous.test(t.v[1]), previous.test(t.v[2])};
+      if (!in[0] && !in[1] && !in[2]) return;
+      incoming.clear();
+      for (int j = 0; j < 3; ++j) {
+        if (!in[j] || (j > 0 && t.v[j] == t.v[0]) || (j > 1 && t.v[j] == t.v[1])) continue;
+        sets_->for_each(t.v[j], [&](std::uint32_t e) {
+          if (entry_ring(e) == round - 1) incoming.push_back(entry_chunk(e));
+        });
+      }
+      std::sort(incoming.begin(), incoming.end());
+      incoming.erase(std::unique(incoming.begin(), incoming.end()), incoming.end());
+      for (int j = 0; j < 3; ++j) {
+        const std::uint32_t o = vertices_->get(t.v[j]).owner;
+        for (std::uint32_t c : incoming) add(t.v[j], o, c);
+      }
+    }));
+    frontier_[(round + 1) % 2]->clear();
+    GM_RETURN_IF_ERROR(cache_->status());
+    if (added == 0) break;  // nothing new: later rounds add nothing either
+  }
+  return {};
+}
+
+Status PartitionRun::write_chunks() {
+  const std::uint32_t chunks = planner_.chunks;
+  out_.chunks.resize(chunks);
+  for (std::uint32_t c = 0; c < chunks; ++c) {
+    ChunkInfo& info = out_.chunks[c];
+    info.id = c;
+    info.owned_vertices = planner_.owned_vertices[c];
+    char name[32];
+    std::snprintf(name, sizeof name, "/chunk-%06u.gmr", c);
+    info.path = out_.dir + name;
+  }
+  if (chunks == 0) return {};
+  // Staged frames share memory_bytes / 8; frames of at least 64 records; more chunks than fit
+  // are written in several scans. With threads > 1 a second thread compresses.
+  const bool background = options_.threads > 1;
+  const std::size_t writer_budget = options_.memory_bytes / 8;
+  const std::size_t min_frame = std::size_t{64} * kChunkFaceRecordBytes;
+  const std::size_t spare = background ? ChunkOutput::kSpare : 0;
+  std::size_t per_scan = std::max<std::size_t>(writer_budget / min_frame, spare + 1) - spare;
+  if (options_.max_open_chunks > 0) per_scan = std::min<std::size_t>(per_scan, options_.max_open_chunks);
+  per_scan = std::min<std::size_t>(per_scan, chunks);
+  std::size_t frame_bytes = std::clamp(writer_budget / (per_scan + spare), min_frame, std::size_t{1} << 20);
+  frame_bytes -= frame_bytes % kChunkFaceRecordBytes;
+  auto compressor = format::RecordCompressor::create(options_.compression_level);
+  if (!compressor) return compressor.status();
+  format::RecordWriterOptions writer_options;
+  writer_options.frame_bytes = frame_bytes;
+  writer_options.shared = compressor->get();
+  writer_options.keep_open = per_scan <= 128;
+
+  std::vector<std::unique_ptr<format::RecordWriter>> writers;
+  std::vector<std::uint32_t> set;
+  std::array<std::byte, kChunkFaceRecordBytes> record{};
+  for (std::uint32_t first = 0; first < chunks; first += static_cast<std::uint32_t>(per_scan)) {
+    const std::uint32_t last = static_cast<std::uint32_t>(std::min<std::size_t>(first + per_scan, chunks));
+    writers.clear();
+    for (std::uint32_t c = first; c < last; ++c) {
+      auto writer = format::RecordWriter::create(out_.chunks[c].path, kChunkFaceRecordKind, kChunkFaceRecordBytes, writer_options);
+      if (!writer) return writer.status();
+      writers.push_back(std::move(*writer));
+    }
+    ChunkOutput output(writers, frame_bytes, background);
+    bool damaged = false;
+    Status scanned = scan_faces([&](std::uint64_t f, const Triangle& t) {
+      Vec3f p[3];
+      std::uint32_t owner[3];
+      bool extra = false;
+      for (int j = 0; j < 3; ++j) {
+        const SpillVertex vertex = vertices_->get(t.v[j]);
+        p[j] = vertex.position;
+        owner[j] = vertex.owner;
+      }
+      if (options_.rings > 1) extra = has_extras_->test(t.v[0]) || has_extras_->test(t.v[1]) || has_extras_->test(t.v[2]);
+      int lowest = 0;
+      for (int j = 1; j < 3; ++j)
+        if (t.v[j] < t.v[lowest]) lowest = j;
+      const std::uint32_t face_owner = owner[lowest];
+      if (owner[0] >= chunks || owner[1] >= chunks || owner[2] >= chunks) damaged = true;
+      set.clear();
+      if (!extra && owner[0] == owner[1] && owner[1] == owner[2]) {
+        if (owner[0] < first || owner[0] >= last) return;
+        set.push_back(owner[0]);
+      } else {
+        set.assign(owner, owner + 3);
+        for (int j = 0; j < 3; ++j) {
+          if (options_.rings > 1 && has_extras_->test(t.v[j])) {
+            sets_->for_each(t.v[j], [&](std::uint32_t e) { set.push_back(entry_chunk(e)); });
+          }
+        }
+        std::sort(set.begin(), set.end());
+        set.erase(std::unique(set.begin(), set.end()), set.end());
+        if (set.back() >= chunks) damaged = true;
+      }
+      std::memcpy(record.data(), &f, 8);
+      std::memcpy(record.data() + 8, t.v, 12);
+      std::memcpy(record.data() + 20, p, 36);
+      for (std::uint32_t c : set) {
+        if (c < first || c >= last) continue;
+        std::uint8_t flags = 0;
+        for (int j = 0; j < 3; ++j) flags |= static_cast<std::uint8_t>(owner[j] == c) << j;
+        if (face_owner == c) flags |= kOwnsFace;
+        record[56] = std::byte{flags};
+        ChunkInfo& info = out_.chunks[c];
+        ++info.faces;
+        info.owned_faces += face_owner == c;
+        output.add(c - first, record.data(), record.size());
+      }
+    }, [&] { return output.failed(); });
+    if (output.failed()) return output.finish();  // the writer's own error
+    GM_RETURN_IF_ERROR(scanned);
+    if (damaged) return Status::error(Code::kBadInput, out_.dir, "a temporary file names a chunk that does not exist (damaged)");
+    GM_RETURN_IF_ERROR(output.finish());
+    for (auto& writer : writers) bytes_spilled_ += writer->bytes_written();
+  }
+  // Every face and every vertex has exactly one owner.
+  std::uint64_t owned_faces = 0, owned_vertices = 0;
+  for (const ChunkInfo& info : out_.chunks) {
+    owned_faces += info.owned_faces;
+    owned_vertices += info.owned_vertices;
+  }
+  if (owned_faces != out_.faces || owned_vertices != out_.vertices) {
+    return Status::error(Code::kProcessing, out_.dir,
+                         "ownership does not add up: " + std::to_string(owned_faces) + " of " + std::to_string(out_.faces) +
+                             " faces, " + std::to_string(owned_vertices) + " of " + std::to_string(out_.vertices) + " vertices");
+  }
+  return {};
+}
+
+Status PartitionRun::run(const std::string& input_path, const format::ReadOptions& read) {
+  auto start = std::chrono::steady_clock::now();
+  GM_RETURN_IF_ERROR(ingest(input_path, read));
+  out_.seconds_ingest = seconds_since(start);
+  start = std::chrono::steady_clock::now();
+  GM_RETURN_IF_ERROR(plan());
+  // Half the budget caches vertex-indexed data; an eighth holds chunk writers' frames; the
+  // rest is the scan buffer, the cell tables and the zstd context.
+  cache_ = std::make_unique<BlockCache>(options_.memory_bytes / 2);
+  auto vertices = cache_->open_file(vertices_path_);
+  if (!vertices) return vertices.status();
+  vertices_ = std::make_unique<CachedArray<SpillVertex>>(*cache_, *vertices);
+  if (options_.rings > 1) {
+    auto slots = cache_->add_file(out_.dir + "/sets.bin");
+    auto nodes = cache_->add_file(out_.dir + "/set-nodes.bin");
+    auto extras = cache_->add_file(out_.dir + "/has-extras.bin");
+    auto f0 = cache_->add_file(out_.dir + "/frontier-0.bin");
+    auto f1 = cache_->add_file(out_.dir + "/frontier-1.bin");
+    for (const auto* r : {&slots, &nodes, &extras, &f0, &f1})
+      if (!*r) return r->status();
+    sets_ = std::make_unique<ChunkSets>(*cache_, *slots, *nodes);
+    has_extras_ = std::make_unique<CachedBitmap>(*cache_, *extras);
+    frontier_[0] = std::make_unique<CachedBitmap>(*cache_, *f0);
+    frontier_[1] = std::make_unique<CachedBitmap>(*cache_, *f1);
+    GM_RETURN_IF_ERROR(expand_rings());
+  }
+  GM_RETURN_IF_ERROR(write_chunks());
+  GM_RETURN_IF_ERROR(cache_->status());
+  out_.bytes_spilled = bytes_spilled_ + cache_->bytes_written();
+  out_.cache_misses = cache_->misses();
+  cache_.reset();
+  // The spills are no longer needed; the chunk files stay until the Partition goes.
+  ::unlink(vertices_path_.c_str());
+  ::unlink(faces_path_.c_str());
+  for (const char* name : {"/sets.bin", "/set-nodes.bin", "/has-extras.bin", "/frontier-0.bin", "/frontier-1.bin"}) {
+    ::unlink((out_.dir + name).c_str());
+  }
+  out_.seconds_partition = seconds_since(start);
+  return {};
+}
+
+}  // namespace
+
+// ---- Partition ------------------------------------------------------------------------------------
+
+Partition::~Partition() { remove_temp(); }
+
+Partition::Partition(Partition&& other) noexcept { *this = std::move(other); }
+
+Partition& Partition::operator=(Partition&& other) noexcept {
+  if (this == &other) return *this;
+  remove_temp();
+  dir = std::move(other.dir);
+  vertices = other.vertices;
+  faces = other.faces;
+  lo = other.lo;
+  hi = other.hi;
+  chunks = std::move(other.chunks);
+  bytes_spilled = other.bytes_spilled;
+  cache_misses = other.cache_misses;
+  seconds_ingest = other.seconds_ingest;
+  seconds_partition = other.seconds_partition;
+  temp_slot = other.temp_slot;
+  other.dir.clear();
+  other.temp_slot = -1;
+  return *this;
+}
+
+void Partition::remove_temp() {
+  if (!dir.empty()) remove_tree(dir);
+  if (temp_slot >= 0) format::unregister_temp_path(temp_slot);
+  dir.clear();
+  temp_slot = -1;
+}
+
+format::Result<Partition> partition_mesh(const std::string& input_path, const format::ReadOptions& read,
+                                         const PartitionOptions& options) {
+  if (options.rings < 1 || options.rings > kMaxPartitionRings) {
+    return Status::error(Code::kUsage, "", "overlap rings must be 1.." + std::to_string(kMaxPartitionRings) + ", not " +
+                                               std::to_string(options.rings));
+  }
+  if (options.memory_bytes < kMinPartitionMemory) {
+    return Status::error(Code::kUsage, "", "memory budget of " + std::to_string(options.memory_bytes) +
+                                               " bytes is below the minimum of 16 MiB");
+  }
+  if (options.threads < 1) return Status::error(Code::kUsage, "", "threads must be at least 1");
+  std::string parent = options.tmp_dir;
+  if (parent.empty()) {
+    const char* env = std::getenv("TMPDIR");
+    parent = env != nullptr && *env != '\0' ? env : "/tmp";
+  }
+  std::string pattern = parent + "/gaussmesh-partition-XXXXXX";
+  if (::mkdtemp(pattern.data()) == nullptr) {
+    return Status::error(Code::kOutput, parent, "cannot create a temporary directory: " + errno_text());
+  }
+  Partition partition;
+  partition.dir = pattern;
+  partition.temp_slot = format::register_temp_path(partition.dir, true);
+  PartitionRun run(options, partition);
+  GM_RETURN_IF_ERROR(run.run(input_path, read));
+  return partition;
+}
+
+// ---- Reading a chunk back --------------------------------------------------------------------------
+
+format::Result<ChunkMesh> load_chunk(const ChunkInfo& info) {
+  auto opened = format::RecordReader::open(info.path, kChunkFaceRecordKind, kChunkFaceRecordBytes);
+  if (!opened) return opened.status();
+  format::RecordReader& reader = **opened;
+  auto bad = [&](const std::string& message) { return Status::error(Code::kBadInput, info.path, message); };
+  if (reader.records() != info.faces) {
+    return bad("holds " + std::to_string(reader.records()) + " face records, the partition wrote " + std::to_string(info.faces));
+  }
+  ChunkMesh mesh;
+  mesh.chunk = info.id;
+  const std::size_t faces = static_cast<std::size_t>(info.faces);
+  mesh.global_face.reserve(faces);
+  mesh.owned_face.reserve(faces);
+  std::vector<std::uint32_t> corner_ids;
+  std::vector<Vec3f> corner_positions;
+  std::vector<std::uint8_t> corner_owned;
+  corner_ids.reserve(3 * faces);
+  corner_positions.reserve(3 * faces);
+  corner_owned.reserve(3 * faces);
+  for (;;) {
+    auto block = reader.next();
+    if (!block) return block.status();
+    if (block->empty()) break;
+    for (std::size_t at = 0; at < block->size(); at += kChunkFaceRecordBytes) {
+      const std::byte* r = block->data() + at;
+      std::uint64_t face;
+      std::uint32_t v[3];
+      Vec3f p[3];
+      std::memcpy(&face, r, 8);
+      std::memcpy(v, r + 8, 12);
+      std::memcpy(p, r + 20, 36);
+      const auto flags = std::to_integer<std::uint8_t>(r[56]);
+      const std::string where = "face record " + std::to_string(mesh.global_face.size()) + ": ";
+      if (mesh.global_face.size() >= faces) return bad(where + "more records than the file claims");
+      if (!mesh.global_face.empty() && face <= mesh.global_face.back()) return bad(where + "face ids not ascending");
+      if (flags & 0xF0) return bad(where + "reserved flag bits set");
+      int lowest = 0;
+      for (int j = 1; j < 3; ++j)
+        if (v[j] < v[lowest]) lowest = j;
+      const bool owns_face = flags & kOwnsFace;
+      if (owns_face != static_cast<bool>((flags >> lowest) & 1)) {
+        return bad(where + "face " + std::to_string(face) + " ownership disagrees with its lowest vertex's");
+      }
+      mesh.global_face.push_back(face);
+      mesh.owned_face.push_back(owns_face);
+      for (int j = 0; j < 3; ++j) {
+        corner_ids.push_back(v[j]);
+        corner_positions.push_back(p[j]);
+        corner_owned.push_back((flags >> j) & 1);
+      }
+    }
+  }
+  if (mesh.global_face.size() != faces) return bad("fewer face records than the file claims");
+  mesh.global_vertex = corner_ids;
+  std::sort(mesh.global_vertex.begin(), mesh.global_vertex.end());
+  mesh.global_vertex.erase(std::unique(mesh.global_vertex.begin(), mesh.global_vertex.end()), mesh.global_vertex.end());
+  const std::size_t nv = mesh.global_vertex.size();
+  mesh.positions.resize(nv);
+  mesh.owned_vertex.assign(nv, 0);
+  std::vector<std::uint8_t> seen(nv, 0);
+  mesh.triangles.resize(faces);
+  for (std::size_t c = 0; c < corner_ids.size(); ++c) {
+    const auto it = std::lower_bound(mesh.global_vertex.begin(), mesh.global_vertex.end(), corner_ids[c]);
+    const auto local = static_cast<std::uint32_t>(it - mesh.global_vertex.begin());
+    if (!seen[local]) {
+      seen[local] = 1;
+      mesh.positions[local] = corner_positions[c];
+      mesh.owned_vertex[local] = corner_owned[c];
+    } else if (std::memcmp(&mesh.positions[local], &corner_positions[c], sizeof(Vec3f)) != 0) {
+      return bad("vertex " + std::to_string(corner_ids[c]) + " has two different positions");
+    } else if (mesh.owned_vertex[local] != corner_owned[c]) {
+      return bad("vertex " + std::to_string(corner_ids[c]) + " is both owned and not owned");
+    }
+    mesh.triangles[c / 3].v[c % 3] = local;
+  }
+  std::uint64_t owned_faces = 0, owned_vertices = 0;
+  for (std::uint8_t o : mesh.owned_face) owned_faces += o;
+  for (std::uint8_t o : mesh.owned_vertex) owned_vertices += o;
+  if (owned_faces != info.owned_faces) {
+    return bad("owns " + std::to_string(owned_faces) + " faces, the partition wrote " + std::to_string(info.owned_faces));
+  }
+  if (owned_vertices > info.owned_vertices) {
+    return bad("owns " + std::to_string(owned_vertices) + " vertices, more than the partition's " +
+               std::to_string(info.owned_vertices));
+  }
+  return mesh;
+}
+
+}  // namespace gaussmesh::stream

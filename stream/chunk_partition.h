@@ -1,0 +1,121 @@
+// Passes 0 and 1 of the out-of-core pipeline (DESIGN §2, docs/partition.md): ingest a mesh
+// stream into spill files, cut its bounds into Morton-ordered cells grouped into chunks that
+// each own about a target number of vertices, and write every chunk's faces — those within
+// `rings` vertex rings of the vertices it owns — to one record file per chunk, in memory
+// bounded by PartitionOptions::memory_bytes whatever the input size.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "format/mesh_reader.h"
+#include "format/mesh_types.h"
+#include "format/status.h"
+
+namespace gaussmesh::stream {
+
+// Record kind of chunk face files (format/record_file.h): "GMCF" read as a little-endian u32.
+inline constexpr std::uint32_t kChunkFaceRecordKind = 0x46434D47u;
+// Bytes of one chunk face record (layout in docs/partition.md):
+//   0  u64  global face id (the face's position in the reader's triangle stream)
+//   8  u32  global vertex id of corner 0, 1, 2
+//   20 f32  x, y, z of corner 0, then corner 1, then corner 2 (bit-exact copies of the input)
+//   56 u8   flags: bit j (0..2) = the chunk owns corner j; bit 3 = the chunk owns the face;
+//           bits 4..7 zero
+inline constexpr std::uint32_t kChunkFaceRecordBytes = 57;
+inline constexpr std::uint8_t kOwnsFace = 8;
+
+// Working memory of a chunk in pass 2, per face (adjacency, normals, labels, records):
+// the chunk size follows from it when max_chunk_faces is 0.
+inline constexpr std::uint64_t kChunkBytesPerFace = 200;
+// Rings above this are refused (per-vertex chunk sets tag entries with their ring in 8 bits).
+inline constexpr std::uint32_t kMaxPartitionRings = 64;
+// Smallest memory budget accepted (the reader's window and the spill buffers need ~8 MiB).
+inline constexpr std::uint64_t kMinPartitionMemory = std::uint64_t{16} << 20;
+
+struct PartitionOptions {
+  // The working-set budget of this pass (peak RSS stays under it) and the source of the chunk
+  // size: chunk faces = memory_bytes / threads / kChunkBytesPerFace.
+  std::uint64_t memory_bytes = std::uint64_t{256} << 20;
+  // Overlap rings k >= 1 (required_overlap_rings(smooth) in stream/sampler.h).
+  std::uint32_t rings = 3;
+  // Chunks in flight in pass 2; only divides the chunk size here.
+  std::uint32_t threads = 1;
+  // Faces per chunk to aim for (0 = derive from memory_bytes). A chunk owns about 3/4 of this
+  // in faces; the overlap rings bring the rest. Tests set it small to force hundreds of chunks.
+  std::uint64_t max_chunk_faces = 0;
+  // Chunk files written at once in the final scan (0 = as many as the memory allows). Tests set
+  // it small to force the multi-round path.
+  std::uint32_t max_open_chunks = 0;
+  // zstd level of the chunk files (1 = fast; negative = faster, larger).
+  int compression_level = 1;
+  // Where the run's temporary directory is made (empty = $TMPDIR, else /tmp).
+  std::string tmp_dir;
+};
+
+struct ChunkInfo {
+  std::uint32_t id = 0;
+  std::uint64_t owned_vertices = 0;  // every vertex of its cells, referenced by faces or not
+  std::uint64_t owned_faces = 0;     // faces whose lowest-id vertex it owns
+  std::uint64_t faces = 0;           // records in its file: F_k(C), owned faces included
+  std::string path;                  // its chunk face record file
+};
+
+// The result of passes 0 and 1. Owns its temporary directory: the destructor (or
+// remove_temp()) deletes it with everything in it. Move-only.
+struct Partition {
+  std::string dir;                  // the run's temp dir, registered for signal cleanup
+  std::uint64_t vertices = 0;       // input vertex count
+  std::uint64_t faces = 0;          // triangles after the reader's fan triangulation
+  format::Vec3f lo, hi;             // bounds of the finite positions (zero when there are none)
+  std::vector<ChunkInfo> chunks;    // ids 0..n-1, in Morton order of their cells
+  std::uint64_t bytes_spilled = 0;  // every byte written to temporary files
+  std::uint64_t cache_misses = 0;   // blocks read into the bounded cache (a measure of disorder)
+  double seconds_ingest = 0, seconds_partition = 0;
+
+  Partition() = default;
+  ~Partition();
+  Partition(Partition&& other) noexcept;
+  Partition& operator=(Partition&& other) noexcept;
+  Partition(const Partition&) = delete;
+  Partition& operator=(const Partition&) = delete;
+  // Deletes dir now (idempotent).
+  void remove_temp();
+
+  int temp_slot = -1;  // format::register_temp_path slot of dir
+};
+
+// Pass 0 + 1 from input_path (a file, or "-" for stdin) through format::read_mesh_file.
+// Ownership: a vertex is owned by the chunk of its grid cell (at most 2^18 cells, Morton order,
+// runs of cells per chunk); a face by the chunk owning its lowest-id vertex. Chunk C holds
+// F_k(C): V_0 = owned vertices, F_{i+1} = faces with a corner in V_i (degenerate faces too),
+// V_{i+1} = corners of F_{i+1}.
+// Errors: the reader's (kBadInput, naming the input and the place); kUsage for options out of
+// range (rings 0 or > kMaxPartitionRings, memory below kMinPartitionMemory, threads 0);
+// kResources for more than 2^32 - 1 vertices; kOutput when a temporary file cannot be written
+// (disk full). On every error the temporary directory is gone when this returns.
+format::Result<Partition> partition_mesh(const std::string& input_path, const format::ReadOptions& read,
+                                         const PartitionOptions& options);
+
+// One chunk as a local mesh: local vertices in ascending global id, triangles in ascending
+// global face id, with local vertex indices.
+struct ChunkMesh {
+  std::uint32_t chunk = 0;
+  std::vector<format::Vec3f> positions;
+  std::vector<format::Triangle> triangles;
+  std::vector<std::uint32_t> global_vertex;  // per local vertex, strictly ascending
+  std::vector<std::uint64_t> global_face;    // per local face, strictly ascending
+  std::vector<std::uint8_t> owned_vertex;    // per local vertex: 1 if the chunk owns it
+  std::vector<std::uint8_t> owned_face;      // per local face: 1 if the chunk owns it
+  format::MeshView view() const { return {positions, triangles}; }
+};
+
+// Reads and checks one chunk file. Everything is untrusted: a damaged or inconsistent file
+// (checksums, record count against info.faces, owned faces against info.owned_faces, face ids
+// not ascending, flag bits, one vertex id with two positions or two ownerships, a face owned
+// though its lowest-id vertex is not) is a kBadInput error naming the file.
+// Memory: about 100 B per face of the chunk.
+format::Result<ChunkMesh> load_chunk(const ChunkInfo& info);
+
+}  // namespace gaussmesh::stream

@@ -1,0 +1,524 @@
+// Tests of passes 0 and 1 (stream/chunk_partition.h): every chunk holds exactly the faces within
+// k vertex rings of the vertices it owns (against an in-memory BFS), ownership is a partition,
+// ids and positions round-trip bit-exactly, badly ordered input gives the same chunks, high
+// valence overflows no set, and temporary files disappear on success, bad input and full disks.
+#include "stream/chunk_partition.h"
+
+#include <signal.h>
+#include <sys/mount.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <functional>
+#include <numeric>
+#include <map>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "format/mesh_writer.h"
+#include "format/output_file.h"
+#include "format/record_file.h"
+#include "stream/mesh.h"
+#include "tests/support/shapes.h"
+#include "tests/support/test_util.h"
+
+namespace gaussmesh::stream {
+namespace {
+
+namespace fs = std::filesystem;
+using format::Code;
+
+void write_mesh(const std::string& path, const Mesh& mesh) {
+  auto out = format::OutputFile::create(path, true);
+  ASSERT_TRUE(out.is_ok()) << out.status().to_string();
+  ASSERT_TRUE(format::write_ply(**out, mesh.view(), {}).is_ok());
+  ASSERT_TRUE((*out)->commit().is_ok());
+}
+
+bool is_empty_dir(const std::string& dir) { return fs::is_empty(dir); }
+
+// The chunks as the reference sees them: ownership from the files, each chunk's face set.
+struct Loaded {
+  std::vector<std::uint32_t> owner;              // per vertex; kNone for unreferenced
+  std::vector<std::vector<std::uint64_t>> faces;  // per chunk, global face ids
+};
+constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+
+// Loads every chunk and checks what a chunk must hold on its own: ids and positions against the
+// mesh, one owner per vertex and per face, the face owner rule, the counts.
+Loaded load_and_check(const Partition& partition, const Mesh& mesh, const std::string& tag) {
+  Loaded loaded;
+  loaded.owner.assign(mesh.positions.size(), kNone);
+  std::vector<std::uint32_t> face_owner(mesh.triangles.size(), kNone);
+  std::uint64_t owned_vertices = 0;
+  for (const ChunkInfo& info : partition.chunks) {
+    owned_vertices += info.owned_vertices;
+    auto chunk = load_chunk(info);
+    EXPECT_TRUE(chunk.is_ok()) << tag << ": " << chunk.status().to_string();
+    if (!chunk) {
+      loaded.faces.emplace_back();
+      continue;
+    }
+    const ChunkMesh& c = *chunk;
+    EXPECT_EQ(c.chunk, info.id);
+    for (std::size_t l = 0; l < c.global_vertex.size(); ++l) {
+      const std::uint32_t g = c.global_vertex[l];
+      EXPECT_EQ(std::memcmp(&c.positions[l], &mesh.positions[g], sizeof(format::Vec3f)), 0) << tag << " vertex " << g;
+      if (c.owned_vertex[l]) {
+        EXPECT_EQ(loaded.owner[g], kNone) << tag << ": vertex " << g << " owned twice";
+        loaded.owner[g] = info.id;
+      }
+    }
+    for (std::size_t l = 0; l < c.triangles.size(); ++l) {
+      const format::Triangle& t = mesh.triangles[c.global_face[l]];
+      for (int j = 0; j < 3; ++j) EXPECT_EQ(c.global_vertex[c.triangles[l].v[j]], t.v[j]) << tag << " face " << c.global_face[l];
+      if (c.owned_face[l]) {
+        EXPECT_EQ(face_owner[c.global_face[l]], kNone) << tag << ": face " << c.global_face[l] << " owned twice";
+        face_owner[c.global_face[l]] = info.id;
+      }
+    }
+    loaded.faces.push_back(c.global_face);
+  }
+  EXPECT_EQ(owned_vertices, mesh.positions.size()) << tag;
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+    const format::Triangle& t = mesh.triangles[f];
+    const std::uint32_t lowest = std::min({t.v[0], t.v[1], t.v[2]});
+    EXPECT_NE(loaded.owner[lowest], kNone) << tag << ": vertex " << lowest << " of face " << f << " has no owner";
+    EXPECT_EQ(face_owner[f], loaded.owner[lowest]) << tag << ": face " << f << " not owned by its lowest vertex's chunk";
+  }
+  return loaded;
+}
+
+// F_k(C) by BFS over the whole mesh: V_0 = owned, F_{i+1} = faces with a corner in V_i (by
+// index: degenerate faces included), V_{i+1} = their corners.
+std::vector<std::vector<std::uint64_t>> reference_chunks(const Mesh& mesh, const std::vector<std::uint32_t>& owner,
+                                                         std::size_t chunks, std::uint32_t rings) {
+  const std::size_t nv = mesh.positions.size();
+  std::vector<std::uint32_t> offsets(nv + 1, 0), incident;
+  for (const auto& t : mesh.triangles)
+    for (std::uint32_t v : t.v) ++offsets[v + 1];
+  std::partial_sum(offsets.begin(), offsets.end(), offsets.begin());
+  incident.resize(offsets.back());
+  std::vector<std::uint32_t> fill(offsets.begin(), offsets.end() - 1);
+  for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f)
+    for (std::uint32_t v : mesh.triangles[f].v) incident[fill[v]++] = f;
+  std::vector<std::vector<std::uint32_t>> owned(chunks);
+  for (std::uint32_t v = 0; v < nv; ++v)
+    if (owner[v] != kNone) owned[owner[v]].push_back(v);
+  std::vector<std::uint32_t> vertex_mark(nv, kNone), face_mark(mesh.triangles.size(), kNone);
+  std::vector<std::vector<std::uint64_t>> result(chunks);
+  for (std::uint32_t c = 0; c < chunks; ++c) {
+    std::vector<std::uint32_t> frontier = owned[c], next;
+    for (std::uint32_t v : frontier) vertex_mark[v] = c;
+    for (std::uint32_t r = 0; r < rings; ++r) {
+      next.clear();
+      for (std::uint32_t v : frontier)
+        for (std::uint32_t s = offsets[v]; s < offsets[v + 1]; ++s) {
+          const std::uint32_t f = incident[s];
+          if (face_mark[f] == c) continue;
+          face_mark[f] = c;
+          result[c].push_back(f);
+          for (std::uint32_t w : mesh.triangles[f].v)
+            if (vertex_mark[w] != c) {
+              vertex_mark[w] = c;
+              next.push_back(w);
+            }
+        }
+      frontier.swap(next);
+    }
+    std::sort(result[c].begin(), result[c].end());
+  }
+  return result;
+}
+
+// Partitions mesh (written as PLY) and checks every chunk against the reference.
+// threads > 1 compresses on a second thread (the chunk size is max_chunk_faces either way).
+void check_exact(const Mesh& mesh, const std::string& name, std::uint64_t max_chunk_faces, std::uint32_t rings,
+                 std::size_t min_chunks, std::uint32_t max_open_chunks = 0, std::uint32_t threads = 1) {
+  const std::string tag = name + " rings " + std::to_string(rings) + " threads " + std::to_string(threads);
+  testing::ScratchDir dir;
+  const std::string input = dir.file("in.ply");
+  write_mesh(input, mesh);
+  PartitionOptions options;
+  options.rings = rings;
+  options.max_chunk_faces = max_chunk_faces;
+  options.max_open_chunks = max_open_chunks;
+  options.threads = threads;
+  options.memory_bytes = 32ull << 20;
+  options.tmp_dir = dir.path().string();
+  auto partition = partition_mesh(input, {}, options);
+  ASSERT_TRUE(partition.is_ok()) << tag << ": " << partition.status().to_string();
+  EXPECT_EQ(partition->vertices, mesh.positions.size()) << tag;
+  EXPECT_EQ(partition->faces, mesh.triangles.size()) << tag;
+  EXPECT_GE(partition->chunks.size(), min_chunks) << tag;
+  const Loaded loaded = load_and_check(*partition, mesh, tag);
+  const auto expected = reference_chunks(mesh, loaded.owner, partition->chunks.size(), rings);
+  for (std::size_t c = 0; c < expected.size(); ++c) {
+    EXPECT_EQ(loaded.faces[c], expected[c]) << tag << ": chunk " << c << " holds " << loaded.faces[c].size()
+                                            << " faces, F_k(C) has " << expected[c].size();
+    EXPECT_EQ(partition->chunks[c].faces, expected[c].size()) << tag << " chunk " << c;
+  }
+}
+
+Mesh sphere_mesh() {
+  testing::ShapeOptions o;
+  o.vertices = 10000;  // ~20k faces
+  o.seed = 3;
+  return testing::make_sphere(o);
+}
+
+Mesh torus_mesh() {
+  testing::ShapeOptions o;
+  o.vertices = 10000;
+  o.seed = 5;
+  o.noise = 0.001;
+  return testing::make_torus(1, 0.4, o);
+}
+
+// A torus with degenerate faces (repeated index) and vertices no face uses.
+Mesh torus_with_defects() {
+  Mesh mesh = torus_mesh();
+  const std::uint32_t nv = static_cast<std::uint32_t>(mesh.positions.size());
+  std::mt19937 rng(11);
+  for (int i = 0; i < 50; ++i) {
+    const std::uint32_t a = rng() % nv, b = rng() % nv;
+    mesh.triangles.push_back({{a, a, b}});
+  }
+  mesh.triangles.push_back({{7, 7, 7}});
+  for (int i = 0; i < 30; ++i) mesh.positions.push_back({float(i) * 0.01f, 0.5f, -0.2f});
+  return mesh;
+}
+
+TEST(ChunkPartition, ChunksHoldExactlyTheirRingsOnShapes) {
+  const Mesh sphere = sphere_mesh();
+  const Mesh torus = torus_with_defects();
+  ASSERT_GT(sphere.triangles.size(), 15000u);
+  for (std::uint32_t rings : {1u, 3u, 5u}) {
+    check_exact(sphere, "sphere", 100, rings, 100, 0, rings == 3 ? 2 : 1);
+    check_exact(torus, "torus with defects", 100, rings, 100, 0, rings == 5 ? 2 : 1);
+  }
+}
+
+TEST(ChunkPartition, ChunksHoldExactlyTheirRingsOnTheCow) {
+  auto cow = load_mesh(testing::fixture("real/cow.off"));
+  ASSERT_TRUE(cow.is_ok()) << cow.status().to_string();
+  for (std::uint32_t rings : {1u, 3u, 5u}) check_exact(*cow, "cow", 30, rings, 100);
+}
+
+TEST(ChunkPartition, SeveralWriterRoundsGiveTheSameChunks) {
+  // At most 7 chunk files open at once: the final scan runs once per 7 chunks.
+  check_exact(sphere_mesh(), "sphere, 7 writers", 100, 3, 100, 7);
+  check_exact(sphere_mesh(), "sphere, 7 writers", 100, 3, 100, 7, 2);
+}
+
+TEST(ChunkPartition, ChunkSizeFollowsTheBudget) {
+  const Mesh torus = torus_mesh();
+  testing::ScratchDir dir;
+  write_mesh(dir.file("in.ply"), torus);
+  PartitionOptions options;
+  options.tmp_dir = dir.path().string();
+  options.memory_bytes = 16ull << 20;
+  options.threads = 64;  // 16 MiB / 64 / 200 B = 1310 faces per chunk
+  auto partition = partition_mesh(dir.file("in.ply"), {}, options);
+  ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
+  const double expected = 0.75 * 1310 * double(torus.positions.size()) / double(torus.triangles.size());
+  std::uint64_t largest = 0;
+  for (const ChunkInfo& info : partition->chunks) largest = std::max(largest, info.owned_vertices);
+  EXPECT_NEAR(double(torus.positions.size()) / double(partition->chunks.size()), expected, expected * 0.25);
+  EXPECT_LT(double(largest), 2 * expected);
+  options.threads = 1;  // one chunk: the whole torus fits
+  auto whole = partition_mesh(dir.file("in.ply"), {}, options);
+  ASSERT_TRUE(whole.is_ok());
+  ASSERT_EQ(whole->chunks.size(), 1u);
+  EXPECT_EQ(whole->chunks[0].faces, torus.triangles.size());
+  EXPECT_EQ(whole->chunks[0].owned_faces, torus.triangles.size());
+}
+
+TEST(ChunkPartition, ShuffledIdsGiveTheSameChunks) {
+  const Mesh mesh = torus_mesh();
+  const std::uint32_t seed = 20260501;
+  std::mt19937 rng(seed);
+  std::vector<std::uint32_t> to_new(mesh.positions.size()), face_order(mesh.triangles.size());
+  std::iota(to_new.begin(), to_new.end(), 0u);
+  std::iota(face_order.begin(), face_order.end(), 0u);
+  std::shuffle(to_new.begin(), to_new.end(), rng);
+  std::shuffle(face_order.begin(), face_order.end(), rng);
+  Mesh shuffled;
+  shuffled.positions.resize(mesh.positions.size());
+  for (std::size_t v = 0; v < mesh.positions.size(); ++v) shuffled.positions[to_new[v]] = mesh.positions[v];
+  for (std::uint32_t f : face_order) {
+    const auto& t = mesh.triangles[f];
+    shuffled.triangles.push_back({{to_new[t.v[0]], to_new[t.v[1]], to_new[t.v[2]]}});
+  }
+  auto run = [&](const Mesh& m, const std::string& name) {
+    testing::ScratchDir dir;
+    write_mesh(dir.file("in.ply"), m);
+    PartitionOptions options;
+    options.rings = 3;
+    options.max_chunk_faces = 150;
+    options.memory_bytes = 16ull << 20;
+    options.tmp_dir = dir.path().string();
+    auto partition = partition_mesh(dir.file("in.ply"), {}, options);
+    EXPECT_TRUE(partition.is_ok()) << partition.status().to_string();
+    Loaded loaded = load_and_check(*partition, m, name);
+    const auto expected = reference_chunks(m, loaded.owner, partition->chunks.size(), 3);
+    for (std::size_t c = 0; c < expected.size(); ++c) EXPECT_EQ(loaded.faces[c], expected[c]) << name << " chunk " << c;
+    return loaded;
+  };
+  const Loaded ordered = run(mesh, "ordered");
+  const Loaded bad = run(shuffled, "shuffled, seed " + std::to_string(seed));
+  ASSERT_EQ(ordered.faces.size(), bad.faces.size());
+  EXPECT_GE(ordered.faces.size(), 50u);
+  for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
+    EXPECT_EQ(ordered.owner[v], bad.owner[to_new[v]]) << "vertex " << v << ", seed " << seed;
+  }
+  for (std::size_t c = 0; c < ordered.faces.size(); ++c) {
+    std::vector<std::uint64_t> mapped;
+    for (std::uint64_t f : bad.faces[c]) mapped.push_back(face_order[f]);
+    std::sort(mapped.begin(), mapped.end());
+    EXPECT_EQ(mapped, ordered.faces[c]) << "chunk " << c << ", seed " << seed;
+  }
+}
+
+TEST(ChunkPartition, HighValenceVertexKeepsEveryChunk) {
+  // A fan of 2000 triangles around one centre vertex, ringed by a strip: the centre touches
+  // every chunk on the rim, so its chunk set and its neighbours' go far past the inline slots.
+  Mesh mesh;
+  const std::uint32_t n = 2000;
+  mesh.positions.push_back({0, 0, 0});
+  for (std::uint32_t ring = 1; ring <= 2; ++ring)
+    for (std::uint32_t i = 0; i < n; ++i) {
+      const double a = 2 * M_PI * i / n;
+      mesh.positions.push_back({float(ring * std::cos(a)), float(ring * std::sin(a)), 0});
+    }
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const std::uint32_t j = (i + 1) % n;
+    mesh.triangles.push_back({{0, 1 + i, 1 + j}});
+    mesh.triangles.push_back({{1 + i, 1 + n + i, 1 + n + j}});
+    mesh.triangles.push_back({{1 + i, 1 + n + j, 1 + j}});
+  }
+  for (std::uint32_t rings : {1u, 2u, 3u}) check_exact(mesh, "fan", 60, rings, 100);
+  // The centre is in every chunk that owns a rim vertex next to it.
+  testing::ScratchDir dir;
+  write_mesh(dir.file("fan.ply"), mesh);
+  PartitionOptions options;
+  options.rings = 2;
+  options.max_chunk_faces = 60;
+  options.tmp_dir = dir.path().string();
+  auto partition = partition_mesh(dir.file("fan.ply"), {}, options);
+  ASSERT_TRUE(partition.is_ok());
+  std::size_t holding_centre = 0;
+  for (const ChunkInfo& info : partition->chunks) {
+    auto chunk = load_chunk(info);
+    ASSERT_TRUE(chunk.is_ok());
+    holding_centre += !chunk->global_vertex.empty() && chunk->global_vertex[0] == 0;
+  }
+  EXPECT_GT(holding_centre, 50u);
+}
+
+TEST(ChunkPartition, TempDirGoesWithThePartition) {
+  testing::ScratchDir dir;
+  write_mesh(dir.file("in.ply"), sphere_mesh());
+  fs::create_directory(dir.file("tmp"));
+  PartitionOptions options;
+  options.max_chunk_faces = 2000;
+  options.tmp_dir = dir.file("tmp");
+  std::string run_dir;
+  {
+    auto partition = partition_mesh(dir.file("in.ply"), {}, options);
+    ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
+    run_dir = partition->dir;
+    EXPECT_EQ(fs::path(run_dir).parent_path(), fs::path(dir.file("tmp")));
+    // Only the chunk files are left once the pass is done.
+    std::size_t files = 0;
+    for (const auto& entry : fs::directory_iterator(run_dir)) {
+      EXPECT_EQ(entry.path().extension(), ".gmr") << entry.path();
+      ++files;
+    }
+    EXPECT_EQ(files, partition->chunks.size());
+    Partition moved = std::move(*partition);
+    EXPECT_TRUE(partition->dir.empty());
+    EXPECT_TRUE(fs::exists(run_dir));  // the moved-from partition removed nothing
+  }
+  EXPECT_FALSE(fs::exists(run_dir));
+  EXPECT_TRUE(is_empty_dir(dir.file("tmp")));
+}
+
+TEST(ChunkPartition, BadInputLeavesNothingBehind) {
+  testing::ScratchDir dir;
+  write_mesh(dir.file("in.ply"), sphere_mesh());
+  const std::string bytes = testing::read_file(dir.file("in.ply"));
+  testing::write_file(dir.file("cut.ply"), bytes.substr(0, bytes.size() - 1000));
+  testing::write_file(dir.file("junk.ply"), "ply\nformat binary_little_endian 1.0\nelement vertex 99999999999\nend_header\n");
+  fs::create_directory(dir.file("tmp"));
+  PartitionOptions options;
+  options.tmp_dir = dir.file("tmp");
+  for (const char* name : {"cut.ply", "junk.ply", "missing.ply"}) {
+    auto partition = partition_mesh(dir.file(name), {}, options);
+    ASSERT_FALSE(partition.is_ok()) << name;
+    EXPECT_EQ(partition.status().code(), Code::kBadInput) << partition.status().to_string();
+    const std::string message = partition.status().to_string();
+    EXPECT_NE(message.find(name), std::string::npos) << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+    EXPECT_TRUE(is_empty_dir(dir.file("tmp"))) << name;
+  }
+  EXPECT_NE(partition_mesh(dir.file("cut.ply"), {}, options).status().to_string().find("byte"), std::string::npos);
+}
+
+TEST(ChunkPartition, OptionsOutOfRangeAreRefused) {
+  testing::ScratchDir dir;
+  write_mesh(dir.file("in.ply"), sphere_mesh());
+  PartitionOptions options;
+  options.tmp_dir = dir.path().string();
+  options.rings = 0;
+  EXPECT_EQ(partition_mesh(dir.file("in.ply"), {}, options).status().code(), Code::kUsage);
+  options.rings = kMaxPartitionRings + 1;
+  EXPECT_EQ(partition_mesh(dir.file("in.ply"), {}, options).status().code(), Code::kUsage);
+  options.rings = 3;
+  options.memory_bytes = 1 << 20;
+  EXPECT_EQ(partition_mesh(dir.file("in.ply"), {}, options).status().code(), Code::kUsage);
+  options.memory_bytes = 64ull << 20;
+  options.tmp_dir = dir.file("no/such/dir");
+  EXPECT_EQ(partition_mesh(dir.file("in.ply"), {}, options).status().code(), Code::kOutput);
+}
+
+// Runs a partition whose temporary files cannot all be written; expects one kOutput line and
+// nothing left in tmp.
+void expect_write_failure(const std::string& input, const std::string& tmp, const std::string& what,
+                          std::uint32_t threads = 1) {
+  PartitionOptions options;
+  options.threads = threads;
+  options.tmp_dir = tmp;
+  options.max_chunk_faces = 500;
+  options.compression_level = -5;
+  auto partition = partition_mesh(input, {}, options);
+  ASSERT_FALSE(partition.is_ok()) << what;
+  EXPECT_EQ(partition.status().code(), Code::kOutput) << what << ": " << partition.status().to_string();
+  EXPECT_EQ(partition.status().to_string().find('\n'), std::string::npos);
+  EXPECT_NE(partition.status().to_string().find(tmp), std::string::npos) << partition.status().to_string();
+  EXPECT_TRUE(is_empty_dir(tmp)) << what;
+}
+
+TEST(ChunkPartition, FullDiskIsAnOutputErrorAndLeavesNothing) {
+  testing::ScratchDir dir;
+  testing::ShapeOptions o;
+  o.vertices = 40000;  // 80k faces: 1.4 MB of spills, ~5 MB of chunk records
+  const Mesh mesh = testing::make_sphere(o);
+  write_mesh(dir.file("in.ply"), mesh);
+  // Every file limited to 256 KiB (RLIMIT_FSIZE: write fails with EFBIG): the spill breaks.
+  {
+    fs::create_directory(dir.file("tmp"));
+    struct rlimit old {};
+    ::getrlimit(RLIMIT_FSIZE, &old);
+    struct rlimit low = old;
+    low.rlim_cur = 256 << 10;
+    auto* previous = ::signal(SIGXFSZ, SIG_IGN);
+    ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &low), 0);
+    expect_write_failure(dir.file("in.ply"), dir.file("tmp"), "file size limit");
+    ::setrlimit(RLIMIT_FSIZE, &old);
+    ::signal(SIGXFSZ, previous);
+  }
+  // A real full file system (tmpfs of 3 MB: the spills fit, the chunk files do not).
+  if (::geteuid() != 0) GTEST_SKIP() << "not root: cannot mount a small tmpfs for the ENOSPC case";
+  const std::string mount_point = dir.file("small");
+  fs::create_directory(mount_point);
+  if (::mount("tmpfs", mount_point.c_str(), "tmpfs", 0, "size=3m") != 0) {
+    GTEST_SKIP() << "cannot mount a tmpfs here (" << std::strerror(errno) << "): ENOSPC case skipped";
+  }
+  expect_write_failure(dir.file("in.ply"), mount_point, "3 MB tmpfs");
+  expect_write_failure(dir.file("in.ply"), mount_point, "3 MB tmpfs, compression thread", 2);
+  ::umount(mount_point.c_str());
+}
+
+TEST(ChunkPartition, DamagedChunkFilesAreBadInput) {
+  testing::ScratchDir dir;
+  write_mesh(dir.file("in.ply"), torus_mesh());
+  PartitionOptions options;
+  options.max_chunk_faces = 2000;
+  options.tmp_dir = dir.path().string();
+  auto partition = partition_mesh(dir.file("in.ply"), {}, options);
+  ASSERT_TRUE(partition.is_ok());
+  ASSERT_GE(partition->chunks.size(), 2u);
+  const ChunkInfo info = partition->chunks[1];
+  const std::string bytes = testing::read_file(info.path);
+  auto expect_bad = [&](const ChunkInfo& damaged, const std::string& what) {
+    auto chunk = load_chunk(damaged);
+    ASSERT_FALSE(chunk.is_ok()) << what;
+    EXPECT_EQ(chunk.status().code(), Code::kBadInput) << what;
+    EXPECT_NE(chunk.status().to_string().find(damaged.path), std::string::npos) << chunk.status().to_string();
+  };
+  // Flipped byte, truncation, wrong counts.
+  std::string flipped = bytes;
+  flipped[bytes.size() / 2] ^= 0x20;
+  testing::write_file(info.path, flipped);
+  expect_bad(info, "flipped byte");
+  testing::write_file(info.path, bytes.substr(0, bytes.size() - 10));
+  expect_bad(info, "truncated");
+  testing::write_file(info.path, bytes);
+  ASSERT_TRUE(load_chunk(info).is_ok());
+  ChunkInfo wrong = info;
+  wrong.faces += 1;
+  expect_bad(wrong, "record count");
+  wrong = info;
+  wrong.owned_faces += 1;
+  expect_bad(wrong, "owned faces");
+  // Well-formed files whose records contradict each other.
+  std::vector<std::byte> records;
+  {
+    auto reader = format::RecordReader::open(info.path, kChunkFaceRecordKind, kChunkFaceRecordBytes);
+    ASSERT_TRUE(reader.is_ok());
+    for (;;) {
+      auto block = (*reader)->next();
+      ASSERT_TRUE(block.is_ok());
+      if (block->empty()) break;
+      records.insert(records.end(), block->begin(), block->end());
+    }
+  }
+  auto rewrite = [&](const std::function<void(std::vector<std::byte>&)>& damage, const std::string& what) {
+    std::vector<std::byte> copy = records;
+    damage(copy);
+    auto writer = format::RecordWriter::create(info.path, kChunkFaceRecordKind, kChunkFaceRecordBytes);
+    ASSERT_TRUE(writer.is_ok());
+    ASSERT_TRUE((*writer)->append(copy).is_ok());
+    ASSERT_TRUE((*writer)->finish().is_ok());
+    expect_bad(info, what);
+  };
+  const std::size_t last = records.size() - kChunkFaceRecordBytes;
+  rewrite([&](auto& r) { r[last + 56] |= std::byte{0x40}; }, "reserved flag");
+  rewrite([&](auto& r) { r[last + 56] ^= std::byte{kOwnsFace}; }, "face owner");
+  rewrite([&](auto& r) {
+    // A vertex that several records carry gets a different position in one of them.
+    std::map<std::uint32_t, int> uses;
+    for (std::size_t at = 0; at < r.size(); at += kChunkFaceRecordBytes) {
+      std::uint32_t v[3];
+      std::memcpy(v, r.data() + at + 8, 12);
+      for (std::uint32_t id : v) ++uses[id];
+    }
+    for (std::size_t at = 0; at < r.size(); at += kChunkFaceRecordBytes) {
+      std::uint32_t v0;
+      std::memcpy(&v0, r.data() + at + 8, 4);
+      if (uses[v0] > 1) {
+        r[at + 20] ^= std::byte{1};
+        break;
+      }
+    }
+  }, "second position");
+  rewrite([&](auto& r) { std::memcpy(r.data() + last, r.data(), 8); }, "face order");
+  rewrite([&](auto& r) {
+    // One occurrence of a vertex claims ownership the others deny.
+    for (std::size_t at = 0; at < r.size(); at += kChunkFaceRecordBytes) {
+      if ((std::to_integer<unsigned>(r[at + 56]) & 7) != 7) {
+        r[at + 56] ^= std::byte{7};
+        break;
+      }
+    }
+  }, "ownership");
+}
+
+}  // namespace
+}  // namespace gaussmesh::stream
