@@ -1,0 +1,246 @@
+// Benchmark of passes 0 and 1 (stream/chunk_partition.h): generates refined-cow PLY inputs with
+// make_large_mesh, optionally a badly ordered copy (vertex ids and face order shuffled), runs
+// partition_mesh on each in a child process (fork + exec of this program, so the child's peak
+// RSS — wait4's ru_maxrss — is its own), and prints a markdown table.
+//
+//   bench_partition [--sizes N,N,...] [--memory BYTES] [--rings K] [--threads T] [--level L]
+//                   [--dir D] [--shuffle-max N] [--keep]
+//   bench_partition --child INPUT MEMORY RINGS THREADS LEVEL TMPDIR   (one run; key=value line)
+#include <fcntl.h>
+#include <sys/resource.h>
+#include <sys/statvfs.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <numeric>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "format/mesh_writer.h"
+#include "format/output_file.h"
+#include "stream/chunk_partition.h"
+#include "stream/mesh.h"
+
+namespace gaussmesh::bench {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RunResult {
+  int exit_code = -1;
+  double seconds = 0, peak_rss_mb = 0;
+  std::string out;
+};
+
+RunResult run(const std::vector<std::string>& argv, const fs::path& stdout_file, const fs::path& log) {
+  RunResult result;
+  std::fflush(stdout);
+  std::fflush(stderr);
+  const auto start = std::chrono::steady_clock::now();
+  pid_t child = ::fork();
+  if (child == 0) {
+    int out = ::open(stdout_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    int err = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    if (out < 0 || err < 0) std::_Exit(126);
+    ::dup2(out, 1);
+    ::dup2(err, 2);
+    std::vector<char*> args;
+    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    ::execv(args[0], args.data());
+    std::perror("exec");
+    std::_Exit(127);
+  }
+  if (child < 0) return result;
+  int status = 0;
+  struct rusage usage {};
+  ::wait4(child, &status, 0, &usage);
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.peak_rss_mb = double(usage.ru_maxrss) * 1024 / 1e6;
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  std::ifstream in(stdout_file);
+  std::stringstream text;
+  text << in.rdbuf();
+  result.out = text.str();
+  return result;
+}
+
+std::map<std::string, std::string> parse_pairs(const std::string& line) {
+  std::map<std::string, std::string> pairs;
+  std::istringstream in(line);
+  std::string token;
+  while (in >> token) {
+    auto eq = token.find('=');
+    if (eq != std::string::npos) pairs[token.substr(0, eq)] = token.substr(eq + 1);
+  }
+  return pairs;
+}
+
+std::string read_line(const char* path) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  return line;
+}
+
+// The child: one partition, figures on stdout.
+int child_main(int argc, char** argv) {
+  if (argc != 8) return 1;
+  stream::PartitionOptions options;
+  options.memory_bytes = std::strtoull(argv[3], nullptr, 10);
+  options.rings = static_cast<std::uint32_t>(std::strtoul(argv[4], nullptr, 10));
+  options.threads = static_cast<std::uint32_t>(std::strtoul(argv[5], nullptr, 10));
+  options.compression_level = std::atoi(argv[6]);
+  options.tmp_dir = argv[7];
+  auto partition = stream::partition_mesh(argv[2], {}, options);
+  if (!partition) {
+    std::fprintf(stderr, "%s\n", partition.status().to_string().c_str());
+    return static_cast<int>(partition.status().code());
+  }
+  std::uint64_t records = 0, largest = 0;
+  for (const auto& c : partition->chunks) {
+    records += c.faces;
+    largest = std::max(largest, c.faces);
+  }
+  std::printf("ingest=%.3f partition=%.3f vertices=%llu faces=%llu chunks=%zu records=%llu largest=%llu spilled=%llu misses=%llu\n",
+              partition->seconds_ingest, partition->seconds_partition, (unsigned long long)partition->vertices,
+              (unsigned long long)partition->faces, partition->chunks.size(), (unsigned long long)records,
+              (unsigned long long)largest, (unsigned long long)partition->bytes_spilled,
+              (unsigned long long)partition->cache_misses);
+  return 0;
+}
+
+// Writes a copy of the PLY at in with vertex ids and face order shuffled (fixed seed).
+bool write_shuffled(const fs::path& in, const fs::path& out, std::uint64_t seed) {
+  auto mesh = stream::load_mesh(in.string());
+  if (!mesh) return false;
+  std::mt19937_64 rng(seed);
+  std::vector<std::uint32_t> to_new(mesh->positions.size());
+  std::iota(to_new.begin(), to_new.end(), 0u);
+  std::shuffle(to_new.begin(), to_new.end(), rng);
+  std::vector<format::Vec3f> positions(mesh->positions.size());
+  for (std::size_t v = 0; v < positions.size(); ++v) positions[to_new[v]] = mesh->positions[v];
+  mesh->positions.swap(positions);
+  std::vector<format::Vec3f>().swap(positions);
+  for (auto& t : mesh->triangles)
+    for (auto& v : t.v) v = to_new[v];
+  std::shuffle(mesh->triangles.begin(), mesh->triangles.end(), rng);
+  auto file = format::OutputFile::create(out.string(), true);
+  if (!file) return false;
+  if (!format::write_ply(**file, mesh->view(), {}).is_ok()) return false;
+  return (*file)->commit().is_ok();
+}
+
+int usage() {
+  std::fprintf(stderr,
+               "usage: bench_partition [--sizes N,N,...] [--memory BYTES] [--rings K] [--threads T] [--level L] "
+               "[--dir D] [--shuffle-max N] [--keep]\n");
+  return 1;
+}
+
+}  // namespace
+}  // namespace gaussmesh::bench
+
+int main(int argc, char** argv) {
+  using namespace gaussmesh::bench;
+  if (argc > 1 && std::string(argv[1]) == "--child") return child_main(argc, argv);
+  std::vector<std::uint64_t> sizes = {1'000'000, 10'000'000};
+  std::uint64_t memory = 64ull << 20, shuffle_max = 10'000'000;
+  std::string rings = "3", threads = "1", level = "1";
+  fs::path dir = "/var/tmp";
+  bool keep = false;
+  for (int i = 1; i < argc; ++i) {
+    std::string arg = argv[i];
+    if (arg == "--keep") {
+      keep = true;
+    } else if (i + 1 < argc && arg == "--sizes") {
+      sizes.clear();
+      std::stringstream list(argv[++i]);
+      std::string item;
+      while (std::getline(list, item, ',')) sizes.push_back(std::strtoull(item.c_str(), nullptr, 10));
+    } else if (i + 1 < argc && arg == "--memory") {
+      memory = std::strtoull(argv[++i], nullptr, 10);
+    } else if (i + 1 < argc && arg == "--rings") {
+      rings = argv[++i];
+    } else if (i + 1 < argc && arg == "--threads") {
+      threads = argv[++i];
+    } else if (i + 1 < argc && arg == "--level") {
+      level = argv[++i];
+    } else if (i + 1 < argc && arg == "--dir") {
+      dir = argv[++i];
+    } else if (i + 1 < argc && arg == "--shuffle-max") {
+      shuffle_max = std::strtoull(argv[++i], nullptr, 10);
+    } else {
+      return usage();
+    }
+  }
+  const fs::path self = fs::read_symlink("/proc/self/exe");
+  const std::string generator = (self.parent_path() / "make_large_mesh").string();
+  std::string work_template = (dir / "bench_partition-XXXXXX").string();
+  if (::mkdtemp(work_template.data()) == nullptr) {
+    std::perror(work_template.c_str());
+    return 4;
+  }
+  const fs::path work = work_template;
+  const fs::path log = work / "log.txt";
+  std::fprintf(stderr, "bench_partition: work dir %s (child stderr in log.txt)\n", work.c_str());
+  std::printf("machine: %ld cores, loadavg at start: %s\n", ::sysconf(_SC_NPROCESSORS_ONLN), read_line("/proc/loadavg").c_str());
+  std::printf("partition_mesh: --memory %llu (%.0f MiB), rings %s, threads %s, zstd level %s, temp in %s\n\n",
+              (unsigned long long)memory, double(memory) / (1 << 20), rings.c_str(), threads.c_str(), level.c_str(),
+              work.c_str());
+  std::printf("| input | order | triangles | ingest s | partition s | M triangles/s | chunks | records / triangle | "
+              "largest chunk | spilled GB | cache misses | peak RSS MB |\n");
+  std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+  std::fflush(stdout);
+  for (std::uint64_t size : sizes) {
+    struct statvfs fsinfo {};
+    const double need_gb = double(size) * (19 + 19 + 12 + 60) * 1.2 / 1e9;  // input, shuffled copy, spills, chunks
+    const double free_gb = ::statvfs(work.c_str(), &fsinfo) == 0 ? double(fsinfo.f_bavail) * fsinfo.f_frsize / 1e9 : 0;
+    if (free_gb < need_gb) {
+      std::printf("| cow %llu | | skipped: needs ~%.0f GB of disk, %.0f GB free |\n", (unsigned long long)size, need_gb, free_gb);
+      continue;
+    }
+    const fs::path input = work / ("in-" + std::to_string(size) + ".ply");
+    RunResult made = run({generator, "--triangles", std::to_string(size), "--out", input.string()}, work / "make.out", log);
+    if (made.exit_code != 0) {
+      std::printf("| cow %llu | | make_large_mesh failed (exit %d) |\n", (unsigned long long)size, made.exit_code);
+      continue;
+    }
+    std::vector<std::pair<std::string, fs::path>> inputs = {{"ordered", input}};
+    if (size <= shuffle_max) {
+      const fs::path shuffled = work / ("shuffled-" + std::to_string(size) + ".ply");
+      if (write_shuffled(input, shuffled, 7)) inputs.push_back({"shuffled", shuffled});
+    }
+    for (const auto& [order, path] : inputs) {
+      const fs::path tmp = work / "tmp";
+      fs::create_directories(tmp);
+      RunResult r = run({self.string(), "--child", path.string(), std::to_string(memory), rings, threads, level, tmp.string()},
+                        work / "child.out", log);
+      auto f = parse_pairs(r.out);
+      if (r.exit_code != 0 || f.count("faces") == 0) {
+        std::printf("| cow %llu | %s | failed (exit %d, see %s) |\n", (unsigned long long)size, order.c_str(), r.exit_code,
+                    log.c_str());
+        continue;
+      }
+      const double faces = std::stod(f["faces"]), ingest = std::stod(f["ingest"]), part = std::stod(f["partition"]);
+      std::printf("| cow %llu | %s | %.0f | %.2f | %.2f | %.2f | %s | %.2f | %s | %.2f | %s | %.0f |\n",
+                  (unsigned long long)size, order.c_str(), faces, ingest, part, faces / (ingest + part) / 1e6,
+                  f["chunks"].c_str(), std::stod(f["records"]) / faces, f["largest"].c_str(),
+                  std::stod(f["spilled"]) / 1e9, f["misses"].c_str(), r.peak_rss_mb);
+      std::fflush(stdout);
+    }
+    if (!keep)
+      for (const auto& [order, path] : inputs) fs::remove(path);
+  }
+  if (!keep) fs::remove_all(work);
+  return 0;
+}
