@@ -21,7 +21,10 @@ namespace {
 
 constexpr std::uint32_t kNone = 0xFFFFFFFFu;
 constexpr double kBoundaryTurnDegrees = 30;  // as the collapse mesher: a boundary corner
-constexpr std::size_t kMaxRounds = 8;
+constexpr std::size_t kMaxRounds = 24;
+// A failing patch first gets the middle vertex of every stretch of its loops between kept
+// vertices, up to this many times, before it keeps every loop vertex.
+constexpr std::uint8_t kMaxRefinements = 6;
 
 enum class Keep : std::uint8_t { kNo = 0, kCorner, kGuard, kSample };
 
@@ -33,7 +36,7 @@ struct Loop {
   std::vector<std::uint8_t> is_break;
 };
 
-enum class PatchMode : std::uint8_t { kReduced, kDensified, kOriginal };
+enum class PatchMode : std::uint8_t { kReduced, kRefined, kDensified, kOriginal };
 
 std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
   return a < b ? std::uint64_t{a} << 32 | b : std::uint64_t{b} << 32 | a;
@@ -55,6 +58,7 @@ class PolygonMesher {
     count_feature_degrees();
     choose_kept();
     mode_.assign(patch_count_, PatchMode::kReduced);
+    refinements_.assign(patch_count_, 0);
     for (std::size_t round = 0; round < kMaxRounds; ++round) {
       ++result_.stats.rounds;
       std::vector<std::uint32_t> failed;
@@ -319,8 +323,21 @@ class PolygonMesher {
     }
   }
 
+  // The next step for a patch that failed: refine its loops (the middle vertex of every stretch
+  // between kept vertices; canonical, so the neighbour sharing a chain sees the same vertices),
+  // then keep every loop vertex, then keep its input triangles.
   void densify(std::uint32_t p) {
-    if (mode_[p] == PatchMode::kReduced) {
+    if (mode_[p] == PatchMode::kReduced || mode_[p] == PatchMode::kRefined) {
+      if (mode_[p] == PatchMode::kReduced) ++result_.stats.refined_patches;
+      mode_[p] = PatchMode::kRefined;
+      bool added = false;
+      if (refinements_[p] < kMaxRefinements) {
+        ++refinements_[p];
+        for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l) added |= refine(loops_[l]);
+      }
+      if (added) return;
+    }
+    if (mode_[p] == PatchMode::kRefined) {
       mode_[p] = PatchMode::kDensified;
       ++result_.stats.densified_patches;
       for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l)
@@ -331,6 +348,30 @@ class PolygonMesher {
       for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k)
         for (std::uint32_t v : tris_[patch_faces_[k]].v) keep(v, Keep::kGuard);
     }
+  }
+
+  // Keeps the middle vertex (by index, from the lower-id end) of every stretch of the loop
+  // between two kept vertices that has inner vertices. The choice depends on the stretch alone,
+  // whichever side it is read from. Returns whether anything was added.
+  bool refine(const Loop& loop) {
+    const std::size_t n = loop.vertices.size();
+    std::vector<std::size_t> at;
+    for (std::size_t k = 0; k < n; ++k)
+      if (keep_[loop.vertices[k]] != Keep::kNo) at.push_back(k);
+    std::vector<std::uint32_t> chosen;
+    if (at.empty()) return false;  // closed loops always have guards
+    for (std::size_t i = 0; i < at.size(); ++i) {
+      const std::size_t a = at[i], b = i + 1 < at.size() ? at[i + 1] : at[0] + n;
+      const std::size_t m = b - a;  // edges in the stretch
+      if (m < 2) continue;
+      // Walk from the end with the lower vertex id so both sides pick the same vertex.
+      const std::uint32_t va = loop.vertices[a % n], vb = loop.vertices[b % n];
+      const std::size_t mid = va <= vb ? a + m / 2 : b - m / 2;
+      chosen.push_back(loop.vertices[mid % n]);
+    }
+    for (std::uint32_t v : chosen) keep(v, Keep::kGuard);
+    result_.stats.guards += chosen.size();
+    return !chosen.empty();
   }
 
   std::vector<std::uint32_t> reduced(const Loop& loop) const {
@@ -568,6 +609,7 @@ class PolygonMesher {
   std::vector<Keep> keep_;
   std::vector<std::vector<std::uint32_t>> interior_of_patch_;
   std::vector<PatchMode> mode_;
+  std::vector<std::uint8_t> refinements_;
   std::unordered_set<std::uint64_t> edges_;
   std::vector<std::array<std::uint32_t, 3>> out_tris_;
   std::vector<std::uint32_t> out_patch_;

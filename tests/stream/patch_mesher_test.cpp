@@ -205,7 +205,9 @@ TEST_P(Meshers, ClosedSphereStaysClosedGenusZero) {
   // Patches are triangulated in their plane; the collapse triangulation is the exception.
   EXPECT_GT(result->planar_patches, 0u);
   EXPECT_LE(result->collapse_patches, result->planar_patches / 10);
-  if (is_polygon()) EXPECT_EQ(result->collapse_patches, 0u);
+  if (is_polygon()) {
+    EXPECT_EQ(result->collapse_patches, 0u);
+  }
 }
 
 TEST_P(Meshers, TorusKeepsGenusOne) {
