@@ -9,10 +9,12 @@
 #include <vector>
 
 #include "cli/commands.h"
+#include "cli/pipeline_options.h"
 #include "cli/report.h"
 #include "cli/sampling_options.h"
 #include "format/mesh_writer.h"
 #include "format/output_file.h"
+#include "stream/chunk_sampler.h"
 #include "stream/mesh.h"
 #include "stream/sampler.h"
 
@@ -30,6 +32,7 @@ struct SampleCommandOptions {
   bool quiet = false;
   bool verbose = false;
   SamplingOptions sampling;
+  PipelineOptions pipeline;
 };
 
 // A well-spread colour per patch id.
@@ -39,17 +42,17 @@ void patch_colour(std::uint32_t id, std::uint8_t rgb[3]) {
   for (int i = 0; i < 3; ++i) rgb[i] = static_cast<std::uint8_t>(64 + (h >> (8 * i) & 0xFF) * 3 / 4);
 }
 
-Status write_samples(const std::string& path, const stream::Mesh& mesh, const stream::SamplingResult& r) {
+Status write_samples(const std::string& path, std::span<const stream::GlobalSample> samples) {
   auto out = format::OutputFile::create(path, true);
   if (!out) return out.status();
-  const std::size_t n = r.samples.size();
+  const std::size_t n = samples.size();
   std::vector<format::Vec3f> points(n);
   std::vector<std::uint32_t> input_vertex(n);
   std::vector<std::int32_t> gauss_vertex(n);
   std::vector<std::uint8_t> characteristic(n);
   for (std::size_t k = 0; k < n; ++k) {
-    const stream::Sample& s = r.samples[k];
-    points[k] = mesh.positions[s.vertex];
+    const stream::GlobalSample& s = samples[k];
+    points[k] = s.position;
     input_vertex[k] = s.vertex;
     gauss_vertex[k] = s.gauss_vertex == stream::kNoGaussVertex ? -1 : static_cast<std::int32_t>(s.gauss_vertex);
     characteristic[k] = static_cast<std::uint8_t>(s.characteristic);
@@ -62,6 +65,14 @@ Status write_samples(const std::string& path, const stream::Mesh& mesh, const st
                                {"characteristic", std::span<const std::uint8_t>(characteristic)}};
   GM_RETURN_IF_ERROR(format::write_ply(**out, {points, {}}, options));
   return (*out)->commit();
+}
+
+Status write_samples(const std::string& path, const stream::Mesh& mesh, const stream::SamplingResult& r) {
+  std::vector<stream::GlobalSample> samples;
+  samples.reserve(r.samples.size());
+  for (const stream::Sample& s : r.samples)
+    samples.push_back({s.vertex, mesh.positions[s.vertex], s.gauss_vertex, s.characteristic});
+  return write_samples(path, samples);
 }
 
 Status write_patches(const std::string& path, const stream::Mesh& mesh, const stream::SamplingResult& r) {
@@ -98,6 +109,77 @@ Status write_patches(const std::string& path, const stream::Mesh& mesh, const st
   return (*out)->commit();
 }
 
+// --memory: passes 0-2 over chunks on disk (stream/chunk_sampler.h); the samples equal the
+// in-core run's. No patch mesh (it would be the whole input), exact test only.
+int run_sample_out_of_core(const SampleCommandOptions& o, const std::vector<stream::GaussSphereOptions>& spheres,
+                           const stream::SamplerOptions& sampler) {
+  auto memory = parse_memory_size(o.pipeline.memory);
+  if (!memory) return report_error(memory.status());
+  if (!o.patches.empty()) {
+    return report_error(Status::error(Code::kUsage, "sample",
+                                      "--patches writes the whole input mesh and is not available with --memory"));
+  }
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  stream::OutOfCoreSamplingOptions options;
+  options.partition.memory_bytes = *memory;
+  options.partition.tmp_dir = o.pipeline.tmp;
+  options.threads = pipeline_threads(o.pipeline);
+  options.spheres = spheres;
+  options.sampler = sampler;
+  Progress progress;
+  options.progress = [&](std::size_t done, std::size_t total, std::uint64_t faces) {
+    progress.update("sample", done, total, faces);
+  };
+  auto sampled = stream::sample_out_of_core(o.input, {}, options);
+  if (!sampled) return report_error(sampled.status());
+  const auto t1 = Clock::now();
+  if (Status s = write_samples(o.output, sampled->samples); !s) return report_error(s);
+  const auto t2 = Clock::now();
+  const stream::GaussSphere& g = *sampled->gauss;
+  if (verbosity() >= 2) {
+    std::fprintf(stderr, "gaussmesh: sample: %zu samples in %zu chunks (G: %zu vertices)\n",
+                 sampled->samples.size(), sampled->chunks, g.vertex_count());
+  }
+  if (!o.report.empty()) {
+    auto secs = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
+    Json orientations = Json::array();
+    for (std::size_t k = 0; k < spheres.size(); ++k) {
+      const auto& q = spheres[k].rotation;
+      orientations.push_back({{"rotation", {q[0], q[1], q[2], q[3]}}, {"samples", sampled->samples_per_orientation[k]}});
+    }
+    const stream::ChunkSamplingStats& st = sampled->stats;
+    Json j;
+    j["input"] = o.input == "-" ? "<stdin>" : o.input;
+    j["input_vertices"] = sampled->vertices;
+    j["input_faces"] = sampled->faces;
+    j["base"] = stream::gauss_base_name(g.options().base);
+    j["frequency"] = g.options().frequency;
+    j["smooth"] = o.sampling.smooth;
+    j["sample_test"] = stream::sample_test_name(sampler.sample_test);
+    j["gauss_vertices"] = g.vertex_count();
+    j["gauss_triangles"] = g.triangle_count();
+    j["samples"] = sampled->samples.size();
+    j["orientations"] = orientations;
+    j["chosen_orientation"] = sampled->chosen;
+    j["out_of_core"] = true;
+    j["memory_bytes"] = *memory;
+    j["threads"] = options.threads;
+    j["chunks"] = sampled->chunks;
+    j["bytes_spilled"] = sampled->bytes_spilled;
+    j["filters"] = {{"candidates_initial", st.candidates_initial}, {"exact_samples", st.exact_samples}};
+    j["mesh_defects"] = {{"degenerate_faces", st.degenerate_faces}, {"unlabelled_faces", st.unlabelled_faces}};
+    j["peak_rss_bytes"] = peak_rss_bytes();
+    j["seconds"] = {{"ingest", sampled->seconds_ingest},
+                    {"partition", sampled->seconds_partition},
+                    {"sample", sampled->seconds_sample},
+                    {"write", secs(t1, t2)},
+                    {"total", secs(t0, t2)}};
+    if (Status s = write_report(o.report, j); !s) return report_error(s);
+  }
+  return 0;
+}
+
 int run_sample(const SampleCommandOptions& o) {
   if (o.quiet) set_verbosity(0);
   if (o.verbose) set_verbosity(2);
@@ -108,6 +190,7 @@ int run_sample(const SampleCommandOptions& o) {
   if (o.input == "-" && ::isatty(0)) {
     return report_error(Status::error(Code::kUsage, "sample", "no input file, and standard input is a terminal"));
   }
+  if (!o.pipeline.memory.empty()) return run_sample_out_of_core(o, *spheres, *sampler);
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   auto mesh = stream::load_mesh(o.input);
@@ -177,6 +260,7 @@ void register_sample(CLI::App& app, Runner& run) {
   sub->add_flag("-q,--quiet", o->quiet, "Print nothing on stderr but errors");
   sub->add_flag("-v,--verbose", o->verbose, "Print counts on stderr");
   add_sampling_options(*sub, o->sampling);
+  add_pipeline_options(*sub, o->pipeline);
   sub->callback([&run, o] { run = [o] { return run_sample(*o); }; });
 }
 

@@ -124,6 +124,7 @@ int run_simplify(const SimplifyArgs& args) {
     report["planar_patches"] = result->planar_patches;
     report["collapse_patches"] = result->collapse_patches;
     report["mesher_rounds"] = result->polygon.rounds;
+    report["refined_patches"] = result->polygon.refined_patches;
     report["densified_patches"] = result->polygon.densified_patches;
     report["original_patches"] = result->polygon.original_patches;
     report["interior_samples"] = result->polygon.interior_samples;
