@@ -170,6 +170,7 @@ int run_sample_out_of_core(const SampleCommandOptions& o, const std::vector<stre
     j["filters"] = {{"candidates_initial", st.candidates_initial}, {"exact_samples", st.exact_samples}};
     j["mesh_defects"] = {{"degenerate_faces", st.degenerate_faces}, {"unlabelled_faces", st.unlabelled_faces}};
     j["peak_rss_bytes"] = peak_rss_bytes();
+    j["peak_rss_after_partition_bytes"] = sampled->peak_rss_after_partition;
     j["seconds"] = {{"ingest", sampled->seconds_ingest},
                     {"partition", sampled->seconds_partition},
                     {"sample", sampled->seconds_sample},

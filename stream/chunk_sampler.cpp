@@ -8,6 +8,8 @@
 #include <chrono>
 #include <mutex>
 
+#include <sys/resource.h>
+
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -77,6 +79,16 @@ format::Result<OutOfCoreSampling> sample_out_of_core(const std::string& input_pa
   PartitionOptions partition_options = options.partition;
   partition_options.rings = required_overlap_rings(options.sampler.smooth_iterations);
   partition_options.threads = options.threads;
+  if (partition_options.max_chunk_faces == 0) {
+    // Pass 2 holds, per thread in flight, the decoded chunk (~100 B per face while loading) and
+    // the sampler's arrays, which keep the capacity of the largest chunk seen (~95 B per face:
+    // adjacency 32, normals/areas/smoothing 29, labels and features 5, mesh 30): ~200 B per face,
+    // measured. The process itself (binary, TBB, reader window, samples) takes ~20 MiB.
+    constexpr std::uint64_t kReserve = std::uint64_t{20} << 20, kBytesPerFace = 256;
+    const std::uint64_t budget = partition_options.memory_bytes > 2 * kReserve ? partition_options.memory_bytes - kReserve
+                                                                                : partition_options.memory_bytes / 2;
+    partition_options.max_chunk_faces = std::max<std::uint64_t>(budget / options.threads / kBytesPerFace, 1024);
+  }
   auto partition = partition_mesh(input_path, read, partition_options);
   if (!partition) return partition.status();
 
@@ -86,6 +98,8 @@ format::Result<OutOfCoreSampling> sample_out_of_core(const std::string& input_pa
   out.chunks = partition->chunks.size();
   out.seconds_ingest = partition->seconds_ingest;
   out.seconds_partition = partition->seconds_partition;
+  if (rusage usage{}; ::getrusage(RUSAGE_SELF, &usage) == 0)
+    out.peak_rss_after_partition = static_cast<std::uint64_t>(usage.ru_maxrss) * 1024;
   const auto start = std::chrono::steady_clock::now();
 
   // Per chunk and orientation: the chunk's samples and counts (output-sized).

@@ -77,6 +77,8 @@ struct OutOfCoreSampling {
   std::size_t chunks = 0;
   std::uint64_t bytes_spilled = 0;
   double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0;
+  // The process's peak RSS when passes 0-1 had finished (getrusage), to tell which pass peaks.
+  std::uint64_t peak_rss_after_partition = 0;
 };
 
 // Passes 0-2 for `gaussmesh sample --memory`: partition input_path ("-": stdin), then sample
