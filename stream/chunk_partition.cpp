@@ -132,8 +132,10 @@ class SpillWriter {
 
 // ---- The bounded block cache over vertex-indexed spill files ---------------------------------
 
-// Slot size: a multiple of 192 so that 12-, 16- and 64-byte records tile a block exactly.
-constexpr std::size_t kSlotBytes = 12288;
+// Slot size: a multiple of 192 so that 12-, 16- and 64-byte records tile a block exactly. Small
+// blocks make a miss cheap on badly ordered input (a miss is one pread of the block); on
+// spatially ordered input the hit rate is ~99.9 % at any size (docs/partition.md).
+constexpr std::size_t kSlotBytes = 3072;
 
 // Blocks of several files in a fixed arena of budget bytes. Accessors copy values in and out
 // (never hold a block pointer across another access: the next miss may evict it). Blocks never
