@@ -37,7 +37,7 @@ namespace fs = std::filesystem;
 
 struct RunResult {
   int exit_code = -1;
-  double seconds = 0, peak_rss_mb = 0;
+  double seconds = 0, cpu_seconds = 0, peak_rss_mb = 0;  // wall; user + system of the child
   std::string out;
 };
 
@@ -66,6 +66,8 @@ RunResult run(const std::vector<std::string>& argv, const fs::path& stdout_file,
   ::wait4(child, &status, 0, &usage);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   result.peak_rss_mb = double(usage.ru_maxrss) * 1024 / 1e6;
+  result.cpu_seconds = double(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+                       double(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec) / 1e6;
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   std::ifstream in(stdout_file);
   std::stringstream text;
@@ -194,12 +196,13 @@ int main(int argc, char** argv) {
   const fs::path log = work / "log.txt";
   std::fprintf(stderr, "bench_partition: work dir %s (child stderr in log.txt)\n", work.c_str());
   std::printf("machine: %ld cores, loadavg at start: %s\n", ::sysconf(_SC_NPROCESSORS_ONLN), read_line("/proc/loadavg").c_str());
+  std::printf("CPU s = user + system seconds of the child (robust to other load; wall seconds are not)\n");
   std::printf("partition_mesh: --memory %llu (%.0f MiB), rings %s, threads %s, zstd level %s, temp in %s\n\n",
               (unsigned long long)memory, double(memory) / (1 << 20), rings.c_str(), threads.c_str(), level.c_str(),
               work.c_str());
-  std::printf("| input | order | triangles | ingest s | partition s | M triangles/s | chunks | records / triangle | "
+  std::printf("| input | order | triangles | ingest s | partition s | M triangles/s | CPU s | chunks | records / triangle | "
               "largest chunk | spilled GB | cache misses | peak RSS MB |\n");
-  std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+  std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
   std::fflush(stdout);
   for (std::uint64_t size : sizes) {
     struct statvfs fsinfo {};
@@ -232,15 +235,16 @@ int main(int argc, char** argv) {
         continue;
       }
       const double faces = std::stod(f["faces"]), ingest = std::stod(f["ingest"]), part = std::stod(f["partition"]);
-      std::printf("| cow %llu | %s | %.0f | %.2f | %.2f | %.2f | %s | %.2f | %s | %.2f | %s | %.0f |\n",
+      std::printf("| cow %llu | %s | %.0f | %.2f | %.2f | %.2f | %.2f | %s | %.2f | %s | %.2f | %s | %.0f |\n",
                   (unsigned long long)size, order.c_str(), faces, ingest, part, faces / (ingest + part) / 1e6,
-                  f["chunks"].c_str(), std::stod(f["records"]) / faces, f["largest"].c_str(),
+                  r.cpu_seconds, f["chunks"].c_str(), std::stod(f["records"]) / faces, f["largest"].c_str(),
                   std::stod(f["spilled"]) / 1e9, f["misses"].c_str(), r.peak_rss_mb);
       std::fflush(stdout);
     }
     if (!keep)
       for (const auto& [order, path] : inputs) fs::remove(path);
   }
+  std::printf("\nloadavg at end: %s\n", read_line("/proc/loadavg").c_str());
   if (!keep) fs::remove_all(work);
   return 0;
 }

@@ -321,6 +321,34 @@ TEST(ChunkPartition, HighValenceVertexKeepsEveryChunk) {
   EXPECT_GT(holding_centre, 50u);
 }
 
+TEST(ChunkPartition, PointCloudsAndEmptyInputs) {
+  testing::ScratchDir dir;
+  Mesh points = sphere_mesh();
+  points.triangles.clear();
+  write_mesh(dir.file("points.ply"), points);
+  write_mesh(dir.file("empty.ply"), Mesh{});
+  PartitionOptions options;
+  options.max_chunk_faces = 100;
+  options.tmp_dir = dir.path().string();
+  auto cloud = partition_mesh(dir.file("points.ply"), {}, options);
+  ASSERT_TRUE(cloud.is_ok()) << cloud.status().to_string();
+  EXPECT_GT(cloud->chunks.size(), 10u);
+  std::uint64_t owned = 0;
+  for (const ChunkInfo& info : cloud->chunks) {
+    owned += info.owned_vertices;
+    EXPECT_GT(info.owned_vertices, 0u);
+    EXPECT_EQ(info.faces, 0u);
+    auto chunk = load_chunk(info);
+    ASSERT_TRUE(chunk.is_ok()) << chunk.status().to_string();
+    EXPECT_TRUE(chunk->positions.empty());
+  }
+  EXPECT_EQ(owned, points.positions.size());
+  auto empty = partition_mesh(dir.file("empty.ply"), {}, options);
+  ASSERT_TRUE(empty.is_ok()) << empty.status().to_string();
+  EXPECT_EQ(empty->vertices, 0u);
+  EXPECT_TRUE(empty->chunks.empty());
+}
+
 TEST(ChunkPartition, TempDirGoesWithThePartition) {
   testing::ScratchDir dir;
   write_mesh(dir.file("in.ply"), sphere_mesh());
