@@ -124,8 +124,10 @@ int run_simplify(const SimplifyArgs& args) {
     report["planar_patches"] = result->planar_patches;
     report["collapse_patches"] = result->collapse_patches;
     report["mesher_rounds"] = result->polygon.rounds;
+    report["mean_plane_patches"] = result->polygon.mean_plane_patches;
     report["refined_patches"] = result->polygon.refined_patches;
     report["densified_patches"] = result->polygon.densified_patches;
+    report["collapsed_patches"] = result->polygon.collapsed_patches;
     report["original_patches"] = result->polygon.original_patches;
     report["interior_samples"] = result->polygon.interior_samples;
     report["guards"] = result->polygon.guards;

@@ -36,7 +36,7 @@ struct Loop {
   std::vector<std::uint8_t> is_break;
 };
 
-enum class PatchMode : std::uint8_t { kReduced, kRefined, kDensified, kOriginal };
+enum class PatchMode : std::uint8_t { kReduced, kRefined, kDensified, kCollapsed, kOriginal };
 
 std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
   return a < b ? std::uint64_t{a} << 32 | b : std::uint64_t{b} << 32 | a;
@@ -62,8 +62,9 @@ class PolygonMesher {
     for (std::size_t round = 0; round < kMaxRounds; ++round) {
       ++result_.stats.rounds;
       std::vector<std::uint32_t> failed;
-      triangulate_all(failed);
-      if (failed.empty()) return finish();
+      bool retry = false;
+      triangulate_all(failed, retry);
+      if (failed.empty() && !retry) return finish();
       for (std::uint32_t p : failed) densify(p);
     }
     return format::Status::error(format::Code::kProcessing, "polygon mesher",
@@ -338,6 +339,9 @@ class PolygonMesher {
       if (added) return;
     }
     if (mode_[p] == PatchMode::kRefined) {
+      mode_[p] = PatchMode::kCollapsed;
+      ++result_.stats.collapsed_patches;
+    } else if (mode_[p] == PatchMode::kCollapsed) {
       mode_[p] = PatchMode::kDensified;
       ++result_.stats.densified_patches;
       for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l)
@@ -383,7 +387,7 @@ class PolygonMesher {
 
   // One round: every patch in id order, against the edges made so far. Fills out_ and lists
   // the patches that failed.
-  void triangulate_all(std::vector<std::uint32_t>& failed) {
+  void triangulate_all(std::vector<std::uint32_t>& failed, bool& retry) {
     out_tris_.clear();
     out_patch_.clear();
     edges_.clear();
@@ -420,8 +424,17 @@ class PolygonMesher {
         for (int i = 0; i < 3; ++i) edges_.insert(edge_key(t.v[i], t.v[(i + 1) % 3]));
       }
     }
+    // Then those built by collapses on their own faces, every loop vertex kept.
     for (std::uint32_t p = 0; p < patch_count_; ++p) {
-      if (mode_[p] == PatchMode::kOriginal || patch_offset_[p] == patch_offset_[p + 1]) continue;
+      if (mode_[p] != PatchMode::kCollapsed) continue;
+      const Collapse c = collapse_patch(p);
+      if (c == Collapse::kFailed) failed.push_back(p);
+      if (c == Collapse::kRetry) retry = true;
+    }
+    for (std::uint32_t p = 0; p < patch_count_; ++p) {
+      if (mode_[p] == PatchMode::kOriginal || mode_[p] == PatchMode::kCollapsed ||
+          patch_offset_[p] == patch_offset_[p + 1])
+        continue;
       if (failing[p] || !triangulate_patch(p, reduced_loops)) {
         failed.push_back(p);
       } else {
@@ -430,7 +443,112 @@ class PolygonMesher {
     }
   }
 
+  // A patch whose loops are simple in no plane: the collapse mesher on the patch's own faces,
+  // its kept loop vertices fixed, the other loop vertices collapsed along the loop and interior
+  // vertices into any neighbour where legal — a pure function of the patch's faces and the kept
+  // set. kRetry when a loop vertex could not be removed: it becomes kept (so the neighbour
+  // across that chain keeps it too) and the round is redone. kFailed when the collapses fail or
+  // would make an edge that exists elsewhere.
+  enum class Collapse { kDone, kRetry, kFailed };
+  Collapse collapse_patch(std::uint32_t p) {
+    std::vector<std::uint32_t> vertices;
+    for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k)
+      for (std::uint32_t v : tris_[patch_faces_[k]].v) vertices.push_back(v);
+    std::sort(vertices.begin(), vertices.end());
+    vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+    auto local = [&](std::uint32_t v) {
+      return static_cast<format::VertexIndex>(std::lower_bound(vertices.begin(), vertices.end(), v) - vertices.begin());
+    };
+    Mesh sub;
+    for (std::uint32_t v : vertices) sub.positions.push_back(in_.mesh.positions[v]);
+    for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
+      const auto& t = tris_[patch_faces_[k]];
+      sub.triangles.push_back({{local(t.v[0]), local(t.v[1]), local(t.v[2])}});
+    }
+    std::vector<VertexRole> roles(vertices.size(), VertexRole::kNone);
+    std::vector<std::uint8_t> on_loop(vertices.size(), 0);
+    for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l) {
+      for (std::uint32_t v : loops_[l].vertices) {
+        on_loop[local(v)] = 1;
+        if (keep_[v] != Keep::kNo) roles[local(v)] = VertexRole::kGuard;
+      }
+    }
+    for (std::size_t i = 0; i < vertices.size(); ++i)
+      if (keep_[vertices[i]] == Keep::kSample) roles[i] = VertexRole::kSample;
+    const std::vector<std::uint32_t> one_patch(sub.triangles.size(), 0);
+    auto meshed = mesh_patches({sub.view(), one_patch, roles});
+    if (!meshed || meshed->skipped_input_faces > 0) return Collapse::kFailed;
+    bool retry = false;
+    for (std::uint32_t b : meshed->birth) {
+      if (on_loop[b] && keep_[vertices[b]] == Keep::kNo) {
+        keep(vertices[b], Keep::kGuard);
+        ++result_.stats.guards;
+        retry = true;
+      }
+    }
+    if (retry) return Collapse::kRetry;
+    // Its loop edges are now the reduced loop edges, already in edges_; any other edge must be
+    // new.
+    std::unordered_set<std::uint64_t> own_loop_edges;
+    for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l) {
+      const std::vector<std::uint32_t> r = reduced(loops_[l]);
+      for (std::size_t k = 0; k < r.size(); ++k) own_loop_edges.insert(edge_key(r[k], r[(k + 1) % r.size()]));
+    }
+    std::vector<std::array<std::uint32_t, 3>> tris;
+    for (const auto& t : meshed->mesh.triangles) {
+      std::array<std::uint32_t, 3> g{};
+      for (int i = 0; i < 3; ++i) g[i] = vertices[meshed->birth[t.v[i]]];
+      for (int i = 0; i < 3; ++i) {
+        const std::uint64_t key = edge_key(g[i], g[(i + 1) % 3]);
+        if (!own_loop_edges.count(key) && edges_.count(key)) return Collapse::kFailed;
+      }
+      tris.push_back(g);
+    }
+    for (const auto& g : tris) {
+      out_tris_.push_back(g);
+      out_patch_.push_back(p);
+      for (int i = 0; i < 3; ++i) edges_.insert(edge_key(g[i], g[(i + 1) % 3]));
+      for (std::uint32_t v : g) keep(v, Keep::kGuard);  // interior vertices the collapses kept
+    }
+    return Collapse::kDone;
+  }
+
+  // The patch's vector area (sum of its faces' cross products): its mean normal.
+  PolygonPoint3 mean_normal(std::uint32_t p) const {
+    PolygonPoint3 normal{0, 0, 0};
+    for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
+      const auto& t = tris_[patch_faces_[k]];
+      const auto& a = in_.mesh.positions[t.v[0]];
+      const auto& b = in_.mesh.positions[t.v[1]];
+      const auto& c = in_.mesh.positions[t.v[2]];
+      const double ux = double(b.x) - a.x, uy = double(b.y) - a.y, uz = double(b.z) - a.z;
+      const double vx = double(c.x) - a.x, vy = double(c.y) - a.y, vz = double(c.z) - a.z;
+      normal[0] += uy * vz - uz * vy;
+      normal[1] += uz * vx - ux * vz;
+      normal[2] += ux * vy - uy * vx;
+    }
+    return normal;
+  }
+
+  // Triangulates patch p in the plane of its Gaussian triangle; where that fails (a patch
+  // that a merge gave its neighbour's label need not be a height field over that plane), in
+  // the plane of its mean normal.
   bool triangulate_patch(std::uint32_t p, const std::vector<std::vector<std::uint32_t>>& reduced_loops) {
+    PolygonPoint3 plane{0, 0, 0};
+    if (p < in_.patch_plane_normal.size()) {
+      const auto& n = in_.patch_plane_normal[p];
+      plane = {double(n.x), double(n.y), double(n.z)};
+    }
+    if (!(plane[0] == 0 && plane[1] == 0 && plane[2] == 0) && triangulate_patch(p, reduced_loops, plane)) return true;
+    if (triangulate_patch(p, reduced_loops, mean_normal(p))) {
+      ++result_.stats.mean_plane_patches;
+      return true;
+    }
+    return false;
+  }
+
+  bool triangulate_patch(std::uint32_t p, const std::vector<std::vector<std::uint32_t>>& reduced_loops,
+                         const PolygonPoint3& normal) {
     const std::uint32_t lb = patch_loop_offset_[p], le = patch_loop_offset_[p + 1];
     if (lb == le) return false;  // a closed patch with no border: nothing to build it from
     std::vector<std::uint32_t> local_to_vertex;
@@ -443,25 +561,6 @@ class PolygonMesher {
       points.push_back({double(q.x), double(q.y), double(q.z)});
       return static_cast<std::uint32_t>(local_to_vertex.size() - 1);
     };
-    // The plane: the patch's Gaussian triangle, else its mean face normal.
-    PolygonPoint3 normal{0, 0, 0};
-    if (p < in_.patch_plane_normal.size()) {
-      const auto& n = in_.patch_plane_normal[p];
-      normal = {double(n.x), double(n.y), double(n.z)};
-    }
-    if (normal[0] == 0 && normal[1] == 0 && normal[2] == 0) {
-      for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
-        const auto& t = tris_[patch_faces_[k]];
-        const auto& a = in_.mesh.positions[t.v[0]];
-        const auto& b = in_.mesh.positions[t.v[1]];
-        const auto& c = in_.mesh.positions[t.v[2]];
-        const double ux = double(b.x) - a.x, uy = double(b.y) - a.y, uz = double(b.z) - a.z;
-        const double vx = double(c.x) - a.x, vy = double(c.y) - a.y, vz = double(c.z) - a.z;
-        normal[0] += uy * vz - uz * vy;
-        normal[1] += uz * vx - ux * vz;
-        normal[2] += ux * vy - uy * vx;
-      }
-    }
     if (!(normal[0] != 0 || normal[1] != 0 || normal[2] != 0) || !std::isfinite(normal[0] + normal[1] + normal[2]))
       return false;
     std::vector<std::vector<std::uint32_t>> local_loops;

@@ -9,12 +9,14 @@
 //      loop keeps 3 vertices spread from its lowest id, a loop through one corner 2 more, and
 //      each of several chains joining the same two corners its middle vertex);
 //   3. each patch's loops, reduced to kept vertices, are triangulated in the plane of its
-//      Gaussian triangle (stream/polygon_triangulation.h), patches in id order, never making an
-//      edge that already exists; samples inside a patch are inserted into its triangulation;
+//      Gaussian triangle (stream/polygon_triangulation.h) — else in the plane of its mean
+//      normal —, patches in id order, never making an edge that already exists; samples inside
+//      a patch are inserted into its triangulation;
 //   4. a patch that cannot be triangulated gets the middle vertex of every stretch of its loops
-//      between kept vertices (so do its neighbours along the shared chains), up to 6 times, then
-//      every vertex of its loops, and the whole triangulation is redone each time; one that
-//      still fails keeps its input triangles (all its vertices);
+//      between kept vertices (so do its neighbours along the shared chains), up to 6 times,
+//      and the whole triangulation is redone each time; one that still fails is meshed by the
+//      collapse mesher on its own faces (kept loop vertices fixed), then — failing that — keeps
+//      every vertex of its loops, then its input triangles (all its vertices);
 //   5. non-sample corners are removed by collapses along feature edges on the output-sized mesh
 //      (stream/patch_mesher.h, corners_only).
 #pragma once
@@ -26,8 +28,10 @@ namespace gaussmesh::stream {
 
 struct PolygonMesherStats {
   std::size_t rounds = 0;             // triangulation rounds (1 when no patch had to be densified)
+  std::size_t mean_plane_patches = 0;  // triangulated in the plane of their mean normal instead
   std::size_t refined_patches = 0;    // patches whose loops got middle vertices to triangulate
   std::size_t densified_patches = 0;  // patches that kept every vertex of their loops
+  std::size_t collapsed_patches = 0;  // patches meshed by collapses on their own faces
   std::size_t original_patches = 0;   // patches that kept their input triangles
   std::size_t interior_samples = 0;   // samples inside a patch (inserted into its triangulation)
   std::size_t guards = 0;             // vertices kept by the chain rules and by refinement
