@@ -1,0 +1,168 @@
+// Patch pieces per chunk and their stitch into patches. See chunk_pieces.h.
+#include "stream/chunk_pieces.h"
+
+#include <algorithm>
+#include <map>
+#include <numeric>
+#include <string>
+
+namespace gaussmesh::stream {
+namespace {
+
+constexpr std::uint32_t kUnassigned = 0xFFFFFFFFu;
+
+format::Status damaged(const std::string& what) {
+  return format::Status::error(format::Code::kBadInput, "stitch", what);
+}
+
+}  // namespace
+
+void find_chunk_pieces(const ChunkMesh& chunk, const MeshAdjacency& adjacency, const std::vector<std::uint32_t>& labels,
+                       const std::vector<std::uint8_t>& feature, ChunkPieces& out) {
+  const std::size_t nf = chunk.triangles.size();
+  const std::uint32_t* nb = adjacency.edge_neighbor.data();
+  std::vector<std::uint32_t> piece_of(nf, kUnassigned), stack;
+  const std::size_t first = out.pieces.size();
+  auto id = [&](std::uint32_t index) { return PieceId{chunk.chunk} << 32 | index; };
+  for (std::uint32_t seed = 0; seed < nf; ++seed) {
+    if (!chunk.owned_face[seed] || piece_of[seed] != kUnassigned) continue;
+    const std::uint32_t index = static_cast<std::uint32_t>(out.pieces.size() - first);
+    PieceRecord piece;
+    piece.piece = id(index);
+    piece.label = labels[seed];
+    piece.min_face = chunk.global_face[seed];  // faces are in ascending global id
+    piece_of[seed] = index;
+    stack.assign(1, seed);
+    while (!stack.empty()) {
+      const std::uint32_t f = stack.back();
+      stack.pop_back();
+      ++piece.faces;
+      for (int i = 0; i < 3; ++i) {
+        if (feature[f] >> i & 1) continue;
+        const std::uint32_t g = nb[3 * std::size_t{f} + i];
+        if (g == MeshAdjacency::kNoFace || !chunk.owned_face[g] || piece_of[g] != kUnassigned) continue;
+        piece_of[g] = index;
+        stack.push_back(g);
+      }
+    }
+    out.pieces.push_back(piece);
+  }
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint64_t> shared;
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    if (!chunk.owned_face[f]) continue;
+    for (int i = 0; i < 3; ++i) {
+      const std::uint32_t g = nb[3 * std::size_t{f} + i];
+      if (g == MeshAdjacency::kNoFace) continue;  // a break edge joins nothing
+      const bool is_feature = feature[f] >> i & 1;
+      if (!chunk.owned_face[g]) {
+        out.border.push_back({chunk.global_face[f], chunk.global_face[g], id(piece_of[f]), is_feature});
+      } else if (is_feature && f < g) {
+        ++shared[{std::min(piece_of[f], piece_of[g]), std::max(piece_of[f], piece_of[g])}];
+      }
+    }
+  }
+  for (const auto& [pair, edges] : shared) out.adjacency.push_back({id(pair.first), id(pair.second), edges});
+}
+
+format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks) {
+  // Dense indices for pieces: ascending piece id.
+  std::vector<PieceRecord> pieces;
+  for (const ChunkPieces& c : chunks) pieces.insert(pieces.end(), c.pieces.begin(), c.pieces.end());
+  std::vector<std::uint32_t> order(pieces.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return pieces[a].piece < pieces[b].piece; });
+  std::vector<PieceId> sorted_ids(pieces.size());
+  for (std::size_t k = 0; k < order.size(); ++k) sorted_ids[k] = pieces[order[k]].piece;
+  if (std::adjacent_find(sorted_ids.begin(), sorted_ids.end()) != sorted_ids.end()) return damaged("a piece id appears twice");
+  auto dense = [&](PieceId id) -> std::int64_t {
+    auto it = std::lower_bound(sorted_ids.begin(), sorted_ids.end(), id);
+    return it != sorted_ids.end() && *it == id ? order[it - sorted_ids.begin()] : -1;
+  };
+  std::vector<std::uint32_t> parent(pieces.size());
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto find = [&](std::uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  struct Shared {
+    std::uint32_t a, b;
+    std::uint64_t edges;
+  };
+  std::vector<Shared> shared;
+  for (const ChunkPieces& c : chunks) {
+    for (const PieceAdjacencyRecord& r : c.adjacency) {
+      const std::int64_t a = dense(r.a), b = dense(r.b);
+      if (a < 0 || b < 0) return damaged("an adjacency record names an unknown piece");
+      shared.push_back({static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b), r.edges});
+    }
+  }
+  // Border edges: both sides of every edge, joined on the unordered face pair.
+  std::vector<BorderEdgeRecord> border;
+  for (ChunkPieces& c : chunks) {
+    border.insert(border.end(), c.border.begin(), c.border.end());
+    c.border = {};
+  }
+  auto key = [](const BorderEdgeRecord& r) {
+    return std::pair(std::min(r.face, r.other), std::max(r.face, r.other));
+  };
+  std::sort(border.begin(), border.end(), [&](const BorderEdgeRecord& x, const BorderEdgeRecord& y) {
+    return key(x) != key(y) ? key(x) < key(y) : x.face < y.face;
+  });
+  for (std::size_t k = 0; k < border.size(); k += 2) {
+    if (k + 1 >= border.size() || key(border[k]) != key(border[k + 1]) ||
+        (k + 2 < border.size() && key(border[k + 2]) == key(border[k])) || border[k].face == border[k + 1].face) {
+      return damaged("border edge between faces " + std::to_string(border[k].face) + " and " +
+                     std::to_string(border[k].other) + " is not seen once from each side");
+    }
+    if (border[k].feature != border[k + 1].feature) {
+      return damaged("the two sides of the edge between faces " + std::to_string(border[k].face) + " and " +
+                     std::to_string(border[k].other) + " disagree on whether it is a feature edge");
+    }
+    const std::int64_t a = dense(border[k].piece), b = dense(border[k + 1].piece);
+    if (a < 0 || b < 0) return damaged("a border edge names an unknown piece");
+    if (border[k].feature) {
+      shared.push_back({static_cast<std::uint32_t>(std::min(a, b)), static_cast<std::uint32_t>(std::max(a, b)), 1});
+    } else {
+      if (pieces[a].label != pieces[b].label) return damaged("two pieces of different labels are joined");
+      const std::uint32_t ra = find(static_cast<std::uint32_t>(a)), rb = find(static_cast<std::uint32_t>(b));
+      if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+    }
+  }
+  border = {};
+  // Patches, numbered by lowest face.
+  const std::size_t np = pieces.size();
+  std::vector<StitchedPatch> by_root(np);
+  std::vector<std::uint8_t> is_root(np, 0);
+  for (std::uint32_t i = 0; i < np; ++i) {
+    const std::uint32_t r = find(i);
+    StitchedPatch& p = by_root[r];
+    if (!is_root[r]) {
+      is_root[r] = 1;
+      p = {pieces[i].min_face, 0, pieces[i].label};
+    }
+    p.min_face = std::min(p.min_face, pieces[i].min_face);
+    p.faces += pieces[i].faces;
+  }
+  std::vector<std::uint32_t> roots;
+  for (std::uint32_t i = 0; i < np; ++i)
+    if (is_root[i]) roots.push_back(i);
+  std::sort(roots.begin(), roots.end(), [&](std::uint32_t a, std::uint32_t b) { return by_root[a].min_face < by_root[b].min_face; });
+  StitchedPatches out;
+  std::vector<std::uint32_t> patch_of_root(np, 0);
+  for (std::size_t k = 0; k < roots.size(); ++k) {
+    patch_of_root[roots[k]] = static_cast<std::uint32_t>(k);
+    out.patches.push_back(by_root[roots[k]]);
+  }
+  out.piece_patch.resize(np);
+  for (std::uint32_t i = 0; i < np; ++i) out.piece_patch[i] = patch_of_root[find(i)];
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint64_t> adjacency;
+  for (const Shared& s : shared) {
+    const std::uint32_t p = out.piece_patch[s.a], q = out.piece_patch[s.b];
+    if (p == q) return damaged("a feature edge inside one patch");
+    adjacency[{std::min(p, q), std::max(p, q)}] += s.edges;
+  }
+  for (const auto& [pq, edges] : adjacency) out.adjacency.push_back({pq.first, pq.second, edges});
+  return out;
+}
+
+}  // namespace gaussmesh::stream

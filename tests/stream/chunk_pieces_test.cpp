@@ -1,0 +1,131 @@
+// The stitch's first step (stream/chunk_pieces.h): patch pieces found per chunk and joined over
+// border-edge records give exactly the sampler's patches before the merge — the same count, the
+// same lowest face, size and label for each, and the same shared feature-edge counts — on every
+// fixture cut into hundreds of chunks; a damaged record is refused.
+#include "stream/chunk_pieces.h"
+
+#include <gtest/gtest.h>
+
+#include <map>
+
+#include "stream/chunk_sampler.h"
+#include "stream/mesh.h"
+#include "stream/patch_filters.h"
+#include "tests/support/test_util.h"
+
+namespace gaussmesh::stream {
+namespace {
+
+struct InCore {
+  std::vector<StitchedPatch> patches;
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint64_t> adjacency;
+};
+
+InCore in_core_patches(const Mesh& mesh, const GaussSphere& gauss, const SamplerOptions& options) {
+  const MeshAdjacency adj = build_mesh_adjacency(mesh.view()).value();
+  const FaceNormals normals = compute_face_normals(mesh.view(), adj, options.smooth_iterations);
+  const auto labels = compute_face_labels(normals, gauss);
+  const auto feature = compute_feature_edges(adj, labels);
+  const Patches p = find_patches(adj, labels, feature);
+  InCore out;
+  out.patches.resize(p.patch_label.size());
+  for (std::size_t k = 0; k < p.patch_label.size(); ++k) out.patches[k] = {~std::uint64_t{0}, 0, p.patch_label[k]};
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+    StitchedPatch& s = out.patches[p.face_patch[f]];
+    s.min_face = std::min<std::uint64_t>(s.min_face, f);
+    ++s.faces;
+    for (int i = 0; i < 3; ++i) {
+      const std::uint32_t g = adj.edge_neighbor[3 * f + i];
+      if (g == MeshAdjacency::kNoFace || !(feature[f] >> i & 1) || g < f) continue;
+      const std::uint32_t a = p.face_patch[f], b = p.face_patch[g];
+      ++out.adjacency[{std::min(a, b), std::max(a, b)}];
+    }
+  }
+  return out;
+}
+
+void expect_stitch_equals_in_core(const std::string& path, std::uint32_t smooth, std::uint64_t chunk_faces) {
+  SCOPED_TRACE(path + " smooth " + std::to_string(smooth) + " chunk faces " + std::to_string(chunk_faces));
+  testing::ScratchDir tmp;
+  auto mesh = load_mesh(path);
+  ASSERT_TRUE(mesh.is_ok());
+  GaussSphereOptions g;
+  g.frequency = 4;
+  auto gauss = GaussSphere::create(g);
+  ASSERT_TRUE(gauss.is_ok());
+  SamplerOptions options;
+  options.smooth_iterations = smooth;
+  PartitionOptions partition;
+  partition.rings = required_overlap_rings(smooth);
+  partition.max_chunk_faces = chunk_faces;
+  partition.memory_bytes = std::uint64_t{64} << 20;
+  partition.tmp_dir = tmp.path().string();
+  auto parts = partition_mesh(path, {}, partition);
+  ASSERT_TRUE(parts.is_ok()) << parts.status().to_string();
+  std::vector<ChunkPieces> chunks(parts->chunks.size());
+  ChunkSamplerWorkspace ws;
+  for (std::size_t c = 0; c < parts->chunks.size(); ++c) {
+    auto chunk = load_chunk(parts->chunks[c]);
+    ASSERT_TRUE(chunk.is_ok());
+    std::vector<GlobalSample> samples;
+    ChunkSamplingStats stats;
+    ASSERT_TRUE(sample_chunk(*chunk, *gauss, options, ws, samples, stats).is_ok());
+    find_chunk_pieces(*chunk, ws.adjacency, ws.labels, ws.feature, chunks[c]);
+  }
+  std::size_t border = 0;
+  for (const auto& c : chunks) border += c.border.size();
+  EXPECT_GT(border, 0u) << "no border edge: the chunking did not cut any patch";
+  auto stitched = stitch_pieces(chunks);
+  ASSERT_TRUE(stitched.is_ok()) << stitched.status().to_string();
+  const InCore want = in_core_patches(*mesh, *gauss, options);
+  ASSERT_EQ(stitched->patches.size(), want.patches.size());
+  for (std::size_t k = 0; k < want.patches.size(); ++k) {
+    EXPECT_EQ(stitched->patches[k].min_face, want.patches[k].min_face) << "patch " << k;
+    EXPECT_EQ(stitched->patches[k].faces, want.patches[k].faces) << "patch " << k;
+    EXPECT_EQ(stitched->patches[k].label, want.patches[k].label) << "patch " << k;
+  }
+  ASSERT_EQ(stitched->adjacency.size(), want.adjacency.size());
+  std::size_t k = 0;
+  for (const auto& [pq, edges] : want.adjacency) {
+    const auto& got = stitched->adjacency[k++];
+    EXPECT_EQ(got.p, pq.first);
+    EXPECT_EQ(got.q, pq.second);
+    EXPECT_EQ(got.edges, edges) << pq.first << "-" << pq.second;
+  }
+}
+
+TEST(ChunkPieces, StitchedPatchesEqualTheInCorePatchesOnEveryFixture) {
+  for (const char* name : {"cow.off", "fandisk.off", "homer.off", "knot1.off", "mech-holes-shark.off", "mushroom.off",
+                           "bunny-lowres.ply"}) {
+    expect_stitch_equals_in_core(testing::fixture(std::string("real/") + name), 0, 32);
+  }
+  expect_stitch_equals_in_core(testing::fixture("real/cow.off"), 2, 64);
+}
+
+TEST(ChunkPieces, DamagedRecordsAreRefused) {
+  std::vector<ChunkPieces> chunks(2);
+  chunks[0].pieces = {{PieceId{0} << 32, 5, 3, 0}};
+  chunks[1].pieces = {{PieceId{1} << 32, 7, 2, 3}};
+  // One side of an edge only.
+  chunks[0].border = {{0, 3, PieceId{0} << 32, false}};
+  EXPECT_EQ(stitch_pieces(chunks).status().code(), format::Code::kBadInput);
+  // Both sides, but a non-feature edge between two labels.
+  chunks[0].border = {{0, 3, PieceId{0} << 32, false}};
+  chunks[1].border = {{3, 0, PieceId{1} << 32, false}};
+  EXPECT_EQ(stitch_pieces(chunks).status().code(), format::Code::kBadInput);
+  // Sides that disagree on the feature bit.
+  chunks[0].border = {{0, 3, PieceId{0} << 32, true}};
+  chunks[1].border = {{3, 0, PieceId{1} << 32, false}};
+  EXPECT_EQ(stitch_pieces(chunks).status().code(), format::Code::kBadInput);
+  // Consistent: two patches sharing one feature edge.
+  chunks[0].border = {{0, 3, PieceId{0} << 32, true}};
+  chunks[1].border = {{3, 0, PieceId{1} << 32, true}};
+  auto ok = stitch_pieces(chunks);
+  ASSERT_TRUE(ok.is_ok()) << ok.status().to_string();
+  ASSERT_EQ(ok->patches.size(), 2u);
+  ASSERT_EQ(ok->adjacency.size(), 1u);
+  EXPECT_EQ(ok->adjacency[0].edges, 1u);
+}
+
+}  // namespace
+}  // namespace gaussmesh::stream
