@@ -62,6 +62,44 @@ void find_chunk_pieces(const ChunkMesh& chunk, const MeshAdjacency& adjacency, c
     }
   }
   for (const auto& [pair, edges] : shared) out.adjacency.push_back({id(pair.first), id(pair.second), edges});
+
+  // Candidates: owned vertices with >= 3 feature edges, counted as evaluate_vertex counts them.
+  const std::uint32_t* corners = adjacency.vertex_corners.data();
+  std::vector<std::uint8_t> in_star(nf, 0);
+  for (std::uint32_t v = 0; v < chunk.owned_vertex.size(); ++v) {
+    if (!chunk.owned_vertex[v]) continue;
+    const std::uint32_t sb = adjacency.star_begin(v), se = adjacency.star_end(v);
+    std::uint32_t count = 0;
+    for (std::uint32_t k = sb; k < se; ++k) {
+      const std::uint32_t f = corners[k] / 3, i = corners[k] % 3;
+      count += feature[f] >> i & 1;
+      count += nb[3 * std::size_t{f} + (i + 2) % 3] == MeshAdjacency::kNoFace;
+    }
+    if (count < 3) continue;
+    out.candidates.push_back({chunk.global_vertex[v], static_cast<std::uint32_t>(out.star.size()), se - sb});
+    for (std::uint32_t k = sb; k < se; ++k) {
+      const std::uint32_t f = corners[k] / 3, i = corners[k] % 3;
+      const std::uint32_t g = nb[3 * std::size_t{f} + i];
+      out.star.push_back({chunk.global_face[f], g == MeshAdjacency::kNoFace ? kNoFaceId : chunk.global_face[g],
+                          nb[3 * std::size_t{f} + (i + 2) % 3] == MeshAdjacency::kNoFace});
+      in_star[f] = 1;
+      if (g != MeshAdjacency::kNoFace) in_star[g] = 1;
+    }
+  }
+  // Answers for other chunks' candidate stars (owned faces with a vertex owned elsewhere), and for
+  // this chunk's own.
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    if (!chunk.owned_face[f]) continue;
+    const auto& t = chunk.triangles[f];
+    const bool shared_vertex = !chunk.owned_vertex[t.v[0]] || !chunk.owned_vertex[t.v[1]] || !chunk.owned_vertex[t.v[2]];
+    if (shared_vertex || in_star[f]) out.border_faces.push_back({chunk.global_face[f], id(piece_of[f])});
+    if (t.v[0] == t.v[1] || t.v[1] == t.v[2] || t.v[0] == t.v[2]) {
+      CollapsedFaceRecord r;
+      r.piece = id(piece_of[f]);
+      for (int i = 0; i < 3; ++i) r.vertices[i] = chunk.global_vertex[t.v[i]];
+      out.collapsed.push_back(r);
+    }
+  }
 }
 
 format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks) {
@@ -162,6 +200,54 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks) 
     adjacency[{std::min(p, q), std::max(p, q)}] += s.edges;
   }
   for (const auto& [pq, edges] : adjacency) out.adjacency.push_back({pq.first, pq.second, edges});
+
+  // Face -> patch for every face a candidate's star names.
+  std::vector<FacePieceRecord> answers;
+  for (ChunkPieces& c : chunks) {
+    answers.insert(answers.end(), c.border_faces.begin(), c.border_faces.end());
+    c.border_faces = {};
+  }
+  std::sort(answers.begin(), answers.end(),
+            [](const FacePieceRecord& a, const FacePieceRecord& b) { return a.face < b.face; });
+  for (std::size_t k = 1; k < answers.size(); ++k) {
+    if (answers[k].face == answers[k - 1].face) return damaged("face " + std::to_string(answers[k].face) + " answered twice");
+  }
+  auto patch_of_face = [&](std::uint64_t face) -> std::int64_t {
+    auto it = std::lower_bound(answers.begin(), answers.end(), face,
+                               [](const FacePieceRecord& a, std::uint64_t f) { return a.face < f; });
+    if (it == answers.end() || it->face != face) return -1;
+    const std::int64_t d = dense(it->piece);
+    return d < 0 ? -1 : out.piece_patch[d];
+  };
+  for (const ChunkPieces& c : chunks) {
+    for (const CandidateRecord& r : c.candidates) {
+      if (std::size_t{r.first} + r.count > c.star.size()) return damaged("a candidate's star is out of range");
+      out.candidates.push_back({r.vertex, static_cast<std::uint32_t>(out.star.size()), r.count});
+      for (std::uint32_t k = r.first; k < r.first + r.count; ++k) {
+        const StarEntry& e = c.star[k];
+        StitchedPatches::Star s;
+        const std::int64_t p = patch_of_face(e.face);
+        const std::int64_t q = e.next == kNoFaceId ? 0 : patch_of_face(e.next);
+        if (p < 0 || q < 0) return damaged("no piece for a face in the star of vertex " + std::to_string(r.vertex));
+        s.patch = static_cast<std::uint32_t>(p);
+        if (e.next != kNoFaceId) s.next_patch = static_cast<std::uint32_t>(q);
+        s.entering_break = e.entering_break;
+        out.star.push_back(s);
+      }
+    }
+    for (const CollapsedFaceRecord& r : c.collapsed) {
+      const std::int64_t d = dense(r.piece);
+      if (d < 0) return damaged("a collapsed face names an unknown piece");
+      StitchedPatches::Collapsed col;
+      col.patch = out.piece_patch[d];
+      col.vertices.assign(std::begin(r.vertices), std::end(r.vertices));
+      std::sort(col.vertices.begin(), col.vertices.end());
+      col.vertices.erase(std::unique(col.vertices.begin(), col.vertices.end()), col.vertices.end());
+      out.collapsed.push_back(std::move(col));
+    }
+  }
+  std::sort(out.candidates.begin(), out.candidates.end(),
+            [](const auto& a, const auto& b) { return a.vertex < b.vertex; });
   return out;
 }
 

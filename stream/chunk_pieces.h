@@ -44,10 +44,47 @@ struct PieceAdjacencyRecord {
   std::uint64_t edges = 0;
 };
 
+// The piece of an owned face that other chunks may refer to: every owned face with a vertex
+// owned elsewhere (the faces in other chunks' candidate stars).
+struct FacePieceRecord {
+  std::uint64_t face = 0;
+  PieceId piece = 0;
+};
+
+// One face of a candidate's star, in the adjacency's fan order: the face, the face across its
+// edge leaving the vertex (kNoFaceId for a break edge), and whether its edge entering the vertex
+// is a break. What the sampler counts as the vertex's feature edges (evaluate_vertex) is
+// sum over the star of [leaving edge is a break or joins another label] + [entering edge is a
+// break]: with pieces for faces, the stitch recounts it after merges change labels.
+inline constexpr std::uint64_t kNoFaceId = ~std::uint64_t{0};
+struct StarEntry {
+  std::uint64_t face = 0;
+  std::uint64_t next = kNoFaceId;
+  bool entering_break = false;
+};
+
+// An owned vertex with >= 3 feature edges (a candidate before the merge): its star.
+struct CandidateRecord {
+  std::uint32_t vertex = 0;      // global id
+  std::uint32_t first = 0;       // into ChunkPieces::star
+  std::uint32_t count = 0;
+};
+
+// An owned collapsed face (a repeated index): a patch of its own, whose distinct vertices count
+// as candidates on it when they are candidates (plan_untriangulatable_merges).
+struct CollapsedFaceRecord {
+  PieceId piece = 0;
+  std::uint32_t vertices[3] = {0, 0, 0};  // distinct global ids, the unused ones repeat the first
+};
+
 struct ChunkPieces {
   std::vector<PieceRecord> pieces;  // in piece index order
   std::vector<BorderEdgeRecord> border;
   std::vector<PieceAdjacencyRecord> adjacency;
+  std::vector<FacePieceRecord> border_faces;
+  std::vector<CandidateRecord> candidates;  // ascending vertex
+  std::vector<StarEntry> star;
+  std::vector<CollapsedFaceRecord> collapsed;
 };
 
 // Pieces of one chunk from its adjacency, labels and feature bits (stream/sampler.h, computed on
@@ -72,11 +109,32 @@ struct StitchedPatches {
   };
   std::vector<Adjacent> adjacency;
   std::vector<std::uint32_t> piece_patch;  // patch of every piece, in the order of all pieces given
+  // Candidates (before the merge), ascending vertex, with their stars in patch ids.
+  struct Candidate {
+    std::uint32_t vertex = 0;
+    std::uint32_t first = 0, count = 0;  // into star
+  };
+  struct Star {
+    std::uint32_t patch = 0;
+    std::uint32_t next_patch = 0xFFFFFFFFu;  // patch across the leaving edge; none for a break
+    bool entering_break = false;
+  };
+  std::vector<Candidate> candidates;
+  std::vector<Star> star;
+  // Collapsed faces: their patch and distinct candidate vertices (global ids).
+  struct Collapsed {
+    std::uint32_t patch = 0;
+    std::vector<std::uint32_t> vertices;
+  };
+  std::vector<Collapsed> collapsed;
 };
 
-// Joins the pieces of every chunk. Records are untrusted (they come back from disk): a border
-// edge seen other than exactly twice with matching feature bits, or a piece with two labels, is a
-// kBadInput error. Memory: the pieces, the border edges (sorted in place) and the output.
+// Joins the pieces of every chunk and resolves the candidates' stars to patches (faces owned by
+// the candidate's chunk directly, others through the border-face records of their owners).
+// Records are untrusted (they come back from disk): a border edge seen other than exactly twice
+// with matching feature bits, a piece with two labels, a star face nobody answers for, is a
+// kBadInput error. Memory: the pieces, the border edges and faces (sorted in place), the
+// candidates' stars and the output.
 format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks);
 
 }  // namespace gaussmesh::stream

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <map>
+#include <tuple>
 
 #include "stream/chunk_sampler.h"
 #include "stream/mesh.h"
@@ -19,6 +20,8 @@ namespace {
 struct InCore {
   std::vector<StitchedPatch> patches;
   std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint64_t> adjacency;
+  // Candidate vertex -> sorted (patch, next patch, entering break) of its star.
+  std::map<std::uint32_t, std::vector<std::tuple<std::uint32_t, std::uint32_t, bool>>> stars;
 };
 
 InCore in_core_patches(const Mesh& mesh, const GaussSphere& gauss, const SamplerOptions& options) {
@@ -40,6 +43,20 @@ InCore in_core_patches(const Mesh& mesh, const GaussSphere& gauss, const Sampler
       const std::uint32_t a = p.face_patch[f], b = p.face_patch[g];
       ++out.adjacency[{std::min(a, b), std::max(a, b)}];
     }
+  }
+  std::vector<VertexRecord> records;
+  evaluate_vertices(mesh.view(), adj, normals, labels, feature, gauss, false, 0,
+                    static_cast<std::uint32_t>(mesh.positions.size()), records);
+  for (const VertexRecord& r : records) {
+    if (!r.is_candidate) continue;
+    auto& star = out.stars[r.vertex];
+    for (std::uint32_t k = adj.star_begin(r.vertex); k < adj.star_end(r.vertex); ++k) {
+      const std::uint32_t f = adj.vertex_corners[k] / 3, i = adj.vertex_corners[k] % 3;
+      const std::uint32_t g = adj.edge_neighbor[3 * f + i];
+      star.emplace_back(p.face_patch[f], g == MeshAdjacency::kNoFace ? 0xFFFFFFFFu : p.face_patch[g],
+                        adj.edge_neighbor[3 * f + (i + 2) % 3] == MeshAdjacency::kNoFace);
+    }
+    std::sort(star.begin(), star.end());
   }
   return out;
 }
@@ -91,6 +108,24 @@ void expect_stitch_equals_in_core(const std::string& path, std::uint32_t smooth,
     EXPECT_EQ(got.p, pq.first);
     EXPECT_EQ(got.q, pq.second);
     EXPECT_EQ(got.edges, edges) << pq.first << "-" << pq.second;
+  }
+  // Candidates and their stars in patch ids; recounting the feature edges from the stars (as
+  // the stitch will after merges) gives >= 3 for every one.
+  ASSERT_EQ(stitched->candidates.size(), want.stars.size());
+  auto it = want.stars.begin();
+  for (const auto& c : stitched->candidates) {
+    ASSERT_EQ(c.vertex, it->first);
+    std::vector<std::tuple<std::uint32_t, std::uint32_t, bool>> star;
+    std::uint32_t feature_edges = 0;
+    for (std::uint32_t k = c.first; k < c.first + c.count; ++k) {
+      const auto& e = stitched->star[k];
+      star.emplace_back(e.patch, e.next_patch, e.entering_break);
+      feature_edges += (e.next_patch == 0xFFFFFFFFu || e.next_patch != e.patch) + e.entering_break;
+    }
+    std::sort(star.begin(), star.end());
+    EXPECT_EQ(star, it->second) << "vertex " << c.vertex;
+    EXPECT_GE(feature_edges, 3u) << "vertex " << c.vertex;
+    ++it;
   }
 }
 
