@@ -27,6 +27,7 @@
 
 #include "format/mesh_writer.h"
 #include "format/output_file.h"
+#include "format/temp_registry.h"
 #include "stream/chunk_partition.h"
 #include "stream/mesh.h"
 
@@ -97,6 +98,7 @@ std::string read_line(const char* path) {
 // The child: one partition, figures on stdout.
 int child_main(int argc, char** argv) {
   if (argc != 8) return 1;
+  format::install_signal_cleanup();  // an interrupted run leaves no temp dir behind
   stream::PartitionOptions options;
   options.memory_bytes = std::strtoull(argv[3], nullptr, 10);
   options.rings = static_cast<std::uint32_t>(std::strtoul(argv[4], nullptr, 10));
