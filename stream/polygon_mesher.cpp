@@ -49,14 +49,48 @@ class PolygonMesher {
   // skip[f]: a face left out (collapsed, or a repeat of an earlier face's vertex set); the
   // adjacency is the mesh's without them.
   PolygonMesher(const PatchMesherInput& input, MeshAdjacency adjacency, std::vector<std::uint8_t> skip)
-      : in_(input), adj_(std::move(adjacency)), tris_(input.mesh.triangles.data()), skip_(std::move(skip)) {}
+      : in_(&input),
+        adj_(std::move(adjacency)),
+        tris_(input.mesh.triangles.data()),
+        skip_(std::move(skip)),
+        positions_(input.mesh.positions),
+        plane_(input.patch_plane_normal),
+        has_faces_(true) {}
+
+  // Out of core: everything from records (PolygonGraphInput); no faces.
+  explicit PolygonMesher(const PolygonGraphInput& graph)
+      : in_(nullptr), tris_(nullptr), positions_(graph.positions), plane_(graph.plane_normal), has_faces_(false) {
+    patch_count_ = graph.patches;
+    patch_loop_offset_.assign(patch_count_ + 1, 0);
+    for (const PatchLoop& l : graph.loops) {
+      loops_.push_back({l.patch, l.vertices, l.is_break});
+      ++patch_loop_offset_[l.patch + 1];
+    }
+    for (std::size_t q = 0; q < patch_count_; ++q) patch_loop_offset_[q + 1] += patch_loop_offset_[q];
+    degree_ = graph.degree;
+    keep_.assign(graph.role.size(), Keep::kNo);
+    for (std::size_t v = 0; v < graph.role.size(); ++v) {
+      if (graph.role[v] == VertexRole::kSample) keep_[v] = Keep::kSample;
+      else if (graph.role[v] == VertexRole::kCorner) keep_[v] = Keep::kCorner;
+      else if (graph.role[v] == VertexRole::kGuard) keep_[v] = Keep::kGuard;
+    }
+    interior_of_patch_ = graph.interior_samples;
+    for (const auto& list : interior_of_patch_) result_.stats.interior_samples += list.size();
+    patch_area_ = graph.patch_area;
+    global_ = graph.global;
+    result_.mesh.graph = graph.graph;
+  }
 
   format::Result<PolygonMesherResult> run() {
-    group_faces();
-    walk_loops();
-    count_boundary_loops();
-    count_feature_degrees();
-    choose_kept();
+    if (has_faces_) {
+      group_faces();
+      walk_loops();
+      count_boundary_loops();
+      count_feature_degrees();
+      choose_kept();
+    }
+    count_corners();
+    choose_guards();
     mode_.assign(patch_count_, PatchMode::kReduced);
     refinements_.assign(patch_count_, 0);
     for (std::size_t round = 0; round < kMaxRounds; ++round) {
@@ -65,7 +99,15 @@ class PolygonMesher {
       bool retry = false;
       triangulate_all(failed, retry);
       if (failed.empty() && !retry) return finish();
-      for (std::uint32_t p : failed) densify(p);
+      for (std::uint32_t p : failed) {
+        if (!has_faces_ && mode_[p] == PatchMode::kDensified) {
+          return format::Status::error(format::Code::kProcessing, "polygon mesher",
+                                       "patch " + std::to_string(p) +
+                                           " can only be meshed from its input faces, which the out-of-core stitch "
+                                           "does not fetch yet");
+        }
+        densify(p);
+      }
     }
     return format::Status::error(format::Code::kProcessing, "polygon mesher",
                                  "patches still failing after " + std::to_string(kMaxRounds) + " rounds");
@@ -76,14 +118,14 @@ class PolygonMesher {
   std::uint32_t neighbor(std::uint32_t f, int i) const { return adj_.edge_neighbor[3 * std::size_t{f} + i]; }
   bool is_border(std::uint32_t f, int i) const {
     const std::uint32_t g = neighbor(f, i);
-    return g == MeshAdjacency::kNoFace || in_.face_patch[g] != in_.face_patch[f];
+    return g == MeshAdjacency::kNoFace || in_->face_patch[g] != in_->face_patch[f];
   }
 
   // Faces by patch (CSR, ascending face ids); collapsed faces take no part.
   void group_faces() {
-    const std::size_t nf = in_.mesh.triangles.size();
+    const std::size_t nf = in_->mesh.triangles.size();
     std::uint32_t max_patch = 0;
-    for (std::size_t f = 0; f < nf; ++f) max_patch = std::max(max_patch, in_.face_patch[f]);
+    for (std::size_t f = 0; f < nf; ++f) max_patch = std::max(max_patch, in_->face_patch[f]);
     patch_count_ = nf == 0 ? 0 : std::size_t{max_patch} + 1;
     patch_offset_.assign(patch_count_ + 1, 0);
     for (std::size_t f = 0; f < nf; ++f) {
@@ -91,13 +133,13 @@ class PolygonMesher {
         ++result_.mesh.skipped_input_faces;
         continue;
       }
-      ++patch_offset_[in_.face_patch[f] + 1];
+      ++patch_offset_[in_->face_patch[f] + 1];
     }
     for (std::size_t p = 0; p < patch_count_; ++p) patch_offset_[p + 1] += patch_offset_[p];
     patch_faces_.resize(patch_offset_[patch_count_]);
     std::vector<std::uint32_t> cursor(patch_offset_.begin(), patch_offset_.end() - 1);
     for (std::size_t f = 0; f < nf; ++f) {
-      if (!skip_[f]) patch_faces_[cursor[in_.face_patch[f]]++] = static_cast<std::uint32_t>(f);
+      if (!skip_[f]) patch_faces_[cursor[in_->face_patch[f]]++] = static_cast<std::uint32_t>(f);
     }
   }
 
@@ -122,7 +164,7 @@ class PolygonMesher {
 
   // Loops of break edges (holes of the input), for the report.
   void count_boundary_loops() {
-    std::vector<std::uint8_t> visited(3 * in_.mesh.triangles.size(), 0);
+    std::vector<std::uint8_t> visited(3 * in_->mesh.triangles.size(), 0);
     for (std::uint32_t f0 : patch_faces_) {
       for (int i0 = 0; i0 < 3; ++i0) {
         if (visited[3 * std::size_t{f0} + i0] || neighbor(f0, i0) != MeshAdjacency::kNoFace) continue;
@@ -141,7 +183,7 @@ class PolygonMesher {
   }
 
   void walk_loops() {
-    std::vector<std::uint8_t> visited(3 * in_.mesh.triangles.size(), 0);
+    std::vector<std::uint8_t> visited(3 * in_->mesh.triangles.size(), 0);
     patch_loop_offset_.assign(patch_count_ + 1, 0);
     for (std::uint32_t p = 0; p < patch_count_; ++p) {
       for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
@@ -178,7 +220,7 @@ class PolygonMesher {
   // Distinct feature edges at each vertex: a manifold border counted once (from the face
   // where it runs from the lower id), every break edge once per face holding it.
   void count_feature_degrees() {
-    degree_.assign(in_.mesh.positions.size(), 0);
+    degree_.assign(positions_.size(), 0);
     for (std::uint32_t p = 0; p < patch_count_; ++p) {
       for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
         const std::uint32_t f = patch_faces_[k];
@@ -198,9 +240,9 @@ class PolygonMesher {
     const std::size_t n = loop.vertices.size();
     const std::size_t prev = (k + n - 1) % n;
     if (!loop.is_break[prev] || !loop.is_break[k]) return false;
-    const auto& pa = in_.mesh.positions[loop.vertices[prev]];
-    const auto& pv = in_.mesh.positions[loop.vertices[k]];
-    const auto& pb = in_.mesh.positions[loop.vertices[(k + 1) % n]];
+    const auto& pa = positions_[loop.vertices[prev]];
+    const auto& pv = positions_[loop.vertices[k]];
+    const auto& pb = positions_[loop.vertices[(k + 1) % n]];
     const double ax = double(pv.x) - pa.x, ay = double(pv.y) - pa.y, az = double(pv.z) - pa.z;
     const double bx = double(pb.x) - pv.x, by = double(pb.y) - pv.y, bz = double(pb.z) - pv.z;
     const double la = std::sqrt(ax * ax + ay * ay + az * az), lb = std::sqrt(bx * bx + by * by + bz * bz);
@@ -213,12 +255,12 @@ class PolygonMesher {
   }
 
   void choose_kept() {
-    const std::size_t nv = in_.mesh.positions.size();
+    const std::size_t nv = positions_.size();
     keep_.assign(nv, Keep::kNo);
     for (std::size_t v = 0; v < nv; ++v) {
-      if (in_.vertex_role[v] == VertexRole::kSample) keep_[v] = Keep::kSample;
-      else if (in_.vertex_role[v] == VertexRole::kGuard) keep_[v] = Keep::kGuard;
-      else if (degree_[v] > 0 && (in_.vertex_role[v] == VertexRole::kCorner || degree_[v] == 1 || degree_[v] >= 3))
+      if (in_->vertex_role[v] == VertexRole::kSample) keep_[v] = Keep::kSample;
+      else if (in_->vertex_role[v] == VertexRole::kGuard) keep_[v] = Keep::kGuard;
+      else if (degree_[v] > 0 && (in_->vertex_role[v] == VertexRole::kCorner || degree_[v] == 1 || degree_[v] >= 3))
         keep_[v] = Keep::kCorner;
     }
     for (const Loop& loop : loops_) {
@@ -226,18 +268,20 @@ class PolygonMesher {
         if (degree_[loop.vertices[k]] == 2 && is_boundary_turn(loop, k)) keep(loop.vertices[k], Keep::kCorner);
       }
     }
-    for (std::size_t v = 0; v < nv; ++v) {
-      if (degree_[v] > 0 && (degree_[v] != 2 || keep_[v] != Keep::kNo)) ++result_.mesh.graph.corners;
-    }
     // Samples off every feature edge are inserted into their patch.
     interior_of_patch_.assign(patch_count_, {});
     for (std::size_t v = 0; v < nv; ++v) {
       if (keep_[v] != Keep::kSample || degree_[v] != 0 || adj_.star_end(v) == adj_.star_begin(v)) continue;
       const std::uint32_t f = adj_.vertex_corners[adj_.star_begin(v)] / 3;
-      interior_of_patch_[in_.face_patch[f]].push_back(static_cast<std::uint32_t>(v));
+      interior_of_patch_[in_->face_patch[f]].push_back(static_cast<std::uint32_t>(v));
       ++result_.stats.interior_samples;
     }
-    choose_guards();
+  }
+
+  void count_corners() {
+    for (std::size_t v = 0; v < degree_.size(); ++v) {
+      if (degree_[v] > 0 && (degree_[v] != 2 || keep_[v] != Keep::kNo)) ++result_.mesh.graph.corners;
+    }
   }
 
   // Chains between stops, canonical (the same whichever patch's loop they are read from), and
@@ -346,7 +390,7 @@ class PolygonMesher {
       ++result_.stats.densified_patches;
       for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l)
         for (std::uint32_t v : loops_[l].vertices) keep(v, Keep::kGuard);
-    } else if (mode_[p] == PatchMode::kDensified) {
+    } else if (mode_[p] == PatchMode::kDensified && has_faces_) {
       mode_[p] = PatchMode::kOriginal;
       ++result_.stats.original_patches;
       for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k)
@@ -415,7 +459,7 @@ class PolygonMesher {
       }
     }
     // Patches that keep their input triangles go first: their edges are fixed.
-    for (std::uint32_t p = 0; p < patch_count_; ++p) {
+    for (std::uint32_t p = 0; p < patch_count_ && has_faces_; ++p) {
       if (mode_[p] != PatchMode::kOriginal) continue;
       for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
         const auto& t = tris_[patch_faces_[k]];
@@ -433,7 +477,7 @@ class PolygonMesher {
     }
     for (std::uint32_t p = 0; p < patch_count_; ++p) {
       if (mode_[p] == PatchMode::kOriginal || mode_[p] == PatchMode::kCollapsed ||
-          patch_offset_[p] == patch_offset_[p + 1])
+          (has_faces_ && patch_offset_[p] == patch_offset_[p + 1]))
         continue;
       if (failing[p] || !triangulate_patch(p, reduced_loops)) {
         failed.push_back(p);
@@ -451,6 +495,7 @@ class PolygonMesher {
   // would make an edge that exists elsewhere.
   enum class Collapse { kDone, kRetry, kFailed };
   Collapse collapse_patch(std::uint32_t p) {
+    if (!has_faces_) return Collapse::kFailed;
     std::vector<std::uint32_t> vertices;
     for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k)
       for (std::uint32_t v : tris_[patch_faces_[k]].v) vertices.push_back(v);
@@ -460,7 +505,7 @@ class PolygonMesher {
       return static_cast<format::VertexIndex>(std::lower_bound(vertices.begin(), vertices.end(), v) - vertices.begin());
     };
     Mesh sub;
-    for (std::uint32_t v : vertices) sub.positions.push_back(in_.mesh.positions[v]);
+    for (std::uint32_t v : vertices) sub.positions.push_back(positions_[v]);
     for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
       const auto& t = tris_[patch_faces_[k]];
       sub.triangles.push_back({{local(t.v[0]), local(t.v[1]), local(t.v[2])}});
@@ -515,12 +560,13 @@ class PolygonMesher {
 
   // The patch's vector area (sum of its faces' cross products): its mean normal.
   PolygonPoint3 mean_normal(std::uint32_t p) const {
+    if (!has_faces_) return p < patch_area_.size() ? patch_area_[p] : PolygonPoint3{0, 0, 0};
     PolygonPoint3 normal{0, 0, 0};
     for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
       const auto& t = tris_[patch_faces_[k]];
-      const auto& a = in_.mesh.positions[t.v[0]];
-      const auto& b = in_.mesh.positions[t.v[1]];
-      const auto& c = in_.mesh.positions[t.v[2]];
+      const auto& a = positions_[t.v[0]];
+      const auto& b = positions_[t.v[1]];
+      const auto& c = positions_[t.v[2]];
       const double ux = double(b.x) - a.x, uy = double(b.y) - a.y, uz = double(b.z) - a.z;
       const double vx = double(c.x) - a.x, vy = double(c.y) - a.y, vz = double(c.z) - a.z;
       normal[0] += uy * vz - uz * vy;
@@ -535,8 +581,8 @@ class PolygonMesher {
   // the plane of its mean normal.
   bool triangulate_patch(std::uint32_t p, const std::vector<std::vector<std::uint32_t>>& reduced_loops) {
     PolygonPoint3 plane{0, 0, 0};
-    if (p < in_.patch_plane_normal.size()) {
-      const auto& n = in_.patch_plane_normal[p];
+    if (p < plane_.size()) {
+      const auto& n = plane_[p];
       plane = {double(n.x), double(n.y), double(n.z)};
     }
     if (!(plane[0] == 0 && plane[1] == 0 && plane[2] == 0) && triangulate_patch(p, reduced_loops, plane)) return true;
@@ -556,7 +602,7 @@ class PolygonMesher {
     auto local_id = [&](std::uint32_t v) {
       for (std::size_t i = 0; i < local_to_vertex.size(); ++i)
         if (local_to_vertex[i] == v) return static_cast<std::uint32_t>(i);
-      const auto& q = in_.mesh.positions[v];
+      const auto& q = positions_[v];
       local_to_vertex.push_back(v);
       points.push_back({double(q.x), double(q.y), double(q.z)});
       return static_cast<std::uint32_t>(local_to_vertex.size() - 1);
@@ -571,8 +617,8 @@ class PolygonMesher {
       const auto& r = reduced_loops[l];
       for (std::size_t k = 0; k < r.size(); ++k) {
         local.push_back(local_id(r[k]));
-        const auto& a = in_.mesh.positions[r[k]];
-        const auto& b = in_.mesh.positions[r[(k + 1) % r.size()]];
+        const auto& a = positions_[r[k]];
+        const auto& b = positions_[r[(k + 1) % r.size()]];
         newell[0] += double(a.y) * b.z - double(a.z) * b.y;
         newell[1] += double(a.z) * b.x - double(a.x) * b.z;
         newell[2] += double(a.x) * b.y - double(a.y) * b.x;
@@ -670,7 +716,7 @@ class PolygonMesher {
     Mesh mesh;
     std::vector<VertexRole> roles;
     for (std::uint32_t v : used) {
-      mesh.positions.push_back(in_.mesh.positions[v]);
+      mesh.positions.push_back(positions_[v]);
       roles.push_back(keep_[v] == Keep::kSample   ? VertexRole::kSample
                       : keep_[v] == Keep::kCorner ? VertexRole::kCorner
                                                   : VertexRole::kGuard);
@@ -679,7 +725,7 @@ class PolygonMesher {
       return static_cast<format::VertexIndex>(std::lower_bound(used.begin(), used.end(), v) - used.begin());
     };
     for (const auto& t : out_tris_) mesh.triangles.push_back({{index_of(t[0]), index_of(t[1]), index_of(t[2])}});
-    std::vector<format::Vec3f> plane(in_.patch_plane_normal.begin(), in_.patch_plane_normal.end());
+    std::vector<format::Vec3f> plane(plane_.begin(), plane_.end());
     PatchMesherInput phase_two{mesh.view(), out_patch_, roles, plane, true};
     auto collapsed = mesh_patches(phase_two);
     if (!collapsed) return collapsed.status();
@@ -687,7 +733,7 @@ class PolygonMesher {
     PolygonMesherResult out;
     out.stats = result_.stats;
     out.mesh = std::move(collapsed).value();
-    for (auto& b : out.mesh.birth) b = used[b];
+    for (auto& b : out.mesh.birth) b = global_.empty() ? used[b] : global_[used[b]];
     out.mesh.graph = result_.mesh.graph;
     out.mesh.skipped_input_faces = result_.mesh.skipped_input_faces;
     out.mesh.planar_patches = result_.mesh.planar_patches;
@@ -695,10 +741,15 @@ class PolygonMesher {
     return out;
   }
 
-  const PatchMesherInput& in_;
+  const PatchMesherInput* in_;  // in core only
   MeshAdjacency adj_;
   const format::Triangle* tris_;
   std::vector<std::uint8_t> skip_;
+  std::span<const format::Vec3f> positions_;
+  std::span<const format::Vec3f> plane_;
+  bool has_faces_;
+  std::vector<PolygonPoint3> patch_area_;  // out of core: each patch's vector area, from records
+  std::vector<std::uint32_t> global_;      // out of core: input vertex id of each vertex id
   std::size_t patch_count_ = 0;
   std::vector<std::uint32_t> patch_offset_, patch_faces_;
   std::vector<Loop> loops_;
@@ -756,6 +807,23 @@ format::Result<PolygonMesherResult> mesh_patch_polygons(const PatchMesherInput& 
   }
   if (!adjacency) return adjacency.status();
   PolygonMesher mesher(input, std::move(adjacency).value(), std::move(skip));
+  return mesher.run();
+}
+
+format::Result<PolygonMesherResult> mesh_patch_loops(const PolygonGraphInput& graph) {
+  const std::size_t nv = graph.positions.size();
+  if (graph.degree.size() != nv || graph.role.size() != nv || (!graph.global.empty() && graph.global.size() != nv) ||
+      graph.interior_samples.size() != graph.patches || graph.plane_normal.size() != graph.patches ||
+      graph.patch_area.size() != graph.patches) {
+    return format::Status::error(format::Code::kProcessing, "polygon mesher", "patch graph arrays do not match");
+  }
+  for (const PatchLoop& l : graph.loops) {
+    if (l.patch >= graph.patches || l.vertices.size() != l.is_break.size() || l.vertices.empty())
+      return format::Status::error(format::Code::kProcessing, "polygon mesher", "a loop is malformed");
+    for (std::uint32_t v : l.vertices)
+      if (v >= nv) return format::Status::error(format::Code::kProcessing, "polygon mesher", "a loop vertex is out of range");
+  }
+  PolygonMesher mesher(graph);
   return mesher.run();
 }
 

@@ -21,6 +21,10 @@
 //      (stream/patch_mesher.h, corners_only).
 #pragma once
 
+#include <array>
+#include <cstdint>
+#include <vector>
+
 #include "format/status.h"
 #include "stream/patch_mesher.h"
 
@@ -49,5 +53,36 @@ struct PolygonMesherResult {
 // top of the input's adjacency. Errors: kProcessing when the preconditions do not hold, or when
 // the result would not be a valid mesh (the caller may fall back to mesh_patches).
 format::Result<PolygonMesherResult> mesh_patch_polygons(const PatchMesherInput& input);
+
+// The same mesher fed from records (the out-of-core stitch): what mesh_patch_polygons builds
+// from the mesh in its steps 1-2, given instead. Vertex ids are dense (0 .. positions - 1) and
+// must be numbered in increasing input id (the canonical rules compare ids); `global` maps them
+// back to input ids for the output's birth indices (empty: they are input ids).
+struct PatchLoop {
+  std::uint32_t patch = 0;
+  std::vector<std::uint32_t> vertices;  // the loop's half-edges' start vertices, patch on the left
+  std::vector<std::uint8_t> is_break;   // per half-edge: a break edge (boundary, non-manifold)
+};
+struct PolygonGraphInput {
+  std::vector<format::Vec3f> positions;  // every vertex a loop or a sample names
+  std::vector<std::uint32_t> global;
+  std::size_t patches = 0;
+  // Loops of every patch, patches in id order, each patch's loops in walk order: a loop starts
+  // at the lowest unwalked half-edge id (3 × face + edge) of its patch.
+  std::vector<PatchLoop> loops;
+  std::vector<std::uint32_t> degree;  // distinct feature edges per vertex
+  // kSample, kCorner (a candidate after the merge, feature degree 1 or >= 3, or a boundary turn
+  // of more than 30°), or kNone; per vertex.
+  std::vector<VertexRole> role;
+  std::vector<std::vector<std::uint32_t>> interior_samples;  // per patch, ascending: samples off every feature edge
+  std::vector<format::Vec3f> plane_normal;                    // per patch; zero: use patch_area
+  std::vector<std::array<double, 3>> patch_area;              // per patch: sum of its faces' cross products
+  PatchGraphStats graph;                                      // feature edges, chains, loops (for the report)
+};
+
+// Steps 3-5 of mesh_patch_polygons on records. A patch that only its input faces could mesh
+// (the collapse and original steps) is a kProcessing error naming it: the stitch does not fetch
+// faces yet.
+format::Result<PolygonMesherResult> mesh_patch_loops(const PolygonGraphInput& graph);
 
 }  // namespace gaussmesh::stream
