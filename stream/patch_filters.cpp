@@ -3,6 +3,7 @@
 #include "stream/patch_filters.h"
 
 #include <algorithm>
+#include <cassert>
 #include <bit>
 #include <numeric>
 
@@ -188,6 +189,492 @@ std::vector<std::uint32_t> plan_untriangulatable_merges(format::MeshView mesh, c
   MergePlanScratch scratch;
   plan_untriangulatable_merges(mesh, adjacency, patches, feature, is_candidate, target, scratch);
   return target;
+}
+
+// ---- The untriangulatable-patch merge on the patch graph --------------------------------------
+
+namespace {
+
+template <typename T>
+constexpr std::uint32_t kEnd = ChainedLists<T>::kEnd;
+
+// Lists l = pool[offsets[l] .. offsets[l + 1]), the pool already filled: one segment per list.
+template <typename T>
+void init_chains(ChainedLists<T>& c, const std::vector<std::uint32_t>& offsets) {
+  const std::size_t n = offsets.size() - 1;
+  c.segments.resize(n);
+  c.head.resize(n);
+  c.tail.resize(n);
+  c.length.resize(n);
+  for (std::size_t l = 0; l < n; ++l) {
+    c.segments[l] = {offsets[l], offsets[l + 1], kEnd<T>};
+    const bool empty = offsets[l] == offsets[l + 1];
+    c.head[l] = c.tail[l] = empty ? kEnd<T> : static_cast<std::uint32_t>(l);
+    c.length[l] = offsets[l + 1] - offsets[l];
+  }
+}
+
+template <typename T>
+void clear_list(ChainedLists<T>& c, std::uint32_t l) {
+  c.head[l] = c.tail[l] = kEnd<T>;
+  c.length[l] = 0;
+}
+
+// Appends pool[begin, end) to list l as a new segment.
+template <typename T>
+void add_segment(ChainedLists<T>& c, std::uint32_t l, std::uint32_t begin, std::uint32_t end) {
+  if (begin == end) return;
+  const auto s = static_cast<std::uint32_t>(c.segments.size());
+  c.segments.push_back({begin, end, kEnd<T>});
+  if (c.head[l] == kEnd<T>) c.head[l] = s;
+  else c.segments[c.tail[l]].next = s;
+  c.tail[l] = s;
+  c.length[l] += end - begin;
+}
+
+// Moves list src to the end of list dst; src becomes empty. O(1).
+template <typename T>
+void splice(ChainedLists<T>& c, std::uint32_t dst, std::uint32_t src) {
+  if (c.head[src] == kEnd<T>) return;
+  if (c.head[dst] == kEnd<T>) c.head[dst] = c.head[src];
+  else c.segments[c.tail[dst]].next = c.head[src];
+  c.tail[dst] = c.tail[src];
+  c.length[dst] += c.length[src];
+  clear_list(c, src);
+}
+
+template <typename T, typename F>
+void for_each_item(const ChainedLists<T>& c, std::uint32_t l, F&& f) {
+  for (std::uint32_t s = c.head[l]; s != kEnd<T>; s = c.segments[s].next) {
+    const auto& seg = c.segments[s];
+    for (std::uint32_t i = seg.begin; i < seg.end; ++i) f(c.pool[i]);
+  }
+}
+
+// Replaces list l by items: in place in its first segment when they fit, else appended.
+template <typename T>
+void replace_list(ChainedLists<T>& c, std::uint32_t l, const std::vector<T>& items) {
+  const auto n = static_cast<std::uint32_t>(items.size());
+  const std::uint32_t h = c.head[l];
+  if (n == 0) {
+    clear_list(c, l);
+    return;
+  }
+  if (h != kEnd<T> && c.segments[h].end - c.segments[h].begin >= n) {
+    auto& seg = c.segments[h];
+    std::copy(items.begin(), items.end(), c.pool.begin() + seg.begin);
+    seg.end = seg.begin + n;
+    seg.next = kEnd<T>;
+    c.tail[l] = h;
+    c.length[l] = n;
+    return;
+  }
+  clear_list(c, l);
+  const auto begin = static_cast<std::uint32_t>(c.pool.size());
+  c.pool.insert(c.pool.end(), items.begin(), items.end());
+  add_segment(c, l, begin, static_cast<std::uint32_t>(c.pool.size()));
+}
+
+constexpr std::uint8_t kIsolated = 1;  // no neighbour across a manifold feature edge: never merges
+constexpr std::uint8_t kTarget = 2;    // absorbs a patch in the current plan
+constexpr std::uint8_t kInvolved = 4;  // in a group of patches that become one this round
+
+}  // namespace
+
+std::uint32_t PatchMergeGraph::next_stamp() {
+  if (++stamp_counter_ == 0) {
+    std::fill(stamp_.begin(), stamp_.end(), 0u);
+    stamp_counter_ = 1;
+  }
+  return stamp_counter_;
+}
+
+void PatchMergeGraph::reset(const PatchGraphInput& in) {
+  input_ = &in;
+  const std::size_t np = in.patch_label.size();
+  const std::size_t nc = in.candidate_offsets.empty() ? 0 : in.candidate_offsets.size() - 1;
+  assert(in.patch_size.size() == np);
+  parent_.resize(np);
+  std::iota(parent_.begin(), parent_.end(), 0u);
+  temp_parent_.resize(np);
+  std::iota(temp_parent_.begin(), temp_parent_.end(), 0u);
+  member_next_.assign(np, kNoPatch);
+  label_.assign(in.patch_label.begin(), in.patch_label.end());
+  size_.assign(in.patch_size.begin(), in.patch_size.end());
+  target_.assign(np, kNoPatch);
+  slot_.assign(np, kNoPatch);
+  flags_.assign(np, 0);
+  dead_.assign(nc, 0);
+  stamp_.assign(nc, 0);
+  stamp_counter_ = 0;
+  merged_ = rounds_ = 0;
+  // Neighbour lists: the input's, one segment per patch.
+  assert(in.neighbor_offsets.size() == np + 1);
+  neighbors_.pool.assign(in.neighbors.begin(), in.neighbors.end());
+  neighbors_.segments.clear();
+  init_chains(neighbors_, in.neighbor_offsets);
+  std::vector<std::uint32_t>& offsets = roots_;
+  std::vector<std::uint32_t>& cursor = involved_;
+  // Candidate lists per patch; count_ = how many live candidates count for the patch.
+  offsets.assign(np + 1, 0);
+  for (std::uint32_t q : in.candidate_patches) ++offsets[q + 1];
+  for (std::size_t p = 0; p < np; ++p) offsets[p + 1] += offsets[p];
+  members_.pool.resize(offsets[np]);
+  members_.segments.clear();
+  cursor.assign(offsets.begin(), offsets.end() - 1);
+  for (std::size_t k = 0; k < nc; ++k)
+    for (std::uint32_t j = in.candidate_offsets[k]; j < in.candidate_offsets[k + 1]; ++j)
+      members_.pool[cursor[in.candidate_patches[j]]++] = static_cast<std::uint32_t>(k);
+  init_chains(members_, offsets);
+  count_.assign(members_.length.begin(), members_.length.end());
+  small_.clear();
+  for (std::size_t p = 0; p < np; ++p)
+    if (count_[p] < 3) small_.push_back(static_cast<std::uint32_t>(p));
+}
+
+std::uint32_t PatchMergeGraph::compact_neighbors(std::uint32_t p) {
+  scratch_.clear();
+  for_each_item(neighbors_, p, [&](const Neighbor& n) {
+    const std::uint32_t r = patch(n.patch);
+    if (r == p) return;  // merged into p
+    if (slot_[r] == kNoPatch) {
+      slot_[r] = static_cast<std::uint32_t>(scratch_.size());
+      scratch_.push_back({r, n.edges});
+    } else {
+      scratch_[slot_[r]].edges += n.edges;
+    }
+  });
+  std::uint32_t best = kNoPatch, best_edges = 0;
+  for (const Neighbor& n : scratch_) {
+    slot_[n.patch] = kNoPatch;
+    if (n.edges > best_edges || (n.edges == best_edges && n.patch < best)) {
+      best = n.patch;
+      best_edges = n.edges;
+    }
+  }
+  replace_list(neighbors_, p, scratch_);
+  return best;
+}
+
+bool PatchMergeGraph::candidate_touches(std::uint32_t candidate, std::uint32_t p) {
+  const PatchGraphInput& in = *input_;
+  for (std::uint32_t j = in.candidate_offsets[candidate]; j < in.candidate_offsets[candidate + 1]; ++j)
+    if (patch(in.candidate_patches[j]) == p) return true;
+  return false;
+}
+
+std::size_t PatchMergeGraph::round(const Reevaluate& reevaluate) {
+  // The plan (plan_untriangulatable_merges' rules) over the patches with < 3 candidates, in id
+  // order: only they can leave, and a patch's id order is its lowest face's.
+  leaving_.clear();
+  targets_.clear();
+  next_small_.clear();
+  for (std::uint32_t p : small_) {
+    if (parent_[p] != p || count_[p] >= 3 || (flags_[p] & kIsolated)) continue;
+    const std::uint32_t best = compact_neighbors(p);
+    if (best == kNoPatch) {
+      flags_[p] |= kIsolated;  // merges only ever join neighbours: it stays alone
+      continue;
+    }
+    next_small_.push_back(p);
+    if ((flags_[p] & kTarget) || target_[best] != kNoPatch) continue;
+    target_[p] = best;
+    flags_[best] |= kTarget;
+    leaving_.push_back(p);
+    targets_.push_back(best);
+  }
+  if (leaving_.empty()) {
+    small_.clear();
+    return 0;
+  }
+
+  // Candidates to re-evaluate: those counting for a leaving patch.
+  const std::uint32_t touched_stamp = next_stamp();
+  touched_.clear();
+  for (std::uint32_t p : leaving_)
+    for_each_item(members_, p, [&](std::uint32_t c) {
+      if (dead_[c] || stamp_[c] == touched_stamp) return;
+      stamp_[c] = touched_stamp;
+      touched_.push_back(c);
+    });
+  std::sort(touched_.begin(), touched_.end());
+
+  // Relabel, then unite adjacent patches with equal labels. Only pairs with a leaving patch can
+  // become equal (adjacent patches had different labels), and leaving patches' neighbour lists
+  // were just compacted. Groups are formed in a scratch union-find first, so that the merged
+  // candidate lists can be computed with the patches of the round's start.
+  auto new_label = [this](std::uint32_t q) { return target_[q] != kNoPatch ? label_[target_[q]] : label_[q]; };
+  auto temp_find = [this](std::uint32_t x) {
+    while (temp_parent_[x] != x) x = temp_parent_[x] = temp_parent_[temp_parent_[x]];
+    return x;
+  };
+  involved_.clear();
+  auto involve = [this](std::uint32_t x) {
+    if (flags_[x] & kInvolved) return;
+    flags_[x] |= kInvolved;
+    involved_.push_back(x);
+  };
+  for (std::uint32_t p : leaving_) {
+    const std::uint32_t lp = new_label(p);
+    for_each_item(neighbors_, p, [&](const Neighbor& n) {
+      if (new_label(n.patch) != lp) return;
+      const std::uint32_t a = temp_find(p), b = temp_find(n.patch);
+      if (a != b) temp_parent_[std::max(a, b)] = std::min(a, b);
+      involve(p);
+      involve(n.patch);
+    });
+  }
+  // Each group as a chain from its lowest id (its root in the scratch union-find).
+  roots_.clear();
+  for (std::uint32_t x : involved_) {
+    const std::uint32_t r = temp_find(x);
+    if (r == x) {
+      roots_.push_back(x);
+    } else {
+      member_next_[x] = member_next_[r];
+      member_next_[r] = x;
+    }
+  }
+  for (std::uint32_t root : roots_) {
+    // The members' candidate lists become one: the largest is kept, and the others' live
+    // candidates that do not count for it already are appended (small to large, so each entry
+    // moves O(log) times). "Counts for the largest" is read from a mark over the largest list
+    // when that list is not much longer than the others, else from the candidate's patches.
+    std::uint32_t largest = root, others = 0, faces = 0;
+    for (std::uint32_t x = root; x != kNoPatch; x = member_next_[x]) {
+      faces += size_[x];
+      if (members_.length[x] > members_.length[largest]) largest = x;
+    }
+    for (std::uint32_t x = root; x != kNoPatch; x = member_next_[x])
+      if (x != largest) others += members_.length[x];
+    const bool mark_largest = members_.length[largest] <= 4 * others;
+    const std::uint32_t in_largest = next_stamp();
+    if (mark_largest) for_each_item(members_, largest, [&](std::uint32_t c) { stamp_[c] = in_largest; });
+    const std::uint32_t seen = next_stamp();
+    extras_.clear();
+    for (std::uint32_t x = root; x != kNoPatch; x = member_next_[x]) {
+      if (x == largest) continue;
+      for_each_item(members_, x, [&](std::uint32_t c) {
+        if (dead_[c] || stamp_[c] == seen || stamp_[c] == in_largest) return;
+        stamp_[c] = seen;
+        if (mark_largest || !candidate_touches(c, largest)) extras_.push_back(c);
+      });
+    }
+    const std::uint32_t merged_label = new_label(root);
+    const std::uint32_t count = count_[largest] + static_cast<std::uint32_t>(extras_.size());
+    if (largest != root) {
+      clear_list(members_, root);
+      splice(members_, root, largest);
+    }
+    for (std::uint32_t x = member_next_[root]; x != kNoPatch; x = member_next_[x]) {
+      if (x != largest) clear_list(members_, x);
+      splice(neighbors_, root, x);
+      parent_[x] = root;
+    }
+    const auto begin = static_cast<std::uint32_t>(members_.pool.size());
+    members_.pool.insert(members_.pool.end(), extras_.begin(), extras_.end());
+    add_segment(members_, root, begin, static_cast<std::uint32_t>(members_.pool.size()));
+    count_[root] = count;
+    size_[root] = faces;
+    label_[root] = merged_label;
+    next_small_.push_back(root);
+  }
+  for (std::uint32_t x : involved_) {
+    temp_parent_[x] = x;
+    member_next_[x] = kNoPatch;
+    flags_[x] &= static_cast<std::uint8_t>(~kInvolved);
+  }
+  for (std::uint32_t p : leaving_) target_[p] = kNoPatch;
+  for (std::uint32_t t : targets_) flags_[t] &= static_cast<std::uint8_t>(~kTarget);
+  merged_ += leaving_.size();
+  ++rounds_;
+
+  // Re-evaluation: a candidate that lost its candidacy no longer counts for its patches.
+  still_.assign(touched_.size(), 1);
+  if (!touched_.empty()) reevaluate(*this, std::span<const std::uint32_t>(touched_), still_);
+  const PatchGraphInput& in = *input_;
+  for (std::size_t i = 0; i < touched_.size(); ++i) {
+    if (still_[i]) continue;
+    const std::uint32_t c = touched_[i];
+    dead_[c] = 1;
+    roots_.clear();
+    for (std::uint32_t j = in.candidate_offsets[c]; j < in.candidate_offsets[c + 1]; ++j) {
+      const std::uint32_t r = patch(in.candidate_patches[j]);
+      if (slot_[r] != kNoPatch) continue;
+      slot_[r] = 0;
+      roots_.push_back(r);
+    }
+    for (std::uint32_t r : roots_) {
+      slot_[r] = kNoPatch;
+      --count_[r];
+      next_small_.push_back(r);
+    }
+  }
+  std::sort(next_small_.begin(), next_small_.end());
+  next_small_.erase(std::unique(next_small_.begin(), next_small_.end()), next_small_.end());
+  small_.swap(next_small_);
+  return leaving_.size();
+}
+
+std::size_t PatchMergeGraph::merge(const Reevaluate& reevaluate, int max_rounds) {
+  for (int r = 0; r < max_rounds; ++r)
+    if (round(reevaluate) == 0) break;
+  return rounds_;
+}
+
+void PatchMergeGraph::finish(PatchMergeResult& out) {
+  const std::size_t np = parent_.size();
+  out.patch_of.resize(np);
+  out.patch_label.clear();
+  out.patch_size.clear();
+  for (std::size_t p = 0; p < np; ++p) {
+    const std::uint32_t r = patch(static_cast<std::uint32_t>(p));
+    if (r == p) {
+      out.patch_of[p] = static_cast<std::uint32_t>(out.patch_label.size());
+      out.patch_label.push_back(label_[p]);
+      out.patch_size.push_back(size_[p]);
+    } else {
+      out.patch_of[p] = out.patch_of[r];  // r < p: numbered already
+    }
+  }
+  out.adjacency.clear();
+  for (std::size_t p = 0; p < np; ++p) {
+    if (parent_[p] != p) continue;
+    roots_.clear();
+    for_each_item(neighbors_, static_cast<std::uint32_t>(p), [&](const Neighbor& n) {
+      const std::uint32_t s = patch(n.patch);
+      if (s <= p || slot_[s] != kNoPatch) return;
+      slot_[s] = 0;
+      roots_.push_back(s);
+    });
+    for (std::uint32_t s : roots_) slot_[s] = kNoPatch;
+    std::sort(roots_.begin(), roots_.end());
+    for (std::uint32_t s : roots_) out.adjacency.emplace_back(out.patch_of[p], out.patch_of[s]);
+  }
+  out.is_candidate.resize(dead_.size());
+  for (std::size_t k = 0; k < dead_.size(); ++k) out.is_candidate[k] = !dead_[k];
+  out.merged_patches = merged_;
+  out.rounds = rounds_;
+}
+
+void merge_untriangulatable_patches(const PatchGraphInput& input, const PatchMergeGraph::Reevaluate& reevaluate,
+                                    PatchMergeGraph& graph, PatchMergeResult& out) {
+  graph.reset(input);
+  graph.merge(reevaluate);
+  graph.finish(out);
+}
+
+void patch_neighbors_from_pairs(std::span<const PatchPair> pairs, PatchGraphInput& input) {
+  const std::size_t np = input.patch_label.size();
+  std::vector<std::uint32_t>& offsets = input.neighbor_offsets;
+  offsets.assign(np + 1, 0);
+  for (const PatchPair& e : pairs) {
+    assert(e.a != e.b && e.a < np && e.b < np);
+    ++offsets[e.a + 1];
+    ++offsets[e.b + 1];
+  }
+  for (std::size_t p = 0; p < np; ++p) offsets[p + 1] += offsets[p];
+  input.neighbors.resize(offsets[np]);
+  std::vector<std::uint32_t> cursor(offsets.begin(), offsets.end() - 1);
+  for (const PatchPair& e : pairs) {
+    input.neighbors[cursor[e.a]++] = {e.b, e.edges};
+    input.neighbors[cursor[e.b]++] = {e.a, e.edges};
+  }
+}
+
+void build_patch_graph(format::MeshView mesh, const MeshAdjacency& adjacency, const Patches& patches,
+                       const std::vector<std::uint8_t>& feature, std::span<const std::uint32_t> candidates,
+                       PatchGraphInput& out, PatchGraphBuildScratch& s) {
+  const std::size_t np = patches.patch_label.size();
+  const std::size_t nf = patches.face_patch.size();
+  const std::uint32_t* face_patch = patches.face_patch.data();
+  const std::uint32_t* nb = adjacency.edge_neighbor.data();
+  const std::uint8_t* bits = feature.data();
+  out.patch_label.assign(patches.patch_label.begin(), patches.patch_label.end());
+  out.patch_size.assign(patches.patch_size.begin(), patches.patch_size.end());
+  // Neighbours: every manifold feature edge from both of its sides (each side is an edge of a
+  // face: a manifold feature edge joins faces of different labels, hence of different
+  // patches), bucketed by the side's patch, then counted per neighbour.
+  s.bucket.assign(np + 1, 0);
+  std::uint32_t* bucket = s.bucket.data();
+  for (std::size_t f = 0; f < nf; ++f) {
+    const std::uint8_t b = bits[f];
+    if (!b) continue;
+    for (int i = 0; i < 3; ++i) bucket[face_patch[f] + 1] += (b >> i & 1) && nb[3 * f + i] != MeshAdjacency::kNoFace;
+  }
+  for (std::size_t p = 0; p < np; ++p) bucket[p + 1] += bucket[p];
+  s.entries.resize(bucket[np]);
+  s.cursor.assign(bucket, bucket + np);
+  {
+    std::uint32_t* cursor = s.cursor.data();
+    std::uint32_t* entries = s.entries.data();
+    for (std::size_t f = 0; f < nf; ++f) {
+      const std::uint8_t b = bits[f];
+      if (!b) continue;
+      const std::uint32_t p = face_patch[f];
+      for (int i = 0; i < 3; ++i) {
+        const std::uint32_t g = nb[3 * f + i];
+        if ((b >> i & 1) && g != MeshAdjacency::kNoFace) entries[cursor[p]++] = face_patch[g];
+      }
+    }
+  }
+  out.neighbor_offsets.resize(np + 1);
+  out.neighbors.resize(s.entries.size());
+  s.slot.assign(np, kNoPatch);
+  std::uint32_t* slot = s.slot.data();
+  PatchNeighbor* neighbors = out.neighbors.data();
+  std::uint32_t n = 0;
+  for (std::size_t p = 0; p < np; ++p) {
+    out.neighbor_offsets[p] = n;
+    const std::uint32_t first = n;
+    for (std::uint32_t k = bucket[p]; k < bucket[p + 1]; ++k) {
+      const std::uint32_t q = s.entries[k];
+      if (slot[q] == kNoPatch) {
+        slot[q] = n;
+        neighbors[n++] = {q, 1};
+      } else {
+        ++neighbors[slot[q]].edges;
+      }
+    }
+    for (std::uint32_t k = first; k < n; ++k) slot[neighbors[k].patch] = kNoPatch;
+  }
+  out.neighbor_offsets[np] = n;
+  out.neighbors.resize(n);
+  // Collapsed faces hold candidates but are in no star (plan_untriangulatable_merges' rule).
+  s.collapsed.clear();
+  if (adjacency.collapsed_faces > 0) {
+    for (std::size_t f = 0; f < nf; ++f) {
+      const auto& t = mesh.triangles[f];
+      if (!(t.v[0] == t.v[1] || t.v[1] == t.v[2] || t.v[0] == t.v[2])) continue;
+      for (int i = 0; i < 3; ++i) {
+        bool dup = false;
+        for (int j = 0; j < i; ++j) dup = dup || t.v[j] == t.v[i];
+        if (!dup) s.collapsed.emplace_back(t.v[i], face_patch[f]);
+      }
+    }
+    std::sort(s.collapsed.begin(), s.collapsed.end());
+  }
+  // Distinct patches of each candidate's star (slot[q] == k marks q as listed for candidate k).
+  const std::size_t nc = candidates.size();
+  out.candidate_offsets.resize(nc + 1);
+  out.candidate_patches.clear();
+  const std::uint32_t* corners = adjacency.vertex_corners.data();
+  std::size_t j = 0;
+  for (std::size_t k = 0; k < nc; ++k) {
+    const std::uint32_t v = candidates[k];
+    const auto mark = static_cast<std::uint32_t>(k);
+    assert(k == 0 || candidates[k - 1] < v);
+    out.candidate_offsets[k] = static_cast<std::uint32_t>(out.candidate_patches.size());
+    for (std::uint32_t c = adjacency.star_begin(v); c < adjacency.star_end(v); ++c) {
+      const std::uint32_t q = face_patch[corners[c] / 3];
+      if (slot[q] == mark) continue;
+      slot[q] = mark;
+      out.candidate_patches.push_back(q);
+    }
+    while (j < s.collapsed.size() && s.collapsed[j].first < v) ++j;
+    for (; j < s.collapsed.size() && s.collapsed[j].first == v; ++j) out.candidate_patches.push_back(s.collapsed[j].second);
+  }
+  out.candidate_offsets[nc] = static_cast<std::uint32_t>(out.candidate_patches.size());
 }
 
 std::vector<std::pair<std::uint32_t, std::uint32_t>> find_candidate_adjacency(
