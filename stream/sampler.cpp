@@ -8,6 +8,8 @@
 #include <atomic>
 #include <cassert>
 #include <cmath>
+#include <chrono>
+#include <ctime>
 #include <numbers>
 
 #include <tbb/blocked_range.h>
@@ -110,6 +112,8 @@ struct Scratch {
   std::vector<std::uint32_t> visited;   // Gaussian triangles of the cap search, in visit order
   std::vector<std::uint32_t> gauss;     // Gaussian vertices to test
   IdSet visited_set, gauss_set;         // membership of the two lists above
+  std::vector<std::uint32_t> star_labels;  // MergeLabels: the labels of the current star
+  std::uint32_t star_begin = 0;
 };
 
 // acos(clamp(x, -1, 1)) <= t, decided with cosines where the answer is clear by a margin of
@@ -347,27 +351,61 @@ struct VertexInputs {
   bool run_exact_test;
 };
 
+// Where evaluate_vertex reads a star's labels and feature bits. label(k, f): the label of face
+// f at star slot k; feature(k, f, i): whether edge i of f (the one leaving the vertex at slot
+// k) is a feature edge. load(sb, se, s) runs first for each vertex.
+struct MeshLabels {  // the mesh's label and feature arrays
+  const std::uint32_t* labels;
+  const std::uint8_t* feature;
+  void load(std::uint32_t, std::uint32_t, Scratch&) const {}
+  std::uint32_t label(std::uint32_t, std::uint32_t f, const Scratch&) const { return labels[f]; }
+  bool feature_bit(std::uint32_t, std::uint32_t f, std::uint32_t i, const Scratch&) const { return feature[f] >> i & 1; }
+};
+
+// The labels during the untriangulatable merge: face f's is its first patch's current label in
+// the patch graph (read-only lookups, so several threads may evaluate at once), and a manifold
+// edge is a feature edge iff its faces' labels differ (the other face of the edge leaving the
+// vertex is in its star).
+struct MergeLabels {
+  const PatchMergeGraph& graph;
+  const std::uint32_t* face_patch;  // of the first find_patches
+  const std::uint32_t* corners;
+  const std::uint32_t* nb;
+  void load(std::uint32_t sb, std::uint32_t se, Scratch& s) const {
+    s.star_labels.clear();
+    for (std::uint32_t k = sb; k < se; ++k) s.star_labels.push_back(graph.current_label(face_patch[corners[k] / 3]));
+    s.star_begin = sb;
+  }
+  std::uint32_t label(std::uint32_t k, std::uint32_t, const Scratch& s) const { return s.star_labels[k - s.star_begin]; }
+  bool feature_bit(std::uint32_t k, std::uint32_t f, std::uint32_t i, const Scratch& s) const {
+    const std::uint32_t g = nb[3 * f + i];
+    return g == MeshAdjacency::kNoFace || graph.current_label(face_patch[g]) != s.star_labels[k - s.star_begin];
+  }
+};
+
 // The per-vertex decisions of one vertex (docs/sampling.md); appends a record when the vertex
 // is a candidate or an exact sample.
-void evaluate_vertex(const VertexInputs& in, std::uint32_t v, Scratch& s, std::vector<VertexRecord>& out) {
+template <typename Labels>
+void evaluate_vertex(const VertexInputs& in, const Labels& labels, std::uint32_t v, Scratch& s,
+                     std::vector<VertexRecord>& out) {
   const MeshAdjacency& adjacency = in.adjacency;
   const GaussSphere& gauss = in.gauss;
-  const std::uint32_t* labels = in.labels;
   const auto* tris = in.mesh.triangles.data();
   const std::uint32_t* corners = adjacency.vertex_corners.data();
   const std::uint8_t* flags = adjacency.slot_flags.data();
   const std::uint32_t* nb = adjacency.edge_neighbor.data();
   const std::uint32_t sb = adjacency.star_begin(v), se = adjacency.star_end(v);
   if (sb == se) return;
+  labels.load(sb, se, s);
   // Fast path: feature edges and whether the star carries more than one label.
   std::uint32_t feature_count = 0;
-  const std::uint32_t first_label = labels[corners[sb] / 3];
+  const std::uint32_t first_label = labels.label(sb, corners[sb] / 3, s);
   bool several_labels = false;
   for (std::uint32_t k = sb; k < se; ++k) {
     const std::uint32_t c = corners[k], f = c / 3, i = c % 3;
-    feature_count += in.feature[f] >> i & 1;
+    feature_count += labels.feature_bit(k, f, i, s);
     feature_count += nb[3 * f + (i + 2) % 3] == MeshAdjacency::kNoFace;
-    several_labels |= labels[f] != first_label;
+    several_labels |= labels.label(k, f, s) != first_label;
   }
   const bool is_candidate = feature_count >= 3;
   const bool test_exact = in.run_exact_test && several_labels;
@@ -390,7 +428,7 @@ void evaluate_vertex(const VertexInputs& in, std::uint32_t v, Scratch& s, std::v
   // Distinct labels of the whole star.
   s.distinct.clear();
   for (std::uint32_t k = sb; k < se; ++k) {
-    const std::uint32_t l = labels[corners[k] / 3];
+    const std::uint32_t l = labels.label(k, corners[k] / 3, s);
     if (std::find(s.distinct.begin(), s.distinct.end(), l) == s.distinct.end()) s.distinct.push_back(l);
   }
   const bool has_unlabelled = std::find(s.distinct.begin(), s.distinct.end(), kNoLabel) != s.distinct.end();
@@ -403,7 +441,7 @@ void evaluate_vertex(const VertexInputs& in, std::uint32_t v, Scratch& s, std::v
       std::uint32_t fan_end = k + 1;
       while (fan_end < se && !(flags[fan_end] & MeshAdjacency::kFanStart)) ++fan_end;
       s.labels.clear();
-      for (std::uint32_t j = k; j < fan_end; ++j) s.labels.push_back(labels[corners[j] / 3]);
+      for (std::uint32_t j = k; j < fan_end; ++j) s.labels.push_back(labels.label(j, corners[j] / 3, s));
       const std::size_t m = s.labels.size();
       for (std::size_t j = 0; j < m && all_trees; ++j) {
         const std::uint32_t a = s.labels[j], b = s.labels[(j + 1) % m];
@@ -508,11 +546,12 @@ void evaluate_vertex(const VertexInputs& in, std::uint32_t v, Scratch& s, std::v
 
 // Evaluates the vertices get(0) .. get(n - 1) (increasing) and appends their records in that
 // order: blocks in parallel, each into its own list, concatenated in block order.
-template <typename VertexAt>
-void evaluate_many(const VertexInputs& in, std::size_t n, const VertexAt& get, std::vector<VertexRecord>& out) {
+template <typename VertexAt, typename Labels>
+void evaluate_many(const VertexInputs& in, const Labels& labels, std::size_t n, const VertexAt& get,
+                   std::vector<VertexRecord>& out) {
   if (n <= kVertexBlock) {
     Scratch s;
-    for (std::size_t k = 0; k < n; ++k) evaluate_vertex(in, get(k), s, out);
+    for (std::size_t k = 0; k < n; ++k) evaluate_vertex(in, labels, get(k), s, out);
     return;
   }
   const std::size_t blocks = (n + kVertexBlock - 1) / kVertexBlock;
@@ -521,7 +560,7 @@ void evaluate_many(const VertexInputs& in, std::size_t n, const VertexAt& get, s
     Scratch s;
     for (std::size_t b = r.begin(); b < r.end(); ++b) {
       const std::size_t end = std::min(n, (b + 1) * kVertexBlock);
-      for (std::size_t k = b * kVertexBlock; k < end; ++k) evaluate_vertex(in, get(k), s, parts[b]);
+      for (std::size_t k = b * kVertexBlock; k < end; ++k) evaluate_vertex(in, labels, get(k), s, parts[b]);
     }
   });
   std::size_t total = out.size();
@@ -538,7 +577,8 @@ void evaluate_vertices(format::MeshView mesh, const MeshAdjacency& adjacency, co
                        std::vector<VertexRecord>& out) {
   if (end <= begin) return;
   const VertexInputs in{mesh, adjacency, normals, labels.data(), feature.data(), gauss, run_exact_test};
-  evaluate_many(in, end - begin, [begin](std::size_t k) { return static_cast<std::uint32_t>(begin + k); }, out);
+  evaluate_many(in, MeshLabels{labels.data(), feature.data()}, end - begin,
+                [begin](std::size_t k) { return static_cast<std::uint32_t>(begin + k); }, out);
 }
 
 void evaluate_vertex_list(format::MeshView mesh, const MeshAdjacency& adjacency, const FaceNormals& normals,
@@ -548,8 +588,23 @@ void evaluate_vertex_list(format::MeshView mesh, const MeshAdjacency& adjacency,
   if (vertices.empty()) return;
   const VertexInputs in{mesh, adjacency, normals, labels.data(), feature.data(), gauss, run_exact_test};
   const std::uint32_t* list = vertices.data();
-  evaluate_many(in, vertices.size(), [list](std::size_t k) { return list[k]; }, out);
+  evaluate_many(in, MeshLabels{labels.data(), feature.data()}, vertices.size(), [list](std::size_t k) { return list[k]; },
+                out);
 }
+
+namespace {
+
+double wall_seconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+double thread_cpu_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+}
+
+}  // namespace
 
 SamplerWorkspace::SamplerWorkspace() = default;
 SamplerWorkspace::~SamplerWorkspace() = default;
@@ -586,146 +641,95 @@ format::Status sample_mesh(format::MeshView mesh, const GaussSphere& gauss, cons
 
   // Untriangulatable patches (Fig. 6 a, b): merge into a neighbour, then re-evaluate the
   // vertices of the merged faces, which may lose feature edges and candidacy (Fig. 6 c, d).
+  // The rounds run on the patch graph (PatchMergeGraph, stream/patch_filters.h), built once
+  // from the first find_patches; the faces are relabelled once at the end.
+  const double stage_wall = wall_seconds(), stage_cpu = thread_cpu_seconds();
   std::vector<std::uint8_t>& is_candidate = ws.is_candidate;
   is_candidate.assign(nv, 0);
-  for (const VertexRecord& r : records) is_candidate[r.vertex] = r.is_candidate;
+  ws.candidate_vertex.clear();
+  ws.candidate_record.clear();
+  for (std::size_t k = 0; k < records.size(); ++k) {
+    if (!records[k].is_candidate) continue;
+    is_candidate[records[k].vertex] = 1;
+    ws.candidate_vertex.push_back(records[k].vertex);
+    ws.candidate_record.push_back(static_cast<std::uint32_t>(k));
+  }
   Patches& patches = ws.patches;
   find_patches(adj, labels, feature, patches, ws.stack);
+  build_patch_graph(mesh, adj, patches, feature, ws.candidate_vertex, ws.graph_input, ws.graph_scratch);
   const std::uint32_t* nb = adj.edge_neighbor.data();
-  const VertexInputs relabelled{mesh, adj, normals, labels.data(), feature.data(), gauss, false};
-  for (int round = 0; round < 64; ++round) {
-    plan_untriangulatable_merges(mesh, adj, patches, feature, is_candidate, ws.plan, ws.plan_scratch);
-    const std::size_t merging = static_cast<std::size_t>(
-        std::count_if(ws.plan.begin(), ws.plan.end(), [](std::uint32_t t) { return t != kNoPatch; }));
-    if (merging == 0) break;  // every patch has a face: no target, no touched vertex
-    result.stats.merged_patches += merging;
-    ++result.stats.merge_rounds;
-    ws.merged_faces.clear();
+  const std::uint32_t* corners = adj.vertex_corners.data();
+  const std::uint32_t* face_patch0 = patches.face_patch.data();
+  const VertexInputs relabelled{mesh, adj, normals, nullptr, nullptr, gauss, false};
+  // Re-evaluates the touched candidates from their stars, with the labels of the patch graph
+  // (MergeLabels; every face is relabelled once at the end). Records: a candidate that stays one
+  // takes its fresh record with its old exact verdict (exact verdicts do not depend on labels);
+  // one that does not is kept as exact-only if it is an exact sample, and is no candidate any
+  // more either way.
+  auto reevaluate = [&](PatchMergeGraph& graph, std::span<const std::uint32_t> touched,
+                        std::vector<std::uint8_t>& still) {
     ws.touched.clear();
-    for (std::size_t f = 0; f < nf; ++f) {
-      const std::uint32_t target = ws.plan[patches.face_patch[f]];
-      if (target == kNoPatch) continue;
-      labels[f] = patches.patch_label[target];
-      ws.merged_faces.push_back(static_cast<std::uint32_t>(f));
-      for (std::uint32_t v : mesh.triangles[f].v) ws.touched.push_back(v);
-    }
-    // Feature bits change only on relabelled faces and their edge neighbours.
-    for (std::uint32_t f : ws.merged_faces) {
-      feature[f] = feature_bits(nb, labels.data(), f);
-      for (int i = 0; i < 3; ++i) {
-        const std::uint32_t g = nb[3 * f + i];
-        if (g != MeshAdjacency::kNoFace) feature[g] = feature_bits(nb, labels.data(), g);
-      }
-    }
-    std::sort(ws.touched.begin(), ws.touched.end());
-    ws.touched.erase(std::unique(ws.touched.begin(), ws.touched.end()), ws.touched.end());
-    // Re-evaluate the touched vertices' label-dependent decisions; exact verdicts do not depend
-    // on labels and are kept from the first pass.
+    for (std::uint32_t k : touched) ws.touched.push_back(ws.candidate_vertex[k]);
+    const MergeLabels merge_labels{graph, face_patch0, corners, nb};
     ws.fresh.clear();
-    const std::uint32_t* touched = ws.touched.data();
-    evaluate_many(relabelled, ws.touched.size(), [touched](std::size_t k) { return touched[k]; }, ws.fresh);
-    // Merge, in vertex order: untouched records stay; a touched vertex takes its fresh record
-    // (with the old exact verdict), or keeps its old record as exact-only, or drops out.
-    std::vector<VertexRecord>& merged = ws.records_next;
-    merged.clear();
-    std::size_t i = 0, k = 0;
-    for (std::uint32_t v : ws.touched) {
-      while (i < records.size() && records[i].vertex < v) merged.push_back(records[i++]);
-      const VertexRecord* old = i < records.size() && records[i].vertex == v ? &records[i++] : nullptr;
-      if (k < ws.fresh.size() && ws.fresh[k].vertex == v) {
-        VertexRecord r = ws.fresh[k++];
-        if (old) {
-          r.is_exact_sample = old->is_exact_sample;
-          r.enclosed = old->enclosed;
-          r.exact_gauss_vertex = old->exact_gauss_vertex;
-          r.exact_winding = old->exact_winding;
-          r.exact_characteristic = old->exact_characteristic;
-        }
-        is_candidate[v] = r.is_candidate;
-        merged.push_back(r);
+    const std::uint32_t* list = ws.touched.data();
+    evaluate_many(relabelled, merge_labels, ws.touched.size(), [list](std::size_t k) { return list[k]; }, ws.fresh);
+    std::size_t j = 0;
+    for (std::size_t i = 0; i < touched.size(); ++i) {
+      const std::uint32_t v = ws.touched[i];
+      VertexRecord& old = records[ws.candidate_record[touched[i]]];
+      if (j < ws.fresh.size() && ws.fresh[j].vertex == v) {
+        VertexRecord r = ws.fresh[j++];
+        r.is_exact_sample = old.is_exact_sample;
+        r.enclosed = old.enclosed;
+        r.exact_gauss_vertex = old.exact_gauss_vertex;
+        r.exact_winding = old.exact_winding;
+        r.exact_characteristic = old.exact_characteristic;
+        old = r;
+        still[i] = 1;
       } else {
         is_candidate[v] = 0;
-        if (old && old->is_exact_sample) {
-          VertexRecord kept = *old;  // no longer a candidate, still an exact sample
-          kept.is_candidate = false;
-          kept.is_tree = false;
-          kept.gauss_vertex = kNoGaussVertex;
-          kept.characteristic = Characteristic::kNone;
-          merged.push_back(kept);
-        }
+        old.is_candidate = false;
+        old.is_tree = false;
+        old.gauss_vertex = kNoGaussVertex;
+        old.characteristic = Characteristic::kNone;
+        still[i] = 0;
       }
     }
-    merged.insert(merged.end(), records.begin() + static_cast<std::ptrdiff_t>(i), records.end());
-    records.swap(merged);
-    // Patches after the round, without a new traversal: relabelling only clears feature bits
-    // (a leaving patch takes its target's label whole), so the new patches are unions of old
-    // ones, joined across the cleared edges of relabelled faces. Old ids are ordered by lowest
-    // face, so numbering the unions by their lowest old id is find_patches' numbering.
-    const std::size_t np = patches.patch_label.size();
-    std::vector<std::uint32_t>& parent = ws.patch_parent;
-    parent.resize(np);
-    for (std::size_t p = 0; p < np; ++p) parent[p] = static_cast<std::uint32_t>(p);
-    auto find = [&parent](std::uint32_t x) {
-      while (parent[x] != x) x = parent[x] = parent[parent[x]];
-      return x;
-    };
-    for (std::uint32_t f : ws.merged_faces) {
-      for (int e = 0; e < 3; ++e) {
-        if (feature[f] >> e & 1) continue;
-        const std::uint32_t g = nb[3 * f + e];
-        const std::uint32_t a = find(patches.face_patch[f]), b = find(patches.face_patch[g]);
-        if (a != b) parent[std::max(a, b)] = std::min(a, b);
-      }
-    }
-    std::vector<std::uint32_t>& renumber = ws.patch_renumber;
-    renumber.resize(np);
-    std::vector<std::uint32_t>& old_label = ws.patch_old_label;
-    old_label.assign(patches.patch_label.begin(), patches.patch_label.end());
-    std::uint32_t next_id = 0;
-    for (std::size_t p = 0; p < np; ++p) {
-      const std::uint32_t root = find(static_cast<std::uint32_t>(p));
-      if (root == p) {
-        const std::uint32_t target = ws.plan[p];
-        patches.patch_label[next_id] = old_label[target == kNoPatch ? p : target];
-        patches.patch_size[next_id] = patches.patch_size[p];
-        renumber[p] = next_id++;
-      } else {
-        renumber[p] = renumber[root];
-        patches.patch_size[renumber[root]] += patches.patch_size[p];
-      }
-    }
-    patches.patch_label.resize(next_id);
-    patches.patch_size.resize(next_id);
-    std::uint32_t* face_patch = patches.face_patch.data();
-    const std::uint32_t* map = renumber.data();
-    for_faces(nf, [&](std::size_t begin, std::size_t end) {
-      for (std::size_t f = begin; f < end; ++f) face_patch[f] = map[face_patch[f]];
-    });
-  }
+  };
+  const double rounds_wall = wall_seconds(), rounds_cpu = thread_cpu_seconds();
+  ws.graph.reset(ws.graph_input);
+  ws.graph.merge(reevaluate);
+  ws.merge_rounds_wall = wall_seconds() - rounds_wall;
+  ws.merge_rounds_cpu = thread_cpu_seconds() - rounds_cpu;
+  PatchMergeResult& merged = ws.merge_result;
+  ws.graph.finish(merged);
+  result.stats.merged_patches = merged.merged_patches;
+  result.stats.merge_rounds = merged.rounds;
 
-  // Patch graph inputs.
-  result.face_patch.swap(patches.face_patch);
-  result.patch_label.swap(patches.patch_label);
-  result.patch_count = result.patch_label.size();
-  {
-    std::vector<std::uint64_t>& keys = ws.pair_keys;
-    keys.clear();
-    const std::uint32_t* face_patch = result.face_patch.data();
-    for (std::size_t f = 0; f < nf; ++f) {
-      if (!feature[f]) continue;  // a non-feature edge joins faces of one patch
-      for (int i = 0; i < 3; ++i) {
-        const std::uint32_t g = nb[3 * f + i];
-        if (g == MeshAdjacency::kNoFace) continue;
-        const std::uint32_t p = face_patch[f], q = face_patch[g];
-        if (p < q) keys.push_back(std::uint64_t{p} << 32 | q);
+  // Faces: merged patch, label and feature bits, once (find_patches' numbering: by lowest face).
+  result.face_patch.resize(nf);
+  if (merged.rounds == 0) {
+    std::copy(patches.face_patch.begin(), patches.face_patch.end(), result.face_patch.begin());
+  } else {
+    const std::uint32_t* patch_of = merged.patch_of.data();
+    const std::uint32_t* merged_label = merged.patch_label.data();
+    std::uint32_t* out_patch = result.face_patch.data();
+    std::uint32_t* out_label = labels.data();
+    for_faces(nf, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t f = begin; f < end; ++f) {
+        const std::uint32_t p = patch_of[face_patch0[f]];
+        out_patch[f] = p;
+        out_label[f] = merged_label[p];
       }
-    }
-    std::sort(keys.begin(), keys.end());
-    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-    result.patch_adjacency.reserve(keys.size());
-    for (std::uint64_t key : keys)
-      result.patch_adjacency.emplace_back(static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key));
+    });
+    compute_feature_edges(adj, labels, feature);
   }
+  result.patch_label.swap(merged.patch_label);
+  result.patch_count = result.patch_label.size();
+  result.patch_adjacency.swap(merged.adjacency);
+  ws.patch_stage_wall = wall_seconds() - stage_wall;
+  ws.patch_stage_cpu = thread_cpu_seconds() - stage_cpu;
 
   for (const VertexRecord& r : records)
     if (r.is_candidate) result.candidates.push_back(r);

@@ -185,13 +185,18 @@ struct SamplerWorkspace {
   FaceNormals normals;
   std::vector<float> area;
   std::vector<format::Vec3f> smoothed;
-  std::vector<VertexRecord> records, records_next, fresh;
+  std::vector<VertexRecord> records, fresh;
   std::vector<std::uint8_t> is_candidate;
-  Patches patches;
-  MergePlanScratch plan_scratch;
-  std::vector<std::uint32_t> stack, plan, merged_faces, touched, patch_parent, patch_renumber,
-      patch_old_label;
-  std::vector<std::uint64_t> pair_keys;
+  Patches patches;  // of the first find_patches (before the merge)
+  std::vector<std::uint32_t> stack, touched, candidate_vertex, candidate_record;
+  PatchGraphInput graph_input;
+  PatchGraphBuildScratch graph_scratch;
+  PatchMergeGraph graph;
+  PatchMergeResult merge_result;
+  // Seconds of the last call's patch stage (find_patches, building the patch graph, the merge
+  // rounds, relabelling the faces, the patch graph outputs) and of its merge rounds alone: wall,
+  // and CPU time of the calling thread (the whole CPU time when run on one thread).
+  double patch_stage_wall = 0, patch_stage_cpu = 0, merge_rounds_wall = 0, merge_rounds_cpu = 0;
 };
 
 // The same into `result`, reusing the workspace's and the result's arrays. Same decisions.

@@ -5,7 +5,9 @@
 // and the untriangulatable merge with maps. Every decision of the optimized code (adjacency,
 // labels, feature bits, vertex records, patches, candidates, samples, stats) must equal the
 // reference's on the real fixtures and on noisy generated meshes with defects, for f = 2, 4, 8,
-// both sample tests, smooth 0 and 2.
+// both sample tests, smooth 0 and 2. The untriangulatable merge, which runs on the patch graph,
+// is also checked against the previous merge over the mesh round by round (mesh_round_sample)
+// on every fixture in eight orientations and on noisy shapes where many patches merge.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -590,6 +592,117 @@ SamplingResult ref_sample(const Mesh& m, const GaussSphere& g, const SamplerOpti
   return res;
 }
 
+// ---- The previous O(mesh)-per-round merge (reference for the patch-graph merge) ---------------
+
+// sample_mesh as it was before the merge ran on the patch graph: every round plans over all
+// faces (plan_untriangulatable_merges), relabels the merged faces, updates their feature bits,
+// re-evaluates every vertex of a merged face and runs find_patches again. Built from the
+// public steps (which the tests above check against their own references).
+SamplingResult mesh_round_sample(const Mesh& m, const GaussSphere& g, const SamplerOptions& o) {
+  const MeshAdjacency a = build_mesh_adjacency(m.view()).value();
+  const FaceNormals n = compute_face_normals(m.view(), a, o.smooth_iterations);
+  std::vector<std::uint32_t> labels = compute_face_labels(n, g);
+  std::vector<std::uint8_t> feature = compute_feature_edges(a, labels);
+  const std::uint32_t nv = static_cast<std::uint32_t>(m.positions.size());
+  const bool exact = o.sample_test == SampleTest::kExact;
+  std::vector<VertexRecord> first;
+  evaluate_vertices(m.view(), a, n, labels, feature, g, exact, 0, nv, first);
+  std::map<std::uint32_t, VertexRecord> records;
+  for (const VertexRecord& r : first) records[r.vertex] = r;
+  SamplingResult res;
+  res.stats.degenerate_faces = n.degenerate_count;
+  res.stats.unlabelled_faces = static_cast<std::size_t>(std::count(labels.begin(), labels.end(), kNoLabel));
+  res.stats.break_edges = a.break_edges;
+  std::vector<std::uint8_t> is_candidate(nv, 0);
+  for (const auto& [v, r] : records) {
+    res.stats.candidates_initial += r.is_candidate;
+    res.stats.exact_samples += r.is_exact_sample;
+    is_candidate[v] = r.is_candidate;
+  }
+  Patches p = find_patches(a, labels, feature);
+  for (int round = 0; round < kMaxMergeRounds; ++round) {
+    const std::vector<std::uint32_t> plan = plan_untriangulatable_merges(m.view(), a, p, feature, is_candidate);
+    const auto merging =
+        static_cast<std::size_t>(std::count_if(plan.begin(), plan.end(), [](std::uint32_t t) { return t != kNoPatch; }));
+    if (merging == 0) break;
+    res.stats.merged_patches += merging;
+    ++res.stats.merge_rounds;
+    std::set<std::uint32_t> touched;
+    for (std::uint32_t f = 0; f < m.triangles.size(); ++f) {
+      if (plan[p.face_patch[f]] == kNoPatch) continue;
+      labels[f] = p.patch_label[plan[p.face_patch[f]]];
+      touched.insert(m.triangles[f].v, m.triangles[f].v + 3);
+    }
+    feature = compute_feature_edges(a, labels);
+    const std::vector<std::uint32_t> list(touched.begin(), touched.end());
+    std::vector<VertexRecord> fresh;
+    evaluate_vertex_list(m.view(), a, n, labels, feature, g, false, list, fresh);
+    std::size_t k = 0;
+    for (std::uint32_t v : list) {
+      auto old = records.find(v);
+      if (k < fresh.size() && fresh[k].vertex == v) {
+        VertexRecord r = fresh[k++];
+        if (old != records.end()) {
+          r.is_exact_sample = old->second.is_exact_sample;
+          r.enclosed = old->second.enclosed;
+          r.exact_gauss_vertex = old->second.exact_gauss_vertex;
+          r.exact_winding = old->second.exact_winding;
+          r.exact_characteristic = old->second.exact_characteristic;
+        }
+        records[v] = r;
+        is_candidate[v] = r.is_candidate;
+      } else {
+        is_candidate[v] = 0;
+        if (old == records.end()) continue;
+        if (old->second.is_exact_sample) {
+          old->second.is_candidate = false;
+          old->second.is_tree = false;
+          old->second.gauss_vertex = kNoGaussVertex;
+          old->second.characteristic = Characteristic::kNone;
+        } else {
+          records.erase(old);
+        }
+      }
+    }
+    p = find_patches(a, labels, feature);
+  }
+  res.face_label = labels;
+  res.face_feature = feature;
+  res.face_patch = p.face_patch;
+  res.patch_label = p.patch_label;
+  res.patch_count = p.patch_label.size();
+  std::set<std::pair<std::uint32_t, std::uint32_t>> pairs;
+  for (std::uint32_t f = 0; f < m.triangles.size(); ++f)
+    for (int i = 0; i < 3; ++i) {
+      const std::uint32_t h = a.edge_neighbor[3 * f + i];
+      if (h != MeshAdjacency::kNoFace && p.face_patch[f] < p.face_patch[h]) pairs.insert({p.face_patch[f], p.face_patch[h]});
+    }
+  res.patch_adjacency.assign(pairs.begin(), pairs.end());
+  for (const auto& [v, r] : records)
+    if (r.is_candidate) res.candidates.push_back(r);
+  if (exact) {
+    for (const auto& [v, r] : records)
+      if (r.is_exact_sample) res.samples.push_back({v, r.exact_gauss_vertex, r.exact_characteristic});
+  } else {
+    std::vector<NoisyFilterInput> survivors;
+    for (const VertexRecord& r : res.candidates) {
+      if (r.is_tree) {
+        ++res.stats.tree_filtered;
+      } else if (o.drop_unwinding_candidates && r.gauss_vertex != kNoGaussVertex && r.characteristic == Characteristic::kNone) {
+        ++res.stats.unwinding_filtered;
+      } else {
+        survivors.push_back({r.vertex, r.gauss_vertex, static_cast<std::uint8_t>(r.characteristic), r.cover_mask});
+      }
+    }
+    const auto keep = noisy_sample_filter(survivors, find_candidate_adjacency(m.view(), a, res.face_feature, is_candidate));
+    for (std::size_t k = 0; k < survivors.size(); ++k) {
+      if (!keep[k]) ++res.stats.noisy_filtered;
+      else res.samples.push_back({survivors[k].vertex, survivors[k].gauss_vertex, static_cast<Characteristic>(survivors[k].characteristic)});
+    }
+  }
+  return res;
+}
+
 // ---- Comparisons ---------------------------------------------------------------------------
 
 bool same_record(const VertexRecord& a, const VertexRecord& b) {
@@ -786,6 +899,108 @@ TEST(SamplerRegression, WholePassEqualsReference) {
           EXPECT_EQ(a.exact_samples, b.exact_samples);
         }
   }
+}
+
+// Every field of two results (the patch graph consumes all of them).
+void expect_same_result(const SamplingResult& got, const SamplingResult& want) {
+  EXPECT_EQ(got.face_label, want.face_label);
+  EXPECT_EQ(got.face_feature, want.face_feature);
+  EXPECT_EQ(got.face_patch, want.face_patch);
+  EXPECT_EQ(got.patch_label, want.patch_label);
+  EXPECT_EQ(got.patch_count, want.patch_count);
+  EXPECT_EQ(got.patch_adjacency, want.patch_adjacency);
+  expect_same_records(got.candidates, want.candidates, "candidates");
+  ASSERT_EQ(got.samples.size(), want.samples.size());
+  std::size_t bad = 0;
+  for (std::size_t k = 0; k < got.samples.size(); ++k)
+    bad += got.samples[k].vertex != want.samples[k].vertex || got.samples[k].gauss_vertex != want.samples[k].gauss_vertex ||
+           got.samples[k].characteristic != want.samples[k].characteristic;
+  EXPECT_EQ(bad, 0u) << "samples differ";
+  const SamplingStats& a = got.stats;
+  const SamplingStats& b = want.stats;
+  EXPECT_EQ(a.degenerate_faces, b.degenerate_faces);
+  EXPECT_EQ(a.unlabelled_faces, b.unlabelled_faces);
+  EXPECT_EQ(a.break_edges, b.break_edges);
+  EXPECT_EQ(a.candidates_initial, b.candidates_initial);
+  EXPECT_EQ(a.merged_patches, b.merged_patches);
+  EXPECT_EQ(a.merge_rounds, b.merge_rounds);
+  EXPECT_EQ(a.tree_filtered, b.tree_filtered);
+  EXPECT_EQ(a.unwinding_filtered, b.unwinding_filtered);
+  EXPECT_EQ(a.noisy_filtered, b.noisy_filtered);
+  EXPECT_EQ(a.exact_samples, b.exact_samples);
+}
+
+// The merge on the patch graph (sample_mesh) against the previous merge over the mesh, round
+// by round (mesh_round_sample): the same decisions everywhere — on every real fixture in eight
+// orientations of G at f = 4 and 8, and on noisy generated shapes (many patches merge, over
+// many rounds, and candidates lose their candidacy), both sample tests, with and without
+// smoothing. One workspace is reused throughout, as --orientations does.
+TEST(SamplerRegression, GraphMergeEqualsMergeRoundsOverTheMesh) {
+  SamplerWorkspace ws;
+  SamplingResult got;
+  struct Totals {
+    std::size_t runs = 0, merged = 0, max_rounds = 0, dropped = 0;
+  };
+  auto check = [&](const std::string& name, const Mesh& m, std::uint32_t f, std::uint64_t seed, std::uint32_t smooth,
+                   SampleTest test, Totals& t) {
+    SCOPED_TRACE(name + " f " + std::to_string(f) + " seed " + std::to_string(seed) + " smooth " +
+                 std::to_string(smooth) + " " + sample_test_name(test));
+    const GaussSphere g = sphere(f, seed);
+    SamplerOptions o;
+    o.smooth_iterations = smooth;
+    o.sample_test = test;
+    ASSERT_TRUE(sample_mesh(m.view(), g, o, ws, got).is_ok());
+    const SamplingResult want = mesh_round_sample(m, g, o);
+    expect_same_result(got, want);
+    ++t.runs;
+    t.merged += want.stats.merged_patches;
+    t.max_rounds = std::max(t.max_rounds, want.stats.merge_rounds);
+    t.dropped += want.stats.candidates_initial - want.candidates.size();
+  };
+  Totals fixtures;
+  for (const Case& c : cases()) {
+    if (c.name.find(".off") == std::string::npos && c.name.find(".ply") == std::string::npos) continue;
+    Totals one;
+    for (std::uint64_t seed = 1; seed <= 8; ++seed)
+      for (std::uint32_t f : {4u, 8u})
+        for (SampleTest test : {SampleTest::kExact, SampleTest::kPaper}) check(c.name, c.mesh, f, seed, 0, test, one);
+    EXPECT_GT(one.merged, 0u) << c.name << ": no merge in any orientation";
+    fixtures.merged += one.merged;
+    fixtures.max_rounds = std::max(fixtures.max_rounds, one.max_rounds);
+    fixtures.dropped += one.dropped;
+    fixtures.runs += one.runs;
+  }
+  EXPECT_EQ(fixtures.runs, 7u * 8 * 2 * 2);
+
+  std::vector<std::pair<std::string, Mesh>> noisy;
+  testing::ShapeOptions o;
+  o.vertices = 12000;
+  o.noise = 2e-3;
+  o.seed = 3;
+  o.rotation = testing::random_rotation(5);
+  noisy.emplace_back("noisy torus", testing::make_torus(1, 0.35, o));
+  noisy.emplace_back("noisy sphere", testing::make_sphere(o));
+  noisy.emplace_back("noisy rounded cube", testing::make_rounded_cube(6, o));
+  noisy.emplace_back("noisy genus 2", testing::make_genus2(o));
+  o.noise = 5e-4;
+  noisy.emplace_back("dented sphere, light noise", testing::make_dented_sphere(0.4, o));
+  noisy.emplace_back("noisy defective torus", defective_torus(12000, 2e-3));
+  Totals shapes;
+  for (const auto& [name, m] : noisy) {
+    Totals one;
+    for (std::uint32_t f : {2u, 4u, 8u})
+      for (std::uint32_t smooth : {0u, 1u})
+        for (SampleTest test : {SampleTest::kExact, SampleTest::kPaper}) check(name, m, f, 40 + f, smooth, test, one);
+    EXPECT_GT(one.merged, 0u) << name;
+    EXPECT_GT(one.dropped, 0u) << name;
+    shapes.merged += one.merged;
+    shapes.max_rounds = std::max(shapes.max_rounds, one.max_rounds);
+  }
+  std::printf("fixtures: %zu runs, %zu patches merged, up to %zu rounds, %zu candidates dropped; noisy shapes: %zu "
+              "merged, up to %zu rounds\n",
+              fixtures.runs, fixtures.merged, fixtures.max_rounds, fixtures.dropped, shapes.merged, shapes.max_rounds);
+  EXPECT_GE(fixtures.max_rounds, 3u);
+  EXPECT_GE(shapes.max_rounds, 5u);
 }
 
 // The sampler's orientation sign (a static filter in front of the exact predicate) against the
