@@ -18,7 +18,7 @@ format::Status damaged(const std::string& what) {
 }  // namespace
 
 void find_chunk_pieces(const ChunkMesh& chunk, const MeshAdjacency& adjacency, const std::vector<std::uint32_t>& labels,
-                       const std::vector<std::uint8_t>& feature, ChunkPieces& out) {
+                       const std::vector<std::uint8_t>& feature, ChunkPieces& out, std::vector<std::uint32_t>* piece_index) {
   const std::size_t nf = chunk.triangles.size();
   const std::uint32_t* nb = adjacency.edge_neighbor.data();
   std::vector<std::uint32_t> piece_of(nf, kUnassigned), stack;
@@ -86,12 +86,18 @@ void find_chunk_pieces(const ChunkMesh& chunk, const MeshAdjacency& adjacency, c
       if (g != MeshAdjacency::kNoFace) in_star[g] = 1;
     }
   }
-  // Answers for other chunks' candidate stars (owned faces with a vertex owned elsewhere), and for
-  // this chunk's own.
+  // Answers for other chunks (owned faces with a vertex owned elsewhere, or a vertex whose star
+  // holds a face owned elsewhere), and for this chunk's own candidate stars.
+  std::vector<std::uint8_t> foreign(chunk.positions.size(), 0);
+  for (std::uint32_t v = 0; v < foreign.size(); ++v) {
+    foreign[v] = !chunk.owned_vertex[v];
+    for (std::uint32_t k = adjacency.star_begin(v); k < adjacency.star_end(v) && !foreign[v]; ++k)
+      foreign[v] = !chunk.owned_face[corners[k] / 3];
+  }
   for (std::uint32_t f = 0; f < nf; ++f) {
     if (!chunk.owned_face[f]) continue;
     const auto& t = chunk.triangles[f];
-    const bool shared_vertex = !chunk.owned_vertex[t.v[0]] || !chunk.owned_vertex[t.v[1]] || !chunk.owned_vertex[t.v[2]];
+    const bool shared_vertex = foreign[t.v[0]] || foreign[t.v[1]] || foreign[t.v[2]];
     if (shared_vertex || in_star[f]) out.border_faces.push_back({chunk.global_face[f], id(piece_of[f])});
     if (t.v[0] == t.v[1] || t.v[1] == t.v[2] || t.v[0] == t.v[2]) {
       CollapsedFaceRecord r;
@@ -100,6 +106,18 @@ void find_chunk_pieces(const ChunkMesh& chunk, const MeshAdjacency& adjacency, c
       out.collapsed.push_back(r);
     }
   }
+  if (piece_index) piece_index->swap(piece_of);
+}
+
+std::int64_t StitchedPatches::patch_of_piece(PieceId piece) const {
+  auto it = std::lower_bound(sorted_pieces.begin(), sorted_pieces.end(), piece);
+  return it != sorted_pieces.end() && *it == piece ? sorted_piece_patch[it - sorted_pieces.begin()] : -1;
+}
+
+std::int64_t StitchedPatches::patch_of_face(std::uint64_t face) const {
+  auto it = std::lower_bound(answers.begin(), answers.end(), face,
+                             [](const FacePieceRecord& a, std::uint64_t f) { return a.face < f; });
+  return it != answers.end() && it->face == face ? patch_of_piece(it->piece) : -1;
 }
 
 format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks) {
@@ -201,8 +219,11 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks) 
   }
   for (const auto& [pq, edges] : adjacency) out.adjacency.push_back({pq.first, pq.second, edges});
 
+  out.sorted_pieces = sorted_ids;
+  out.sorted_piece_patch.resize(sorted_ids.size());
+  for (std::size_t k = 0; k < sorted_ids.size(); ++k) out.sorted_piece_patch[k] = out.piece_patch[order[k]];
   // Face -> patch for every face a candidate's star names.
-  std::vector<FacePieceRecord> answers;
+  std::vector<FacePieceRecord>& answers = out.answers;
   for (ChunkPieces& c : chunks) {
     answers.insert(answers.end(), c.border_faces.begin(), c.border_faces.end());
     c.border_faces = {};
@@ -212,13 +233,7 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks) 
   for (std::size_t k = 1; k < answers.size(); ++k) {
     if (answers[k].face == answers[k - 1].face) return damaged("face " + std::to_string(answers[k].face) + " answered twice");
   }
-  auto patch_of_face = [&](std::uint64_t face) -> std::int64_t {
-    auto it = std::lower_bound(answers.begin(), answers.end(), face,
-                               [](const FacePieceRecord& a, std::uint64_t f) { return a.face < f; });
-    if (it == answers.end() || it->face != face) return -1;
-    const std::int64_t d = dense(it->piece);
-    return d < 0 ? -1 : out.piece_patch[d];
-  };
+  auto patch_of_face = [&](std::uint64_t face) { return out.patch_of_face(face); };
   for (const ChunkPieces& c : chunks) {
     for (const CandidateRecord& r : c.candidates) {
       if (std::size_t{r.first} + r.count > c.star.size()) return damaged("a candidate's star is out of range");
@@ -249,6 +264,56 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks) 
   std::sort(out.candidates.begin(), out.candidates.end(),
             [](const auto& a, const auto& b) { return a.vertex < b.vertex; });
   return out;
+}
+
+PatchMergeResult merge_stitched_patches(const StitchedPatches& stitched) {
+  PatchGraphInput input;
+  for (const StitchedPatch& p : stitched.patches) {
+    input.patch_label.push_back(p.label);
+    input.patch_size.push_back(static_cast<std::uint32_t>(std::min<std::uint64_t>(p.faces, 0xFFFFFFFFu)));
+  }
+  std::vector<PatchPair> pairs;
+  for (const auto& a : stitched.adjacency)
+    pairs.push_back({a.p, a.q, static_cast<std::uint32_t>(std::min<std::uint64_t>(a.edges, 0xFFFFFFFFu))});
+  patch_neighbors_from_pairs(pairs, input);
+  // Each candidate counts for the distinct patches of its star and of the collapsed faces
+  // holding it.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> collapsed;  // (vertex, patch)
+  for (const auto& c : stitched.collapsed)
+    for (std::uint32_t v : c.vertices) collapsed.emplace_back(v, c.patch);
+  std::sort(collapsed.begin(), collapsed.end());
+  input.candidate_offsets.push_back(0);
+  std::vector<std::uint32_t> list;
+  for (const auto& c : stitched.candidates) {
+    list.clear();
+    for (std::uint32_t k = c.first; k < c.first + c.count; ++k) list.push_back(stitched.star[k].patch);
+    for (auto it = std::lower_bound(collapsed.begin(), collapsed.end(), std::pair(c.vertex, 0u));
+         it != collapsed.end() && it->first == c.vertex; ++it)
+      list.push_back(it->second);
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
+    input.candidate_patches.insert(input.candidate_patches.end(), list.begin(), list.end());
+    input.candidate_offsets.push_back(static_cast<std::uint32_t>(input.candidate_patches.size()));
+  }
+  // Exact test: a candidate's record after a merge differs only in its candidacy, recounted
+  // from its star with the current labels (evaluate_vertex's count).
+  auto reevaluate = [&](PatchMergeGraph& graph, std::span<const std::uint32_t> touched,
+                        std::vector<std::uint8_t>& still) {
+    for (std::size_t t = 0; t < touched.size(); ++t) {
+      const auto& c = stitched.candidates[touched[t]];
+      std::uint32_t feature_edges = 0;
+      for (std::uint32_t k = c.first; k < c.first + c.count; ++k) {
+        const auto& e = stitched.star[k];
+        feature_edges += e.entering_break;
+        feature_edges += e.next_patch == 0xFFFFFFFFu || graph.label(e.patch) != graph.label(e.next_patch);
+      }
+      still[t] = feature_edges >= 3;
+    }
+  };
+  PatchMergeGraph graph;
+  PatchMergeResult result;
+  merge_untriangulatable_patches(input, reevaluate, graph, result);
+  return result;
 }
 
 }  // namespace gaussmesh::stream

@@ -18,6 +18,7 @@
 #include "format/status.h"
 #include "stream/chunk_partition.h"
 #include "stream/mesh_adjacency.h"
+#include "stream/patch_filters.h"
 
 namespace gaussmesh::stream {
 
@@ -45,7 +46,9 @@ struct PieceAdjacencyRecord {
 };
 
 // The piece of an owned face that other chunks may refer to: every owned face with a vertex
-// owned elsewhere (the faces in other chunks' candidate stars).
+// owned elsewhere or whose vertices' stars hold a face owned elsewhere (the faces in other
+// chunks' candidate stars and in the stars their loops turn through), and the faces of this
+// chunk's candidate stars.
 struct FacePieceRecord {
   std::uint64_t face = 0;
   PieceId piece = 0;
@@ -89,8 +92,11 @@ struct ChunkPieces {
 
 // Pieces of one chunk from its adjacency, labels and feature bits (stream/sampler.h, computed on
 // the whole chunk mesh). Appends to out.
+// piece_index (optional): per local face, the index of its piece in this chunk (PieceId & 0xFFFFFFFF),
+// or 0xFFFFFFFF for faces the chunk does not own.
 void find_chunk_pieces(const ChunkMesh& chunk, const MeshAdjacency& adjacency, const std::vector<std::uint32_t>& labels,
-                       const std::vector<std::uint8_t>& feature, ChunkPieces& out);
+                       const std::vector<std::uint8_t>& feature, ChunkPieces& out,
+                       std::vector<std::uint32_t>* piece_index = nullptr);
 
 // A patch of the stitched graph; patches are numbered by lowest face, as find_patches numbers
 // them.
@@ -109,6 +115,12 @@ struct StitchedPatches {
   };
   std::vector<Adjacent> adjacency;
   std::vector<std::uint32_t> piece_patch;  // patch of every piece, in the order of all pieces given
+  std::vector<PieceId> sorted_pieces;       // every piece id, ascending
+  std::vector<std::uint32_t> sorted_piece_patch;  // patch of sorted_pieces[k]
+  std::vector<FacePieceRecord> answers;     // face -> piece, ascending face
+  // Patch of a piece, of a face named by an answer; -1 when unknown.
+  std::int64_t patch_of_piece(PieceId piece) const;
+  std::int64_t patch_of_face(std::uint64_t face) const;
   // Candidates (before the merge), ascending vertex, with their stars in patch ids.
   struct Candidate {
     std::uint32_t vertex = 0;
@@ -136,5 +148,13 @@ struct StitchedPatches {
 // kBadInput error. Memory: the pieces, the border edges and faces (sorted in place), the
 // candidates' stars and the output.
 format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks);
+
+// Step 3: the untriangulatable-patch merge (stream/patch_filters.h, the patch-graph merge that
+// sample_mesh runs in core) on the stitched patches, for the exact sample test: a touched
+// candidate keeps its candidacy when its star, with the patches' current labels, still counts
+// >= 3 feature edges. Returns the merged patches in find_patches' numbering (lowest face), as
+// the in-core run's final face_patch numbers them; is_candidate is parallel to
+// stitched.candidates.
+PatchMergeResult merge_stitched_patches(const StitchedPatches& stitched);
 
 }  // namespace gaussmesh::stream

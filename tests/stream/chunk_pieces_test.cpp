@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <map>
 #include <tuple>
 
@@ -127,6 +128,26 @@ void expect_stitch_equals_in_core(const std::string& path, std::uint32_t smooth,
     EXPECT_GE(feature_edges, 3u) << "vertex " << c.vertex;
     ++it;
   }
+
+  // Step 3: the merge on the stitched graph ends where the in-core sampler's merge ends.
+  const PatchMergeResult merged = merge_stitched_patches(*stitched);
+  auto sampled = sample_mesh(mesh->view(), *gauss, options);
+  ASSERT_TRUE(sampled.is_ok());
+  EXPECT_EQ(merged.merged_patches, sampled->stats.merged_patches);
+  EXPECT_EQ(merged.rounds, sampled->stats.merge_rounds);
+  ASSERT_EQ(merged.patch_label.size(), sampled->patch_count);
+  EXPECT_EQ(merged.patch_label, sampled->patch_label);
+  for (std::size_t k = 0; k < stitched->patches.size(); ++k) {
+    EXPECT_EQ(merged.patch_of[k], sampled->face_patch[stitched->patches[k].min_face]) << "patch " << k;
+  }
+  std::vector<std::uint32_t> survivors, want_candidates;
+  for (std::size_t k = 0; k < stitched->candidates.size(); ++k)
+    if (merged.is_candidate[k]) survivors.push_back(stitched->candidates[k].vertex);
+  for (const VertexRecord& r : sampled->candidates) want_candidates.push_back(r.vertex);
+  EXPECT_EQ(survivors, want_candidates);
+  EXPECT_EQ(merged.adjacency, sampled->patch_adjacency);
+  std::printf("%s: %zu patches -> %zu after %zu merge rounds\n", path.c_str(), stitched->patches.size(),
+              merged.patch_label.size(), merged.rounds);
 }
 
 TEST(ChunkPieces, StitchedPatchesEqualTheInCorePatchesOnEveryFixture) {
