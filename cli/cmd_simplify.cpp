@@ -6,9 +6,11 @@
 
 #include "cli/commands.h"
 #include "cli/output.h"
+#include "cli/pipeline_options.h"
 #include "cli/report.h"
 #include "cli/sampling_options.h"
 #include "format/mesh_reader.h"
+#include "stream/chunk_simplify.h"
 #include "stream/mesh.h"
 #include "stream/simplify.h"
 
@@ -27,10 +29,107 @@ struct SimplifyArgs {
   bool quiet = false;
   bool verbose = false;
   SamplingOptions sampling;
+  PipelineOptions pipeline;
 };
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// --memory: the out-of-core pipeline (stream/chunk_simplify.h); same output as in core.
+int run_simplify_out_of_core(const SimplifyArgs& args, OutputKind kind, const std::vector<stream::GaussSphereOptions>& spheres,
+                             const stream::SamplerOptions& sampler, const format::ReadOptions& read_options,
+                             std::chrono::steady_clock::time_point started) {
+  using format::Code;
+  using format::Status;
+  auto memory = parse_memory_size(args.pipeline.memory);
+  if (!memory) return report_error(memory.status());
+  if (args.mesher != "patch") {
+    return report_error(Status::error(Code::kUsage, "simplify", "--memory runs the per-patch mesher only"));
+  }
+  stream::OutOfCoreSimplifyOptions options;
+  options.partition.memory_bytes = *memory;
+  options.partition.tmp_dir = args.pipeline.tmp;
+  options.threads = pipeline_threads(args.pipeline);
+  options.spheres = spheres;
+  options.sampler = sampler;
+  Progress progress;
+  options.progress = [&](const char* pass, std::size_t done, std::size_t total, std::uint64_t faces) {
+    progress.update(pass, done, total, faces);
+  };
+  auto result = stream::simplify_out_of_core(args.input, read_options, options);
+  if (!result) return report_error(result.status());
+  if (result->faces == 0) {
+    return report_error(Status::error(Code::kBadInput, args.input == "-" ? "<stdin>" : args.input,
+                                      "no faces to simplify (" + std::to_string(result->vertices) + " vertices)"));
+  }
+  if (result->mesh.triangles.empty()) {
+    return report_error(Status::error(Code::kProcessing, args.input == "-" ? "<stdin>" : args.input,
+                                      "the approximation has no faces (too few samples: raise --frequency)"));
+  }
+  auto t = std::chrono::steady_clock::now();
+  format::DracoWriteOptions draco;
+  draco.quantization_bits = args.qp;
+  draco.compression_level = args.cl;
+  auto bytes = write_mesh_output(args.output, kind, result->mesh.view(), draco);
+  if (!bytes) return report_error(bytes.status());
+  const double seconds_write = seconds_since(t);
+  if (verbosity() >= 1) {
+    std::fprintf(stderr, "gaussmesh: %llu -> %zu faces, %zu samples, %llu bytes (%s), %zu chunks\n",
+                 static_cast<unsigned long long>(result->faces), result->mesh.triangles.size(), result->samples,
+                 static_cast<unsigned long long>(*bytes), output_kind_name(kind), result->chunks);
+  }
+  if (!args.report.empty()) {
+    Json report;
+    report["command"] = "simplify";
+    report["input"] = args.input;
+    report["output"] = args.output;
+    report["output_format"] = output_kind_name(kind);
+    report["input_vertices"] = result->vertices;
+    report["input_faces"] = result->faces;
+    report["gauss_base"] = stream::gauss_base_name(spheres[0].base);
+    report["gauss_frequency"] = spheres[0].frequency;
+    report["gauss_vertices"] = result->gauss_vertices;
+    report["gauss_triangles"] = result->gauss_triangles;
+    report["rotation"] = result->rotation;
+    report["orientations"] = result->samples_per_orientation.size();
+    report["orientation_chosen"] = result->chosen;
+    report["samples_per_orientation"] = result->samples_per_orientation;
+    report["sample_test"] = stream::sample_test_name(sampler.sample_test);
+    report["smooth"] = sampler.smooth_iterations;
+    report["patches"] = result->patches;
+    report["candidates"] = result->candidates;
+    report["samples"] = result->samples;
+    report["merged_patches"] = result->merged_patches;
+    report["merge_rounds"] = result->merge_rounds;
+    report["mesher"] = "patch";
+    report["mesher_rounds"] = result->polygon.rounds;
+    report["refined_patches"] = result->polygon.refined_patches;
+    report["guards"] = result->polygon.guards;
+    report["output_vertices"] = result->mesh.positions.size();
+    report["output_faces"] = result->mesh.triangles.size();
+    report["output_bytes"] = *bytes;
+    report["qp"] = args.qp;
+    report["cl"] = args.cl;
+    report["out_of_core"] = true;
+    report["memory_bytes"] = *memory;
+    report["threads"] = options.threads;
+    report["chunks"] = result->chunks;
+    report["bytes_spilled"] = result->bytes_spilled;
+    report["stitch_half_edges"] = result->stitch_half_edges;
+    report["peak_rss_bytes"] = peak_rss_bytes();
+    report["peak_rss_after_partition_bytes"] = result->peak_rss_after_partition;
+    report["seconds"] = {{"ingest", result->seconds_ingest},
+                         {"partition", result->seconds_partition},
+                         {"sample", result->seconds_sample},
+                         {"stitch", result->seconds_stitch},
+                         {"mesh", result->seconds_mesh},
+                         {"write", seconds_write},
+                         {"total", seconds_since(started)}};
+    auto status = write_report(args.report, report);
+    if (!status.is_ok()) return report_error(status);
+  }
+  return 0;
 }
 
 int run_simplify(const SimplifyArgs& args) {
@@ -55,6 +154,9 @@ int run_simplify(const SimplifyArgs& args) {
     if (read_options.format == format::MeshFormat::kUnknown) {
       return report_error(Status::error(Code::kUsage, "--input-format", "unknown format '" + args.input_format + "'"));
     }
+  }
+  if (!args.pipeline.memory.empty()) {
+    return run_simplify_out_of_core(args, *kind, *spheres, *sampler, read_options, started);
   }
   auto t = std::chrono::steady_clock::now();
   auto mesh = stream::load_mesh(args.input, read_options);
@@ -167,6 +269,7 @@ void register_simplify(CLI::App& app, Runner& run) {
   sub->add_flag("-q,--quiet", args->quiet, "print nothing on stderr but errors");
   sub->add_flag("-v,--verbose", args->verbose, "print timings on stderr");
   add_sampling_options(*sub, args->sampling);
+  add_pipeline_options(*sub, args->pipeline);
   sub->callback([&run, args] { run = [args] { return run_simplify(*args); }; });
 }
 

@@ -60,6 +60,12 @@ format::Status sample_chunk(const ChunkMesh& chunk, const GaussSphere& gauss, co
   return format::Status();
 }
 
+std::uint64_t pass_two_chunk_faces(std::uint64_t memory_bytes, std::uint32_t threads) {
+  constexpr std::uint64_t kReserve = std::uint64_t{20} << 20, kBytesPerFace = 256;
+  const std::uint64_t budget = memory_bytes > 2 * kReserve ? memory_bytes - kReserve : memory_bytes / 2;
+  return std::max<std::uint64_t>(budget / std::max<std::uint32_t>(threads, 1) / kBytesPerFace, 1024);
+}
+
 format::Result<OutOfCoreSampling> sample_out_of_core(const std::string& input_path, const format::ReadOptions& read,
                                                      const OutOfCoreSamplingOptions& options) {
   if (options.sampler.sample_test != SampleTest::kExact) {
@@ -79,16 +85,8 @@ format::Result<OutOfCoreSampling> sample_out_of_core(const std::string& input_pa
   PartitionOptions partition_options = options.partition;
   partition_options.rings = required_overlap_rings(options.sampler.smooth_iterations);
   partition_options.threads = options.threads;
-  if (partition_options.max_chunk_faces == 0) {
-    // Pass 2 holds, per thread in flight, the decoded chunk (~100 B per face while loading) and
-    // the sampler's arrays, which keep the capacity of the largest chunk seen (~95 B per face:
-    // adjacency 32, normals/areas/smoothing 29, labels and features 5, mesh 30): ~200 B per face,
-    // measured. The process itself (binary, TBB, reader window, samples) takes ~20 MiB.
-    constexpr std::uint64_t kReserve = std::uint64_t{20} << 20, kBytesPerFace = 256;
-    const std::uint64_t budget = partition_options.memory_bytes > 2 * kReserve ? partition_options.memory_bytes - kReserve
-                                                                                : partition_options.memory_bytes / 2;
-    partition_options.max_chunk_faces = std::max<std::uint64_t>(budget / options.threads / kBytesPerFace, 1024);
-  }
+  if (partition_options.max_chunk_faces == 0)
+    partition_options.max_chunk_faces = pass_two_chunk_faces(partition_options.memory_bytes, options.threads);
   auto partition = partition_mesh(input_path, read, partition_options);
   if (!partition) return partition.status();
 

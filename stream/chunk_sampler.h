@@ -57,6 +57,13 @@ format::Status sample_chunk(const ChunkMesh& chunk, const GaussSphere& gauss, co
                             ChunkSamplerWorkspace& workspace, std::vector<GlobalSample>& samples,
                             ChunkSamplingStats& stats);
 
+// Chunk size for pass 2 from the memory budget: pass 2 holds, per thread in flight, the decoded
+// chunk (~100 B per face while loading) and the sampler's arrays, which keep the capacity of the
+// largest chunk seen (~95 B per face: adjacency 32, normals/areas/smoothing 29, labels and
+// features 5, mesh 30): ~256 B per face with slack; the process itself (binary, TBB, reader
+// window, samples) takes ~20 MiB.
+std::uint64_t pass_two_chunk_faces(std::uint64_t memory_bytes, std::uint32_t threads);
+
 struct OutOfCoreSamplingOptions {
   PartitionOptions partition;  // memory, tmp dir; rings and threads are set from the fields below
   std::uint32_t threads = 1;   // chunks in flight (--threads)

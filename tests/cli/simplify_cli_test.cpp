@@ -137,5 +137,54 @@ TEST(SimplifyCli, InterruptedRunLeavesNoFiles) {
   EXPECT_EQ(files_in(dir.path().string()), 0u);
 }
 
+TEST(SimplifyCli, OutOfCoreGivesTheInCoreBytesFromFilesAndPipes) {
+  ScratchDir dir, tmp;
+  for (const char* name : {"real/cow.off", "real/fandisk.off", "real/bunny-lowres.ply"}) {
+    const std::string in = q(fixture(name));
+    ASSERT_EQ(run_command(binary() + " simplify " + in + " -o " + q(dir.file("a.drc"))).exit_code, 0);
+    const auto ooc = run_command(binary() + " simplify " + in + " -o " + q(dir.file("b.drc")) + " --memory 16M --tmp " +
+                                 q(tmp.path().string()) + " --report " + q(dir.file("r.json")));
+    ASSERT_EQ(ooc.exit_code, 0) << ooc.err;
+    const auto piped = run_command("cat " + in + " | " + binary() + " simplify - -o - --memory 16M --threads 1 --tmp " +
+                                   q(tmp.path().string()) + " > " + q(dir.file("c.drc")));
+    ASSERT_EQ(piped.exit_code, 0) << piped.err;
+    const std::string a = read_file(dir.file("a.drc"));
+    EXPECT_GT(a.size(), 100u);
+    EXPECT_EQ(a, read_file(dir.file("b.drc"))) << name;
+    EXPECT_EQ(a, read_file(dir.file("c.drc"))) << name;
+    const auto report = nlohmann::json::parse(read_file(dir.file("r.json")));
+    EXPECT_EQ(report["out_of_core"], true);
+    for (const char* key : {"chunks", "bytes_spilled", "peak_rss_bytes", "stitch_half_edges"})
+      EXPECT_TRUE(report.contains(key)) << key;
+    for (const char* key : {"ingest", "partition", "sample", "stitch", "mesh", "write", "total"})
+      EXPECT_TRUE(report["seconds"].contains(key)) << key;
+    EXPECT_EQ(files_in(tmp.path().string()), 0u) << name;
+  }
+}
+
+TEST(SimplifyCli, OutOfCoreBadInputAndRefusedOptions) {
+  ScratchDir dir, tmp;
+  const std::string mem = " --memory 16M --tmp " + q(tmp.path().string());
+  for (const char* bad : {"bad/OutOfMemory.off", "bad/empty.ply", "bad/invalid.off", "bad/malformed2.obj"}) {
+    auto run = run_command(binary() + " simplify " + q(fixture(bad)) + " -o " + q(dir.file("out.drc")) + mem);
+    EXPECT_EQ(run.exit_code, 2) << bad << ": " << run.err;
+    EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+    EXPECT_EQ(files_in(dir.path().string()), 0u) << bad;
+    EXPECT_EQ(files_in(tmp.path().string()), 0u) << bad;
+  }
+  for (const std::string bad : {"--sample-test paper", "--mesher voronoi", "--memory 1M"}) {
+    auto run = run_command(binary() + " simplify " + q(fixture("real/cow.off")) + " -o " + q(dir.file("out.drc")) + mem +
+                           " " + bad);
+    EXPECT_EQ(run.exit_code, 1) << bad << ": " << run.err;
+    EXPECT_EQ(files_in(dir.path().string()), 0u) << bad;
+  }
+  // A patch only its input faces could mesh: a clear processing error, not a different mesh.
+  auto shark = run_command(binary() + " simplify " + q(fixture("real/mech-holes-shark.off")) + " -o " +
+                           q(dir.file("out.drc")) + mem);
+  EXPECT_EQ(shark.exit_code, 3) << shark.err;
+  EXPECT_EQ(files_in(dir.path().string()), 0u);
+  EXPECT_EQ(files_in(tmp.path().string()), 0u);
+}
+
 }  // namespace
 }  // namespace gaussmesh::testing

@@ -1,0 +1,99 @@
+// `gaussmesh simplify --memory`: the out-of-core pipeline (DESIGN §2, docs/out-of-core.md).
+// Pass 0-1 partition the input (stream/chunk_partition.h); pass A samples every chunk for every
+// orientation (stream/chunk_sampler.h); pass B finds the patch pieces of the chosen orientation
+// and the stitch joins them and runs the untriangulatable merge on the patch graph
+// (stream/chunk_pieces.h); pass C gives every owned feature half-edge its successor around its
+// end vertex under the merged patches, with the degree and role of every owned feature vertex
+// (find_chunk_loops); the stitch chains the half-edges into patch loops and the polygon-first
+// mesher runs on them (stream/polygon_mesher.h, mesh_patch_loops). Every step sees records, not
+// the mesh, and the output equals the in-core simplify's, triangle for triangle.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "format/mesh_reader.h"
+#include "format/status.h"
+#include "stream/chunk_partition.h"
+#include "stream/chunk_pieces.h"
+#include "stream/chunk_sampler.h"
+#include "stream/mesh.h"
+#include "stream/polygon_mesher.h"
+
+namespace gaussmesh::stream {
+
+// A feature half-edge of an owned face (patch on its left): id = 3 × global face + edge.
+struct HalfEdgeRecord {
+  std::uint64_t id = 0;
+  std::uint64_t next = 0;     // the next half-edge of the same loop, around the end vertex
+  std::uint32_t from = 0;     // global id of its start vertex
+  std::uint32_t patch = 0;    // merged patch on its left
+  bool is_break = false;      // boundary or non-manifold edge
+};
+
+// An owned vertex with feature edges, or an owned sample.
+struct LoopVertexRecord {
+  std::uint32_t vertex = 0;
+  format::Vec3f position;
+  std::uint32_t degree = 0;           // distinct feature edges under the merged patches
+  VertexRole role = VertexRole::kNone;  // kSample, kCorner or kNone (the mesher's rules)
+  std::uint32_t interior_patch = 0xFFFFFFFFu;  // a sample off every feature edge: its patch
+};
+
+struct ChunkLoops {
+  std::vector<HalfEdgeRecord> half_edges;
+  std::vector<LoopVertexRecord> vertices;
+  // Per merged patch touched: the sum of its owned faces' cross products.
+  std::vector<std::pair<std::uint32_t, std::array<double, 3>>> areas;
+};
+
+// Pass C for one chunk. patch_of_face(local face) gives the merged patch of every face sharing a
+// vertex with an owned face; is_corner(global vertex) whether it is a candidate after the merge;
+// samples are the chunk's owned samples (ascending). Appends to out.
+void find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
+                      const std::function<std::uint32_t(std::uint32_t)>& patch_of_face,
+                      const std::function<bool(std::uint32_t)>& is_corner, const std::vector<GlobalSample>& samples,
+                      ChunkLoops& out);
+
+// The stitch's last step before the mesher: half-edges chained into loops (each patch's loops
+// from its lowest unwalked half-edge id, as mesh_patch_polygons walks them), vertices renumbered
+// densely in global id order. kBadInput when the records do not close into loops.
+format::Result<PolygonGraphInput> stitch_loops(std::vector<ChunkLoops>& chunks, std::size_t patches,
+                                               const std::vector<format::Vec3f>& plane_normal);
+
+struct OutOfCoreSimplifyOptions {
+  PartitionOptions partition;  // memory, tmp dir; rings and threads follow from the fields below
+  std::uint32_t threads = 1;
+  std::vector<GaussSphereOptions> spheres = {GaussSphereOptions{}};
+  SamplerOptions sampler;  // the exact test only
+  // (pass name, chunks done, chunks, input faces) after each chunk.
+  std::function<void(const char*, std::size_t, std::size_t, std::uint64_t)> progress;
+};
+
+struct OutOfCoreSimplify {
+  Mesh mesh;
+  std::vector<std::uint32_t> birth;
+  std::array<double, 4> rotation{};
+  std::size_t chosen = 0;
+  std::vector<std::size_t> samples_per_orientation;
+  std::size_t gauss_vertices = 0, gauss_triangles = 0;
+  std::size_t patches = 0, candidates = 0, samples = 0, merged_patches = 0, merge_rounds = 0;
+  PolygonMesherStats polygon;
+  std::uint64_t vertices = 0, faces = 0;
+  std::size_t chunks = 0;
+  std::uint64_t bytes_spilled = 0;
+  std::size_t stitch_half_edges = 0;  // records the stitch held at once (its memory grows with them)
+  double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0, seconds_stitch = 0, seconds_mesh = 0;
+  std::uint64_t peak_rss_after_partition = 0;
+};
+
+// The whole job. Errors: kUsage for the paper test or bad options; the partition's and the
+// chunks' (bad input, temp files, resources); kProcessing from the stitch or the mesher
+// (including a patch that only its input faces could mesh, which is not fetched yet).
+format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_path, const format::ReadOptions& read,
+                                                       const OutOfCoreSimplifyOptions& options);
+
+}  // namespace gaussmesh::stream
