@@ -173,6 +173,13 @@ format::Result<PolygonGraphInput> stitch_loops(std::vector<ChunkLoops>& chunks, 
   PolygonGraphInput g;
   g.patches = patches;
   g.patch_area.assign(patches, {0, 0, 0});
+  std::size_t total_halves = 0, total_vertices = 0;
+  for (const ChunkLoops& c : chunks) {
+    total_halves += c.half_edges.size();
+    total_vertices += c.vertices.size();
+  }
+  halves.reserve(total_halves);
+  vertices.reserve(total_vertices);
   for (ChunkLoops& c : chunks) {
     halves.insert(halves.end(), c.half_edges.begin(), c.half_edges.end());
     vertices.insert(vertices.end(), c.vertices.begin(), c.vertices.end());
@@ -353,6 +360,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   for (const ChunkLoops& l : loops) out.stitch_half_edges += l.half_edges.size();
   out.bytes_spilled = partition->bytes_spilled;
   partition->remove_temp();
+  stitched = format::Status();  // the face answers and stars are done with
   std::vector<format::Vec3f> plane(merged.patch_label.size());
   for (std::size_t p = 0; p < plane.size(); ++p) {
     if (merged.patch_label[p] == kNoLabel) continue;
@@ -364,7 +372,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   out.seconds_stitch = seconds_since(start);
 
   start = std::chrono::steady_clock::now();
-  auto meshed = mesh_patch_loops(*graph);
+  auto meshed = mesh_patch_loops(std::move(graph).value());
   if (!meshed) return meshed.status();
   out.mesh = std::move(meshed->mesh.mesh);
   out.birth = std::move(meshed->mesh.birth);

@@ -58,14 +58,17 @@ class PolygonMesher {
         has_faces_(true) {}
 
   // Out of core: everything from records (PolygonGraphInput); no faces.
-  explicit PolygonMesher(const PolygonGraphInput& graph)
+  // graph's loops are moved from; its positions and plane normals must outlive the mesher.
+  explicit PolygonMesher(PolygonGraphInput& graph)
       : in_(nullptr), tris_(nullptr), positions_(graph.positions), plane_(graph.plane_normal), has_faces_(false) {
     patch_count_ = graph.patches;
     patch_loop_offset_.assign(patch_count_ + 1, 0);
-    for (const PatchLoop& l : graph.loops) {
-      loops_.push_back({l.patch, l.vertices, l.is_break});
+    loops_.reserve(graph.loops.size());
+    for (PatchLoop& l : graph.loops) {
       ++patch_loop_offset_[l.patch + 1];
+      loops_.push_back({l.patch, std::move(l.vertices), std::move(l.is_break)});
     }
+    graph.loops = {};
     for (std::size_t q = 0; q < patch_count_; ++q) patch_loop_offset_[q + 1] += patch_loop_offset_[q];
     degree_ = graph.degree;
     keep_.assign(graph.role.size(), Keep::kNo);
@@ -810,7 +813,7 @@ format::Result<PolygonMesherResult> mesh_patch_polygons(const PatchMesherInput& 
   return mesher.run();
 }
 
-format::Result<PolygonMesherResult> mesh_patch_loops(const PolygonGraphInput& graph) {
+format::Result<PolygonMesherResult> mesh_patch_loops(PolygonGraphInput graph) {
   const std::size_t nv = graph.positions.size();
   if (graph.degree.size() != nv || graph.role.size() != nv || (!graph.global.empty() && graph.global.size() != nv) ||
       graph.interior_samples.size() != graph.patches || graph.plane_normal.size() != graph.patches ||

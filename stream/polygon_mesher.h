@@ -83,6 +83,7 @@ struct PolygonGraphInput {
 // Steps 3-5 of mesh_patch_polygons on records. A patch that only its input faces could mesh
 // (the collapse and original steps) is a kProcessing error naming it: the stitch does not fetch
 // faces yet.
-format::Result<PolygonMesherResult> mesh_patch_loops(const PolygonGraphInput& graph);
+// Takes graph by value: its loops are moved into the mesher.
+format::Result<PolygonMesherResult> mesh_patch_loops(PolygonGraphInput graph);
 
 }  // namespace gaussmesh::stream
