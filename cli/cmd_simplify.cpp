@@ -119,6 +119,9 @@ int run_simplify_out_of_core(const SimplifyArgs& args, OutputKind kind, const st
     report["stitch_half_edges"] = result->stitch_half_edges;
     report["peak_rss_bytes"] = peak_rss_bytes();
     report["peak_rss_after_partition_bytes"] = result->peak_rss_after_partition;
+    report["peak_rss_after_pieces_bytes"] = result->peak_rss_after_pieces;
+    report["peak_rss_after_merge_bytes"] = result->peak_rss_after_merge;
+    report["peak_rss_after_loops_bytes"] = result->peak_rss_after_loops;
     report["seconds"] = {{"ingest", result->seconds_ingest},
                          {"partition", result->seconds_partition},
                          {"sample", result->seconds_sample},

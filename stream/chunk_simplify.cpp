@@ -29,6 +29,11 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+std::uint64_t peak_rss() {
+  rusage usage{};
+  return ::getrusage(RUSAGE_SELF, &usage) == 0 ? static_cast<std::uint64_t>(usage.ru_maxrss) * 1024 : 0;
+}
+
 // Loads every chunk (in parallel, `threads` at a time) and calls body(c, chunk, workspace).
 format::Status for_each_chunk(const Partition& partition, std::uint32_t threads, const char* pass,
                               const OutOfCoreSimplifyOptions& options,
@@ -276,8 +281,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   out.chunks = partition->chunks.size();
   out.seconds_ingest = partition->seconds_ingest;
   out.seconds_partition = partition->seconds_partition;
-  if (rusage usage{}; ::getrusage(RUSAGE_SELF, &usage) == 0)
-    out.peak_rss_after_partition = static_cast<std::uint64_t>(usage.ru_maxrss) * 1024;
+  out.peak_rss_after_partition = peak_rss();
   const std::size_t nc = partition->chunks.size(), no = spheres.size();
 
   // Pass A: samples of every orientation (and, with one orientation, the pieces too).
@@ -318,6 +322,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
                                       }));
   }
   out.seconds_sample = seconds_since(start);
+  out.peak_rss_after_pieces = peak_rss();
 
   // Stitch: patches, merge.
   start = std::chrono::steady_clock::now();
@@ -332,6 +337,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   for (std::size_t k = 0; k < stitched->candidates.size(); ++k)
     if (merged.is_candidate[k]) corners.push_back(stitched->candidates[k].vertex);
   out.candidates = corners.size();
+  out.peak_rss_after_merge = peak_rss();
   auto merged_patch_of_piece = [&](PieceId piece) -> std::uint32_t {
     const std::int64_t p = stitched->patch_of_piece(piece);
     return p < 0 ? kNone : merged.patch_of[p];
@@ -358,6 +364,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
         return format::Status();
       }));
   for (const ChunkLoops& l : loops) out.stitch_half_edges += l.half_edges.size();
+  out.peak_rss_after_loops = peak_rss();
   out.bytes_spilled = partition->bytes_spilled;
   partition->remove_temp();
   stitched = format::Status();  // the face answers and stars are done with

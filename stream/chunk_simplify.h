@@ -87,7 +87,10 @@ struct OutOfCoreSimplify {
   std::uint64_t bytes_spilled = 0;
   std::size_t stitch_half_edges = 0;  // records the stitch held at once (its memory grows with them)
   double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0, seconds_stitch = 0, seconds_mesh = 0;
-  std::uint64_t peak_rss_after_partition = 0;
+  // The process's peak RSS (getrusage) after passes 0-1, after pass A/B, after the piece stitch
+  // and merge, and after pass C: which stage sets the peak.
+  std::uint64_t peak_rss_after_partition = 0, peak_rss_after_pieces = 0, peak_rss_after_merge = 0,
+                peak_rss_after_loops = 0;
 };
 
 // The whole job. Errors: kUsage for the paper test or bad options; the partition's and the
