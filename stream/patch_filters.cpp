@@ -198,26 +198,29 @@ namespace {
 template <typename T>
 constexpr std::uint32_t kEnd = ChainedLists<T>::kEnd;
 
+// A list is a circular chain of segments named by its last one (whose next is the first), so
+// that appending a segment or a whole list is O(1) with one index per list. `length` is kept
+// only when it was sized (the candidate lists: small-to-large merging needs it).
+
 // Lists l = pool[offsets[l] .. offsets[l + 1]), the pool already filled: one segment per list.
 template <typename T>
-void init_chains(ChainedLists<T>& c, const std::vector<std::uint32_t>& offsets) {
+void init_chains(ChainedLists<T>& c, const std::vector<std::uint32_t>& offsets, bool count_length) {
   const std::size_t n = offsets.size() - 1;
   c.segments.resize(n);
-  c.head.resize(n);
-  c.tail.resize(n);
-  c.length.resize(n);
+  c.last.resize(n);
+  c.length.resize(count_length ? n : 0);
   for (std::size_t l = 0; l < n; ++l) {
-    c.segments[l] = {offsets[l], offsets[l + 1], kEnd<T>};
-    const bool empty = offsets[l] == offsets[l + 1];
-    c.head[l] = c.tail[l] = empty ? kEnd<T> : static_cast<std::uint32_t>(l);
-    c.length[l] = offsets[l + 1] - offsets[l];
+    const auto id = static_cast<std::uint32_t>(l);
+    c.segments[l] = {offsets[l], offsets[l + 1], id};
+    c.last[l] = offsets[l] == offsets[l + 1] ? kEnd<T> : id;
+    if (count_length) c.length[l] = offsets[l + 1] - offsets[l];
   }
 }
 
 template <typename T>
 void clear_list(ChainedLists<T>& c, std::uint32_t l) {
-  c.head[l] = c.tail[l] = kEnd<T>;
-  c.length[l] = 0;
+  c.last[l] = kEnd<T>;
+  if (!c.length.empty()) c.length[l] = 0;
 }
 
 // Appends pool[begin, end) to list l as a new segment.
@@ -225,29 +228,32 @@ template <typename T>
 void add_segment(ChainedLists<T>& c, std::uint32_t l, std::uint32_t begin, std::uint32_t end) {
   if (begin == end) return;
   const auto s = static_cast<std::uint32_t>(c.segments.size());
-  c.segments.push_back({begin, end, kEnd<T>});
-  if (c.head[l] == kEnd<T>) c.head[l] = s;
-  else c.segments[c.tail[l]].next = s;
-  c.tail[l] = s;
-  c.length[l] += end - begin;
+  const std::uint32_t last = c.last[l];
+  c.segments.push_back({begin, end, last == kEnd<T> ? s : c.segments[last].next});
+  if (last != kEnd<T>) c.segments[last].next = s;
+  c.last[l] = s;
+  if (!c.length.empty()) c.length[l] += end - begin;
 }
 
 // Moves list src to the end of list dst; src becomes empty. O(1).
 template <typename T>
 void splice(ChainedLists<T>& c, std::uint32_t dst, std::uint32_t src) {
-  if (c.head[src] == kEnd<T>) return;
-  if (c.head[dst] == kEnd<T>) c.head[dst] = c.head[src];
-  else c.segments[c.tail[dst]].next = c.head[src];
-  c.tail[dst] = c.tail[src];
-  c.length[dst] += c.length[src];
+  const std::uint32_t a = c.last[src], b = c.last[dst];
+  if (a == kEnd<T>) return;
+  if (b != kEnd<T>) std::swap(c.segments[a].next, c.segments[b].next);  // b -> first of src, a -> first of dst
+  c.last[dst] = a;
+  if (!c.length.empty()) c.length[dst] += c.length[src];
   clear_list(c, src);
 }
 
 template <typename T, typename F>
 void for_each_item(const ChainedLists<T>& c, std::uint32_t l, F&& f) {
-  for (std::uint32_t s = c.head[l]; s != kEnd<T>; s = c.segments[s].next) {
+  const std::uint32_t last = c.last[l];
+  if (last == kEnd<T>) return;
+  for (std::uint32_t s = c.segments[last].next;; s = c.segments[s].next) {
     const auto& seg = c.segments[s];
     for (std::uint32_t i = seg.begin; i < seg.end; ++i) f(c.pool[i]);
+    if (s == last) break;
   }
 }
 
@@ -255,18 +261,19 @@ void for_each_item(const ChainedLists<T>& c, std::uint32_t l, F&& f) {
 template <typename T>
 void replace_list(ChainedLists<T>& c, std::uint32_t l, const std::vector<T>& items) {
   const auto n = static_cast<std::uint32_t>(items.size());
-  const std::uint32_t h = c.head[l];
+  const std::uint32_t last = c.last[l];
   if (n == 0) {
     clear_list(c, l);
     return;
   }
-  if (h != kEnd<T> && c.segments[h].end - c.segments[h].begin >= n) {
-    auto& seg = c.segments[h];
+  const std::uint32_t first = last == kEnd<T> ? kEnd<T> : c.segments[last].next;
+  if (first != kEnd<T> && c.segments[first].end - c.segments[first].begin >= n) {
+    auto& seg = c.segments[first];
     std::copy(items.begin(), items.end(), c.pool.begin() + seg.begin);
     seg.end = seg.begin + n;
-    seg.next = kEnd<T>;
-    c.tail[l] = h;
-    c.length[l] = n;
+    seg.next = first;
+    c.last[l] = first;
+    if (!c.length.empty()) c.length[l] = n;
     return;
   }
   clear_list(c, l);
@@ -289,18 +296,26 @@ std::uint32_t PatchMergeGraph::next_stamp() {
   return stamp_counter_;
 }
 
-void PatchMergeGraph::reset(const PatchGraphInput& in) {
+void PatchMergeGraph::reset(const PatchGraphInput& input) {
+  neighbors_.pool.assign(input.neighbors.begin(), input.neighbors.end());
+  reset_lists(input);
+}
+
+void PatchMergeGraph::reset_taking_neighbors(PatchGraphInput& input) {
+  neighbors_.pool.swap(input.neighbors);
+  reset_lists(input);
+}
+
+void PatchMergeGraph::reset_lists(const PatchGraphInput& in) {
   input_ = &in;
   const std::size_t np = in.patch_label.size();
   const std::size_t nc = in.candidate_offsets.empty() ? 0 : in.candidate_offsets.size() - 1;
   assert(in.patch_size.size() == np);
+  assert(in.neighbor_offsets.size() == np + 1);
   parent_.resize(np);
   std::iota(parent_.begin(), parent_.end(), 0u);
-  temp_parent_.resize(np);
-  std::iota(temp_parent_.begin(), temp_parent_.end(), 0u);
   member_next_.assign(np, kNoPatch);
   label_.assign(in.patch_label.begin(), in.patch_label.end());
-  size_.assign(in.patch_size.begin(), in.patch_size.end());
   target_.assign(np, kNoPatch);
   slot_.assign(np, kNoPatch);
   flags_.assign(np, 0);
@@ -308,24 +323,27 @@ void PatchMergeGraph::reset(const PatchGraphInput& in) {
   stamp_.assign(nc, 0);
   stamp_counter_ = 0;
   merged_ = rounds_ = 0;
-  // Neighbour lists: the input's, one segment per patch.
-  assert(in.neighbor_offsets.size() == np + 1);
-  neighbors_.pool.assign(in.neighbors.begin(), in.neighbors.end());
+  // Lists grow by appended segments: reserved (address space only: pages are touched when
+  // written) so that growing never copies them.
   neighbors_.segments.clear();
-  init_chains(neighbors_, in.neighbor_offsets);
+  neighbors_.segments.reserve(np + np / 4 + 64);
+  init_chains(neighbors_, in.neighbor_offsets, false);
+  // Candidate lists per patch (counted at offsets[p + 2], summed, filled at offsets[p + 1]: then
+  // p's are [offsets[p], offsets[p + 1])); count_ = how many live candidates count for p.
   std::vector<std::uint32_t>& offsets = roots_;
-  std::vector<std::uint32_t>& cursor = involved_;
-  // Candidate lists per patch; count_ = how many live candidates count for the patch.
-  offsets.assign(np + 1, 0);
-  for (std::uint32_t q : in.candidate_patches) ++offsets[q + 1];
-  for (std::size_t p = 0; p < np; ++p) offsets[p + 1] += offsets[p];
-  members_.pool.resize(offsets[np]);
-  members_.segments.clear();
-  cursor.assign(offsets.begin(), offsets.end() - 1);
+  offsets.assign(np + 2, 0);
+  for (std::uint32_t q : in.candidate_patches) ++offsets[q + 2];
+  for (std::size_t k = 2; k < np + 2; ++k) offsets[k] += offsets[k - 1];
+  members_.pool.clear();
+  members_.pool.reserve(in.candidate_patches.size() + in.candidate_patches.size() / 4 + 64);
+  members_.pool.resize(in.candidate_patches.size());
   for (std::size_t k = 0; k < nc; ++k)
     for (std::uint32_t j = in.candidate_offsets[k]; j < in.candidate_offsets[k + 1]; ++j)
-      members_.pool[cursor[in.candidate_patches[j]]++] = static_cast<std::uint32_t>(k);
-  init_chains(members_, offsets);
+      members_.pool[offsets[in.candidate_patches[j] + 1]++] = static_cast<std::uint32_t>(k);
+  offsets.pop_back();
+  members_.segments.clear();
+  members_.segments.reserve(np + np / 4 + 64);
+  init_chains(members_, offsets, true);
   count_.assign(members_.length.begin(), members_.length.end());
   small_.clear();
   for (std::size_t p = 0; p < np; ++p)
@@ -404,9 +422,12 @@ std::size_t PatchMergeGraph::round(const Reevaluate& reevaluate) {
   // were just compacted. Groups are formed in a scratch union-find first, so that the merged
   // candidate lists can be computed with the patches of the round's start.
   auto new_label = [this](std::uint32_t q) { return target_[q] != kNoPatch ? label_[target_[q]] : label_[q]; };
+  // The scratch union-find lives in slot_ (kNoPatch at rest: a root), with path compression.
   auto temp_find = [this](std::uint32_t x) {
-    while (temp_parent_[x] != x) x = temp_parent_[x] = temp_parent_[temp_parent_[x]];
-    return x;
+    std::uint32_t r = x;
+    while (slot_[r] != kNoPatch) r = slot_[r];
+    while (slot_[x] != kNoPatch) x = std::exchange(slot_[x], r);
+    return r;
   };
   involved_.clear();
   auto involve = [this](std::uint32_t x) {
@@ -419,7 +440,7 @@ std::size_t PatchMergeGraph::round(const Reevaluate& reevaluate) {
     for_each_item(neighbors_, p, [&](const Neighbor& n) {
       if (new_label(n.patch) != lp) return;
       const std::uint32_t a = temp_find(p), b = temp_find(n.patch);
-      if (a != b) temp_parent_[std::max(a, b)] = std::min(a, b);
+      if (a != b) slot_[std::max(a, b)] = std::min(a, b);
       involve(p);
       involve(n.patch);
     });
@@ -440,11 +461,9 @@ std::size_t PatchMergeGraph::round(const Reevaluate& reevaluate) {
     // candidates that do not count for it already are appended (small to large, so each entry
     // moves O(log) times). "Counts for the largest" is read from a mark over the largest list
     // when that list is not much longer than the others, else from the candidate's patches.
-    std::uint32_t largest = root, others = 0, faces = 0;
-    for (std::uint32_t x = root; x != kNoPatch; x = member_next_[x]) {
-      faces += size_[x];
+    std::uint32_t largest = root, others = 0;
+    for (std::uint32_t x = root; x != kNoPatch; x = member_next_[x])
       if (members_.length[x] > members_.length[largest]) largest = x;
-    }
     for (std::uint32_t x = root; x != kNoPatch; x = member_next_[x])
       if (x != largest) others += members_.length[x];
     const bool mark_largest = members_.length[largest] <= 4 * others;
@@ -475,12 +494,10 @@ std::size_t PatchMergeGraph::round(const Reevaluate& reevaluate) {
     members_.pool.insert(members_.pool.end(), extras_.begin(), extras_.end());
     add_segment(members_, root, begin, static_cast<std::uint32_t>(members_.pool.size()));
     count_[root] = count;
-    size_[root] = faces;
     label_[root] = merged_label;
     next_small_.push_back(root);
   }
   for (std::uint32_t x : involved_) {
-    temp_parent_[x] = x;
     member_next_[x] = kNoPatch;
     flags_[x] &= static_cast<std::uint8_t>(~kInvolved);
   }
@@ -532,11 +549,12 @@ void PatchMergeGraph::finish(PatchMergeResult& out) {
     if (r == p) {
       out.patch_of[p] = static_cast<std::uint32_t>(out.patch_label.size());
       out.patch_label.push_back(label_[p]);
-      out.patch_size.push_back(size_[p]);
     } else {
       out.patch_of[p] = out.patch_of[r];  // r < p: numbered already
     }
   }
+  out.patch_size.assign(out.patch_label.size(), 0);
+  for (std::size_t p = 0; p < np; ++p) out.patch_size[out.patch_of[p]] += input_->patch_size[p];
   out.adjacency.clear();
   for (std::size_t p = 0; p < np; ++p) {
     if (parent_[p] != p) continue;
@@ -595,18 +613,18 @@ void build_patch_graph(format::MeshView mesh, const MeshAdjacency& adjacency, co
   // Neighbours: every manifold feature edge from both of its sides (each side is an edge of a
   // face: a manifold feature edge joins faces of different labels, hence of different
   // patches), bucketed by the side's patch, then counted per neighbour.
-  s.bucket.assign(np + 1, 0);
+  // Counted at bucket[p + 2]; summed, bucket[p + 1] is where p's entries start, and filling
+  // moves it to where they end, so that afterwards p's are [bucket[p], bucket[p + 1]).
+  s.bucket.assign(np + 2, 0);
   std::uint32_t* bucket = s.bucket.data();
   for (std::size_t f = 0; f < nf; ++f) {
     const std::uint8_t b = bits[f];
     if (!b) continue;
-    for (int i = 0; i < 3; ++i) bucket[face_patch[f] + 1] += (b >> i & 1) && nb[3 * f + i] != MeshAdjacency::kNoFace;
+    for (int i = 0; i < 3; ++i) bucket[face_patch[f] + 2] += (b >> i & 1) && nb[3 * f + i] != MeshAdjacency::kNoFace;
   }
-  for (std::size_t p = 0; p < np; ++p) bucket[p + 1] += bucket[p];
-  s.entries.resize(bucket[np]);
-  s.cursor.assign(bucket, bucket + np);
+  for (std::size_t k = 2; k < np + 2; ++k) bucket[k] += bucket[k - 1];
+  s.entries.resize(bucket[np + 1]);
   {
-    std::uint32_t* cursor = s.cursor.data();
     std::uint32_t* entries = s.entries.data();
     for (std::size_t f = 0; f < nf; ++f) {
       const std::uint8_t b = bits[f];
@@ -614,7 +632,7 @@ void build_patch_graph(format::MeshView mesh, const MeshAdjacency& adjacency, co
       const std::uint32_t p = face_patch[f];
       for (int i = 0; i < 3; ++i) {
         const std::uint32_t g = nb[3 * f + i];
-        if ((b >> i & 1) && g != MeshAdjacency::kNoFace) entries[cursor[p]++] = face_patch[g];
+        if ((b >> i & 1) && g != MeshAdjacency::kNoFace) entries[bucket[p + 1]++] = face_patch[g];
       }
     }
   }

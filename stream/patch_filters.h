@@ -103,16 +103,18 @@ struct PatchMergeResult {
   std::size_t rounds = 0;                  // rounds that merged
 };
 
-// Lists stored as chains of segments of one pool: moving a list to the end of another is O(1).
+// Lists stored as circular chains of segments of one pool, each named by its last segment:
+// moving a list to the end of another is O(1).
 template <typename T>
 struct ChainedLists {
   static constexpr std::uint32_t kEnd = 0xFFFFFFFFu;
   struct Segment {
-    std::uint32_t begin, end, next;
+    std::uint32_t begin, end, next;  // items pool[begin, end); next: the following segment (the last: the first)
   };
   std::vector<T> pool;
   std::vector<Segment> segments;
-  std::vector<std::uint32_t> head, tail, length;  // per list; kEnd when empty
+  std::vector<std::uint32_t> last;    // per list: its last segment, kEnd when empty
+  std::vector<std::uint32_t> length;  // per list: items (when kept)
 };
 
 // State of the merge on the patch graph (reusable across calls: no allocation when warm).
@@ -139,6 +141,9 @@ class PatchMergeGraph {
   // Takes the input's patches, adjacency and candidates. O(P + adjacency + candidate lists).
   // `input` must outlive the calls below up to finish().
   void reset(const PatchGraphInput& input);
+  // The same, but takes input.neighbors by swapping it with the graph's own buffer instead of
+  // copying it (input.neighbors is left unspecified; reusable as a buffer).
+  void reset_taking_neighbors(PatchGraphInput& input);
   // One round: the plan of plan_untriangulatable_merges on the current patches, applied: a
   // merged patch takes its target's label, then every two adjacent patches with equal labels
   // become one (a leaving patch may touch other patches of its target's label); shared-edge
@@ -173,11 +178,12 @@ class PatchMergeGraph {
   // Aggregates p's neighbour list by current patch (dropping p itself) and stores it back;
   // returns the neighbour sharing most edges (ties: lowest id), or kNoPatch if none.
   std::uint32_t compact_neighbors(std::uint32_t p);
+  void reset_lists(const PatchGraphInput& input);  // everything but neighbors_.pool
   bool candidate_touches(std::uint32_t candidate, std::uint32_t patch);
   std::uint32_t next_stamp();
 
   const PatchGraphInput* input_ = nullptr;
-  std::vector<std::uint32_t> parent_, label_, size_, count_, target_, slot_, temp_parent_, member_next_, stamp_;
+  std::vector<std::uint32_t> parent_, label_, count_, target_, slot_, member_next_, stamp_;
   std::vector<std::uint8_t> flags_, dead_;
   ChainedLists<Neighbor> neighbors_;      // per patch: (patch, shared edges), possibly stale ids
   ChainedLists<std::uint32_t> members_;   // per patch: candidates counting for it, possibly dead
@@ -204,7 +210,7 @@ void patch_neighbors_from_pairs(std::span<const PatchPair> pairs, PatchGraphInpu
 // vertex ids) with the distinct patches of its star and of the collapsed faces holding it.
 // O(F + candidates' stars).
 struct PatchGraphBuildScratch {
-  std::vector<std::uint32_t> slot, bucket, cursor, entries;
+  std::vector<std::uint32_t> slot, bucket, entries;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> collapsed;  // (vertex, patch)
 };
 void build_patch_graph(format::MeshView mesh, const MeshAdjacency& adjacency, const Patches& patches,

@@ -656,6 +656,8 @@ format::Status sample_mesh(format::MeshView mesh, const GaussSphere& gauss, cons
   }
   Patches& patches = ws.patches;
   find_patches(adj, labels, feature, patches, ws.stack);
+  const double built_cpu = thread_cpu_seconds();
+  ws.patch_seconds.find_patches = built_cpu - stage_cpu;
   build_patch_graph(mesh, adj, patches, feature, ws.candidate_vertex, ws.graph_input, ws.graph_scratch);
   const std::uint32_t* nb = adj.edge_neighbor.data();
   const std::uint32_t* corners = adj.vertex_corners.data();
@@ -697,39 +699,39 @@ format::Status sample_mesh(format::MeshView mesh, const GaussSphere& gauss, cons
       }
     }
   };
-  const double rounds_wall = wall_seconds(), rounds_cpu = thread_cpu_seconds();
-  ws.graph.reset(ws.graph_input);
+  const double rounds_cpu = thread_cpu_seconds();
+  ws.patch_seconds.build = rounds_cpu - built_cpu;
+  ws.graph.reset_taking_neighbors(ws.graph_input);
   ws.graph.merge(reevaluate);
-  ws.merge_rounds_wall = wall_seconds() - rounds_wall;
-  ws.merge_rounds_cpu = thread_cpu_seconds() - rounds_cpu;
+  const double result_cpu = thread_cpu_seconds();
+  ws.patch_seconds.rounds = result_cpu - rounds_cpu;
   PatchMergeResult& merged = ws.merge_result;
   ws.graph.finish(merged);
   result.stats.merged_patches = merged.merged_patches;
   result.stats.merge_rounds = merged.rounds;
 
-  // Faces: merged patch, label and feature bits, once (find_patches' numbering: by lowest face).
-  result.face_patch.resize(nf);
-  if (merged.rounds == 0) {
-    std::copy(patches.face_patch.begin(), patches.face_patch.end(), result.face_patch.begin());
-  } else {
+  // Faces: merged patch (in place of the first patches), label and feature bits, once
+  // (find_patches' numbering: by lowest face).
+  if (merged.rounds > 0) {
     const std::uint32_t* patch_of = merged.patch_of.data();
     const std::uint32_t* merged_label = merged.patch_label.data();
-    std::uint32_t* out_patch = result.face_patch.data();
+    std::uint32_t* face_patch = patches.face_patch.data();
     std::uint32_t* out_label = labels.data();
     for_faces(nf, [&](std::size_t begin, std::size_t end) {
       for (std::size_t f = begin; f < end; ++f) {
-        const std::uint32_t p = patch_of[face_patch0[f]];
-        out_patch[f] = p;
+        const std::uint32_t p = patch_of[face_patch[f]];
+        face_patch[f] = p;
         out_label[f] = merged_label[p];
       }
     });
     compute_feature_edges(adj, labels, feature);
   }
+  result.face_patch.swap(patches.face_patch);
   result.patch_label.swap(merged.patch_label);
   result.patch_count = result.patch_label.size();
   result.patch_adjacency.swap(merged.adjacency);
-  ws.patch_stage_wall = wall_seconds() - stage_wall;
-  ws.patch_stage_cpu = thread_cpu_seconds() - stage_cpu;
+  ws.patch_seconds.result = thread_cpu_seconds() - result_cpu;
+  ws.patch_seconds.wall = wall_seconds() - stage_wall;
 
   for (const VertexRecord& r : records)
     if (r.is_candidate) result.candidates.push_back(r);

@@ -193,10 +193,14 @@ struct SamplerWorkspace {
   PatchGraphBuildScratch graph_scratch;
   PatchMergeGraph graph;
   PatchMergeResult merge_result;
-  // Seconds of the last call's patch stage (find_patches, building the patch graph, the merge
-  // rounds, relabelling the faces, the patch graph outputs) and of its merge rounds alone: wall,
-  // and CPU time of the calling thread (the whole CPU time when run on one thread).
-  double patch_stage_wall = 0, patch_stage_cpu = 0, merge_rounds_wall = 0, merge_rounds_cpu = 0;
+  // Seconds of the last call's patch stage, by part, in CPU time of the calling thread (all of
+  // it when run on one thread): find_patches, building the patch graph's input, the merge
+  // rounds (with the graph's reset), and the result (patches, labels, feature bits, adjacency);
+  // and the whole stage in wall time.
+  struct PatchStageSeconds {
+    double find_patches = 0, build = 0, rounds = 0, result = 0, wall = 0;
+    double cpu() const { return find_patches + build + rounds + result; }
+  } patch_seconds;
 };
 
 // The same into `result`, reusing the workspace's and the result's arrays. Same decisions.

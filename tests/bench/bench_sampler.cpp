@@ -75,6 +75,13 @@ struct Timer {
   }
 };
 
+void print_patch_stage(const stream::SamplerWorkspace& ws) {
+  const auto& p = ws.patch_seconds;
+  std::printf("patch stage %.3f s wall %.3f s cpu: find_patches %.3f, patch graph input %.3f, merge rounds %.3f, "
+              "result %.3f\n",
+              p.wall, p.cpu(), p.find_patches, p.build, p.rounds, p.result);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -149,15 +156,13 @@ int main(int argc, char** argv) {
     if (!stream::sample_mesh(mesh.view(), g, so, ws, result).is_ok()) return 1;
     t.lap("sample_mesh (paper, all)");
     std::printf("samples (paper) %zu, merged patches %zu in %zu rounds\n", result.samples.size(), result.stats.merged_patches, result.stats.merge_rounds);
-    std::printf("patch stage %.3f s wall %.3f s cpu; of which merge rounds %.3f s wall %.3f s cpu\n", ws.patch_stage_wall,
-                ws.patch_stage_cpu, ws.merge_rounds_wall, ws.merge_rounds_cpu);
+    print_patch_stage(ws);
     t.lap("(print)");
     so.sample_test = stream::SampleTest::kExact;
     if (!stream::sample_mesh(mesh.view(), g, so, ws, result).is_ok()) return 1;
     t.lap("sample_mesh (exact, all)");
     std::printf("samples (exact) %zu\n", result.samples.size());
-    std::printf("patch stage %.3f s wall %.3f s cpu; of which merge rounds %.3f s wall %.3f s cpu\n", ws.patch_stage_wall,
-                ws.patch_stage_cpu, ws.merge_rounds_wall, ws.merge_rounds_cpu);
+    print_patch_stage(ws);
   }
   return 0;
 }

@@ -1003,6 +1003,30 @@ TEST(SamplerRegression, GraphMergeEqualsMergeRoundsOverTheMesh) {
   EXPECT_GE(shapes.max_rounds, 5u);
 }
 
+// Enough candidates touched in one round (> 32768: 37403 in the first round here) for the
+// re-evaluation during the merge to run in parallel blocks (reading labels from the patch
+// graph, concurrently): still the decisions of the merge over the mesh.
+TEST(SamplerRegression, ParallelReevaluationDuringTheMergeEqualsMergeRoundsOverTheMesh) {
+  testing::ShapeOptions o;
+  o.vertices = 400000;
+  o.noise = 4e-5;
+  o.seed = 9;
+  o.rotation = testing::random_rotation(3);
+  const Mesh m = testing::make_torus(1, 0.4, o);
+  const GaussSphere g = sphere(8, 7);
+  for (SampleTest test : {SampleTest::kExact, SampleTest::kPaper}) {
+    SCOPED_TRACE(sample_test_name(test));
+    SamplerOptions so;
+    so.sample_test = test;
+    const SamplingResult got = sample_mesh(m.view(), g, so).value();
+    const SamplingResult want = mesh_round_sample(m, g, so);
+    expect_same_result(got, want);
+    std::printf("%s: %zu candidates, %zu patches merged in %zu rounds, %zu candidates left\n", sample_test_name(test),
+                want.stats.candidates_initial, want.stats.merged_patches, want.stats.merge_rounds, want.candidates.size());
+    EXPECT_GT(want.stats.merged_patches, 32768u);
+  }
+}
+
 // The sampler's orientation sign (a static filter in front of the exact predicate) against the
 // exact predicate alone: random unit vectors, nearly coplanar triples, exactly coplanar ones,
 // and tiny and huge magnitudes.
