@@ -117,6 +117,8 @@ int run_simplify_out_of_core(const SimplifyArgs& args, OutputKind kind, const st
     report["chunks"] = result->chunks;
     report["bytes_spilled"] = result->bytes_spilled;
     report["stitch_half_edges"] = result->stitch_half_edges;
+    report["fetched_patches"] = result->fetched_patches;
+    report["fetched_faces"] = result->fetched_faces;
     report["peak_rss_bytes"] = peak_rss_bytes();
     report["peak_rss_after_partition_bytes"] = result->peak_rss_after_partition;
     report["peak_rss_after_pieces_bytes"] = result->peak_rss_after_pieces;

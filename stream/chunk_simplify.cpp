@@ -7,6 +7,7 @@
 #include <cmath>
 #include <map>
 #include <mutex>
+#include <iterator>
 #include <numbers>
 
 #include <sys/resource.h>
@@ -171,28 +172,36 @@ void find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
   for (const auto& [p, sum] : areas) out.areas.emplace_back(p, sum);
 }
 
-format::Result<PolygonGraphInput> stitch_loops(std::vector<ChunkLoops>& chunks, std::size_t patches,
-                                               const std::vector<format::Vec3f>& plane_normal) {
+format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoops>& chunks, std::size_t patches,
+                                               const std::vector<format::Vec3f>& plane_normal,
+                                               const std::vector<std::pair<std::uint32_t, format::Vec3f>>& extra_vertices) {
   std::vector<HalfEdgeRecord> halves;
   std::vector<LoopVertexRecord> vertices;
   PolygonGraphInput g;
   g.patches = patches;
   g.patch_area.assign(patches, {0, 0, 0});
-  std::size_t total_halves = 0, total_vertices = 0;
+  g.patch_has_faces.assign(patches, 0);
+  std::size_t total_halves = 0, total_vertices = extra_vertices.size();
   for (const ChunkLoops& c : chunks) {
     total_halves += c.half_edges.size();
     total_vertices += c.vertices.size();
   }
   halves.reserve(total_halves);
   vertices.reserve(total_vertices);
-  for (ChunkLoops& c : chunks) {
+  for (const ChunkLoops& c : chunks) {
     halves.insert(halves.end(), c.half_edges.begin(), c.half_edges.end());
     vertices.insert(vertices.end(), c.vertices.begin(), c.vertices.end());
     for (const auto& [p, sum] : c.areas) {
       if (p >= patches) return damaged("a vector area names an unknown patch");
       for (int k = 0; k < 3; ++k) g.patch_area[p][k] += sum[k];
+      g.patch_has_faces[p] = 1;
     }
-    c = {};
+  }
+  for (const auto& [v, position] : extra_vertices) {
+    LoopVertexRecord r;
+    r.vertex = v;
+    r.position = position;
+    vertices.push_back(r);
   }
   std::sort(halves.begin(), halves.end(), [](const auto& a, const auto& b) { return a.id < b.id; });
   std::sort(vertices.begin(), vertices.end(), [](const auto& a, const auto& b) { return a.vertex < b.vertex; });
@@ -366,8 +375,6 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   for (const ChunkLoops& l : loops) out.stitch_half_edges += l.half_edges.size();
   out.peak_rss_after_loops = peak_rss();
   out.bytes_spilled = partition->bytes_spilled;
-  partition->remove_temp();
-  stitched = format::Status();  // the face answers and stars are done with
   std::vector<format::Vec3f> plane(merged.patch_label.size());
   for (std::size_t p = 0; p < plane.size(); ++p) {
     if (merged.patch_label[p] == kNoLabel) continue;
@@ -379,8 +386,82 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   out.seconds_stitch = seconds_since(start);
 
   start = std::chrono::steady_clock::now();
-  auto meshed = mesh_patch_loops(std::move(graph).value());
+  auto meshed = mesh_patch_loops(*graph);
   if (!meshed) return meshed.status();
+  // Patches that need their input faces: pass D collects them from the chunks (owned,
+  // non-collapsed faces, ascending global id), then the mesher runs again from the start.
+  std::vector<std::uint32_t> wanted;
+  struct Fetched {
+    std::uint64_t face;
+    std::uint32_t patch;
+    std::array<std::uint32_t, 3> v;
+    std::array<format::Vec3f, 3> p;
+  };
+  std::vector<Fetched> fetched;
+  for (int attempt = 0; !meshed->needs_faces.empty(); ++attempt) {
+    if (attempt >= 8) return format::Status::error(format::Code::kProcessing, "stitch", "patches keep asking for faces");
+    std::vector<std::uint32_t> asked = meshed->needs_faces;
+    std::sort(asked.begin(), asked.end());
+    std::vector<std::uint32_t> now;
+    std::set_difference(asked.begin(), asked.end(), wanted.begin(), wanted.end(), std::back_inserter(now));
+    if (now.empty()) return format::Status::error(format::Code::kProcessing, "stitch", "fetched faces did not help");
+    std::vector<std::vector<Fetched>> per_chunk(nc);
+    GM_RETURN_IF_ERROR(for_each_chunk(
+        *partition, options.threads, "faces", options,
+        [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
+          std::vector<GlobalSample> unused;
+          ChunkSamplingStats stats;
+          GM_RETURN_IF_ERROR(sample_chunk(chunk, gauss, options.sampler, ws, unused, stats));
+          ChunkPieces scratch;
+          std::vector<std::uint32_t> piece_index;
+          find_chunk_pieces(chunk, ws.adjacency, ws.labels, ws.feature, scratch, &piece_index);
+          for (std::uint32_t f = 0; f < chunk.triangles.size(); ++f) {
+            const auto& t = chunk.triangles[f];
+            if (!chunk.owned_face[f] || is_collapsed(t)) continue;
+            const std::uint32_t patch = merged_patch_of_piece(PieceId{chunk.chunk} << 32 | piece_index[f]);
+            if (!std::binary_search(now.begin(), now.end(), patch)) continue;
+            Fetched r{chunk.global_face[f], patch, {}, {}};
+            for (int i = 0; i < 3; ++i) {
+              r.v[i] = chunk.global_vertex[t.v[i]];
+              r.p[i] = chunk.positions[t.v[i]];
+            }
+            per_chunk[c].push_back(r);
+          }
+          return format::Status();
+        }));
+    for (auto& part : per_chunk) fetched.insert(fetched.end(), part.begin(), part.end());
+    wanted.insert(wanted.end(), now.begin(), now.end());
+    std::sort(wanted.begin(), wanted.end());
+    std::sort(fetched.begin(), fetched.end(), [](const Fetched& a, const Fetched& b) { return a.face < b.face; });
+    // The graph again, with the fetched faces' vertices among its (dense, global-order) ids.
+    std::vector<std::pair<std::uint32_t, format::Vec3f>> extra;
+    for (const Fetched& r : fetched)
+      for (int i = 0; i < 3; ++i) extra.emplace_back(r.v[i], r.p[i]);
+    std::sort(extra.begin(), extra.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    extra.erase(std::unique(extra.begin(), extra.end(), [](const auto& a, const auto& b) { return a.first == b.first; }),
+                extra.end());
+    std::vector<std::pair<std::uint32_t, format::Vec3f>> missing;
+    for (const auto& e : extra)
+      if (!std::binary_search(graph->global.begin(), graph->global.end(), e.first)) missing.push_back(e);
+    auto regraph = stitch_loops(loops, merged.patch_label.size(), plane, missing);
+    if (!regraph) return regraph.status();
+    graph = std::move(regraph);
+    auto dense = [&](std::uint32_t v) {
+      return static_cast<std::uint32_t>(std::lower_bound(graph->global.begin(), graph->global.end(), v) - graph->global.begin());
+    };
+    std::map<std::uint32_t, PatchFaces> by_patch;
+    for (const Fetched& r : fetched) {
+      PatchFaces& pf = by_patch[r.patch];
+      pf.patch = r.patch;
+      pf.triangles.push_back({dense(r.v[0]), dense(r.v[1]), dense(r.v[2])});
+    }
+    for (auto& [patch, pf] : by_patch) graph->patch_faces.push_back(std::move(pf));
+    out.fetched_patches = wanted.size();
+    out.fetched_faces = fetched.size();
+    meshed = mesh_patch_loops(*graph);
+    if (!meshed) return meshed.status();
+  }
+  partition->remove_temp();
   out.mesh = std::move(meshed->mesh.mesh);
   out.birth = std::move(meshed->mesh.birth);
   out.polygon = meshed->stats;

@@ -61,8 +61,11 @@ void find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
 // The stitch's last step before the mesher: half-edges chained into loops (each patch's loops
 // from its lowest unwalked half-edge id, as mesh_patch_polygons walks them), vertices renumbered
 // densely in global id order. kBadInput when the records do not close into loops.
-format::Result<PolygonGraphInput> stitch_loops(std::vector<ChunkLoops>& chunks, std::size_t patches,
-                                               const std::vector<format::Vec3f>& plane_normal);
+// extra_vertices: (global id, position) of vertices no record names — the inner vertices of
+// fetched patch faces — added with degree 0 and no role. The chunks' records are left as they are.
+format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoops>& chunks, std::size_t patches,
+                                               const std::vector<format::Vec3f>& plane_normal,
+                                               const std::vector<std::pair<std::uint32_t, format::Vec3f>>& extra_vertices = {});
 
 struct OutOfCoreSimplifyOptions {
   PartitionOptions partition;  // memory, tmp dir; rings and threads follow from the fields below
@@ -86,6 +89,7 @@ struct OutOfCoreSimplify {
   std::size_t chunks = 0;
   std::uint64_t bytes_spilled = 0;
   std::size_t stitch_half_edges = 0;  // records the stitch held at once (its memory grows with them)
+  std::size_t fetched_patches = 0, fetched_faces = 0;  // input faces fetched for the mesher's last steps
   double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0, seconds_stitch = 0, seconds_mesh = 0;
   // The process's peak RSS (getrusage) after passes 0-1, after pass A/B, after the piece stitch
   // and merge, and after pass C: which stage sets the peak.

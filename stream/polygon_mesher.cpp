@@ -55,13 +55,35 @@ class PolygonMesher {
         skip_(std::move(skip)),
         positions_(input.mesh.positions),
         plane_(input.patch_plane_normal),
-        has_faces_(true) {}
+        has_faces_(true),
+        from_mesh_(true) {}
 
   // Out of core: everything from records (PolygonGraphInput); no faces.
   // graph's loops are moved from; its positions and plane normals must outlive the mesher.
   explicit PolygonMesher(PolygonGraphInput& graph)
-      : in_(nullptr), tris_(nullptr), positions_(graph.positions), plane_(graph.plane_normal), has_faces_(false) {
+      : in_(nullptr), tris_(nullptr), positions_(graph.positions), plane_(graph.plane_normal), has_faces_(false),
+        from_mesh_(false) {
     patch_count_ = graph.patches;
+    // Input faces fetched for some patches: a face list per patch, as group_faces makes it.
+    face_available_.assign(patch_count_, 0);
+    patch_offset_.assign(patch_count_ + 1, 0);
+    for (const PatchFaces& pf : graph.patch_faces) {
+      if (pf.patch < patch_count_) patch_offset_[pf.patch + 1] += static_cast<std::uint32_t>(pf.triangles.size());
+    }
+    for (std::size_t q = 0; q < patch_count_; ++q) patch_offset_[q + 1] += patch_offset_[q];
+    own_tris_.resize(patch_offset_[patch_count_]);
+    patch_faces_.resize(own_tris_.size());
+    for (const PatchFaces& pf : graph.patch_faces) {
+      if (pf.patch >= patch_count_) continue;
+      face_available_[pf.patch] = 1;
+      std::uint32_t at = patch_offset_[pf.patch];
+      for (const auto& t : pf.triangles) {
+        own_tris_[at] = {{t[0], t[1], t[2]}};
+        patch_faces_[at] = at;
+        ++at;
+      }
+    }
+    tris_ = own_tris_.data();
     patch_loop_offset_.assign(patch_count_ + 1, 0);
     loops_.reserve(graph.loops.size());
     for (PatchLoop& l : graph.loops) {
@@ -80,12 +102,13 @@ class PolygonMesher {
     interior_of_patch_ = graph.interior_samples;
     for (const auto& list : interior_of_patch_) result_.stats.interior_samples += list.size();
     patch_area_ = graph.patch_area;
+    patch_has_faces_ = graph.patch_has_faces;
     global_ = graph.global;
     result_.mesh.graph = graph.graph;
   }
 
   format::Result<PolygonMesherResult> run() {
-    if (has_faces_) {
+    if (from_mesh_) {
       group_faces();
       walk_loops();
       count_boundary_loops();
@@ -102,15 +125,15 @@ class PolygonMesher {
       bool retry = false;
       triangulate_all(failed, retry);
       if (failed.empty() && !retry) return finish();
+      // Out of core, a patch that reaches the steps needing its input faces without them: stop
+      // and name every such patch; the caller fetches their faces and runs the mesher again
+      // (the same rounds repeat: nothing before these steps depends on faces).
       for (std::uint32_t p : failed) {
-        if (!has_faces_ && mode_[p] == PatchMode::kDensified) {
-          return format::Status::error(format::Code::kProcessing, "polygon mesher",
-                                       "patch " + std::to_string(p) +
-                                           " can only be meshed from its input faces, which the out-of-core stitch "
-                                           "does not fetch yet");
-        }
-        densify(p);
+        if (!has_faces(p) && (mode_[p] == PatchMode::kCollapsed || mode_[p] == PatchMode::kDensified))
+          result_.needs_faces.push_back(p);
       }
+      if (!result_.needs_faces.empty()) return std::move(result_);
+      for (std::uint32_t p : failed) densify(p);
     }
     return format::Status::error(format::Code::kProcessing, "polygon mesher",
                                  "patches still failing after " + std::to_string(kMaxRounds) + " rounds");
@@ -393,7 +416,7 @@ class PolygonMesher {
       ++result_.stats.densified_patches;
       for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l)
         for (std::uint32_t v : loops_[l].vertices) keep(v, Keep::kGuard);
-    } else if (mode_[p] == PatchMode::kDensified && has_faces_) {
+    } else if (mode_[p] == PatchMode::kDensified && has_faces(p)) {
       mode_[p] = PatchMode::kOriginal;
       ++result_.stats.original_patches;
       for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k)
@@ -462,8 +485,8 @@ class PolygonMesher {
       }
     }
     // Patches that keep their input triangles go first: their edges are fixed.
-    for (std::uint32_t p = 0; p < patch_count_ && has_faces_; ++p) {
-      if (mode_[p] != PatchMode::kOriginal) continue;
+    for (std::uint32_t p = 0; p < patch_count_; ++p) {
+      if (mode_[p] != PatchMode::kOriginal || !has_faces(p)) continue;
       for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
         const auto& t = tris_[patch_faces_[k]];
         out_tris_.push_back({t.v[0], t.v[1], t.v[2]});
@@ -480,7 +503,7 @@ class PolygonMesher {
     }
     for (std::uint32_t p = 0; p < patch_count_; ++p) {
       if (mode_[p] == PatchMode::kOriginal || mode_[p] == PatchMode::kCollapsed ||
-          (has_faces_ && patch_offset_[p] == patch_offset_[p + 1]))
+          (from_mesh_ ? patch_offset_[p] == patch_offset_[p + 1] : !patch_has_faces_[p]))
         continue;
       if (failing[p] || !triangulate_patch(p, reduced_loops)) {
         failed.push_back(p);
@@ -498,7 +521,7 @@ class PolygonMesher {
   // would make an edge that exists elsewhere.
   enum class Collapse { kDone, kRetry, kFailed };
   Collapse collapse_patch(std::uint32_t p) {
-    if (!has_faces_) return Collapse::kFailed;
+    if (!has_faces(p)) return Collapse::kFailed;
     std::vector<std::uint32_t> vertices;
     for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k)
       for (std::uint32_t v : tris_[patch_faces_[k]].v) vertices.push_back(v);
@@ -563,7 +586,7 @@ class PolygonMesher {
 
   // The patch's vector area (sum of its faces' cross products): its mean normal.
   PolygonPoint3 mean_normal(std::uint32_t p) const {
-    if (!has_faces_) return p < patch_area_.size() ? patch_area_[p] : PolygonPoint3{0, 0, 0};
+    if (!from_mesh_) return p < patch_area_.size() ? patch_area_[p] : PolygonPoint3{0, 0, 0};
     PolygonPoint3 normal{0, 0, 0};
     for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
       const auto& t = tris_[patch_faces_[k]];
@@ -751,8 +774,14 @@ class PolygonMesher {
   std::span<const format::Vec3f> positions_;
   std::span<const format::Vec3f> plane_;
   bool has_faces_;
+  bool from_mesh_;                           // in core: everything comes from the mesh
+  std::vector<std::uint8_t> face_available_;  // out of core: the patch's input faces were fetched
+  std::vector<format::Triangle> own_tris_;    // out of core: the fetched faces, by patch
+  bool has_faces(std::uint32_t p) const { return from_mesh_ || (p < face_available_.size() && face_available_[p]); }
+
   std::vector<PolygonPoint3> patch_area_;  // out of core: each patch's vector area, from records
   std::vector<std::uint32_t> global_;      // out of core: input vertex id of each vertex id
+  std::vector<std::uint8_t> patch_has_faces_;  // out of core: the patch has a non-collapsed face
   std::size_t patch_count_ = 0;
   std::vector<std::uint32_t> patch_offset_, patch_faces_;
   std::vector<Loop> loops_;
@@ -817,7 +846,7 @@ format::Result<PolygonMesherResult> mesh_patch_loops(PolygonGraphInput graph) {
   const std::size_t nv = graph.positions.size();
   if (graph.degree.size() != nv || graph.role.size() != nv || (!graph.global.empty() && graph.global.size() != nv) ||
       graph.interior_samples.size() != graph.patches || graph.plane_normal.size() != graph.patches ||
-      graph.patch_area.size() != graph.patches) {
+      graph.patch_area.size() != graph.patches || graph.patch_has_faces.size() != graph.patches) {
     return format::Status::error(format::Code::kProcessing, "polygon mesher", "patch graph arrays do not match");
   }
   for (const PatchLoop& l : graph.loops) {

@@ -44,6 +44,10 @@ struct PolygonMesherStats {
 struct PolygonMesherResult {
   PatchMesherResult mesh;  // planar_patches: triangulated in their plane; collapse_patches: 0
   PolygonMesherStats stats;
+  // mesh_patch_loops only: patches that need their input faces (the collapse / original steps)
+  // and were given none. When not empty, `mesh` is empty: fetch those patches' faces into
+  // PolygonGraphInput::patch_faces and run again.
+  std::vector<std::uint32_t> needs_faces;
 };
 
 // Same input and preconditions as mesh_patches (patch ids are expected to be the sampler's:
@@ -63,6 +67,11 @@ struct PatchLoop {
   std::vector<std::uint32_t> vertices;  // the loop's half-edges' start vertices, patch on the left
   std::vector<std::uint8_t> is_break;   // per half-edge: a break edge (boundary, non-manifold)
 };
+// A patch's input faces (non-collapsed, ascending global face id), in the graph's vertex ids.
+struct PatchFaces {
+  std::uint32_t patch = 0;
+  std::vector<std::array<std::uint32_t, 3>> triangles;
+};
 struct PolygonGraphInput {
   std::vector<format::Vec3f> positions;  // every vertex a loop or a sample names
   std::vector<std::uint32_t> global;
@@ -77,12 +86,13 @@ struct PolygonGraphInput {
   std::vector<std::vector<std::uint32_t>> interior_samples;  // per patch, ascending: samples off every feature edge
   std::vector<format::Vec3f> plane_normal;                    // per patch; zero: use patch_area
   std::vector<std::array<double, 3>> patch_area;              // per patch: sum of its faces' cross products
+  std::vector<std::uint8_t> patch_has_faces;  // per patch: it has a face that is not collapsed (else it is skipped)
   PatchGraphStats graph;                                      // feature edges, chains, loops (for the report)
+  std::vector<PatchFaces> patch_faces;                         // fetched after a needs_faces answer
 };
 
-// Steps 3-5 of mesh_patch_polygons on records. A patch that only its input faces could mesh
-// (the collapse and original steps) is a kProcessing error naming it: the stitch does not fetch
-// faces yet.
+// Steps 3-5 of mesh_patch_polygons on records. A patch that reaches the steps needing its input
+// faces (the collapse and original steps) without them ends the run with needs_faces set.
 // Takes graph by value: its loops are moved into the mesher.
 format::Result<PolygonMesherResult> mesh_patch_loops(PolygonGraphInput graph);
 
