@@ -20,7 +20,6 @@ namespace gaussmesh::stream {
 namespace {
 
 constexpr std::uint32_t kNone = 0xFFFFFFFFu;
-constexpr double kBoundaryTurnDegrees = 30;  // as the polygon mesher
 
 bool is_collapsed(const format::Triangle& t) { return t.v[0] == t.v[1] || t.v[1] == t.v[2] || t.v[0] == t.v[2]; }
 
@@ -112,7 +111,6 @@ void find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
     }
   }
   // Owned vertices with feature edges, and owned samples.
-  const double turn_cos = std::cos(kBoundaryTurnDegrees * std::numbers::pi / 180);
   for (std::uint32_t v = 0; v < chunk.positions.size(); ++v) {
     if (!chunk.owned_vertex[v]) continue;
     const std::uint32_t gv = chunk.global_vertex[v];
@@ -142,14 +140,9 @@ void find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
       r.role = VertexRole::kSample;
     } else if (degree == 1 || degree >= 3 || is_corner(gv)) {
       r.role = VertexRole::kCorner;
-    } else if (degree == 2 && out_breaks == 1 && in_breaks == 1) {
-      const auto& pa = chunk.positions[u];
-      const auto& pv = chunk.positions[v];
-      const auto& pb = chunk.positions[w];
-      const double ax = double(pv.x) - pa.x, ay = double(pv.y) - pa.y, az = double(pv.z) - pa.z;
-      const double bx = double(pb.x) - pv.x, by = double(pb.y) - pv.y, bz = double(pb.z) - pv.z;
-      const double la = std::sqrt(ax * ax + ay * ay + az * az), lb = std::sqrt(bx * bx + by * by + bz * bz);
-      if (la != 0 && lb != 0 && ax * bx + ay * by + az * bz < turn_cos * la * lb) r.role = VertexRole::kCorner;
+    } else if (degree == 2 && out_breaks == 1 && in_breaks == 1 &&
+               turns_at_boundary(chunk.positions[u], chunk.positions[v], chunk.positions[w])) {
+      r.role = VertexRole::kCorner;
     }
     if (is_sample && degree == 0 && adjacency.star_end(v) > adjacency.star_begin(v))
       r.interior_patch = patch[corners[adjacency.star_begin(v)] / 3];

@@ -266,14 +266,8 @@ class PolygonMesher {
     const std::size_t n = loop.vertices.size();
     const std::size_t prev = (k + n - 1) % n;
     if (!loop.is_break[prev] || !loop.is_break[k]) return false;
-    const auto& pa = positions_[loop.vertices[prev]];
-    const auto& pv = positions_[loop.vertices[k]];
-    const auto& pb = positions_[loop.vertices[(k + 1) % n]];
-    const double ax = double(pv.x) - pa.x, ay = double(pv.y) - pa.y, az = double(pv.z) - pa.z;
-    const double bx = double(pb.x) - pv.x, by = double(pb.y) - pv.y, bz = double(pb.z) - pv.z;
-    const double la = std::sqrt(ax * ax + ay * ay + az * az), lb = std::sqrt(bx * bx + by * by + bz * bz);
-    if (la == 0 || lb == 0) return false;
-    return ax * bx + ay * by + az * bz < std::cos(kBoundaryTurnDegrees * std::numbers::pi / 180) * la * lb;
+    return turns_at_boundary(positions_[loop.vertices[prev]], positions_[loop.vertices[k]],
+                             positions_[loop.vertices[(k + 1) % n]]);
   }
 
   void keep(std::uint32_t v, Keep k) {
@@ -857,6 +851,14 @@ format::Result<PolygonMesherResult> mesh_patch_loops(PolygonGraphInput graph) {
   }
   PolygonMesher mesher(graph);
   return mesher.run();
+}
+
+bool turns_at_boundary(const format::Vec3f& prev, const format::Vec3f& at, const format::Vec3f& next) {
+  const double ax = double(at.x) - prev.x, ay = double(at.y) - prev.y, az = double(at.z) - prev.z;
+  const double bx = double(next.x) - at.x, by = double(next.y) - at.y, bz = double(next.z) - at.z;
+  const double la = std::sqrt(ax * ax + ay * ay + az * az), lb = std::sqrt(bx * bx + by * by + bz * bz);
+  if (la == 0 || lb == 0) return false;
+  return ax * bx + ay * by + az * bz < std::cos(kBoundaryTurnDegrees * std::numbers::pi / 180) * la * lb;
 }
 
 }  // namespace gaussmesh::stream

@@ -41,6 +41,10 @@ struct PolygonMesherStats {
   std::size_t guards = 0;             // vertices kept by the chain rules and by refinement
 };
 
+// Whether a boundary turns by more than 30° at `at` (coming from prev, going to next): such a
+// boundary vertex is a corner (normals cannot see how a boundary curves within its surface).
+bool turns_at_boundary(const format::Vec3f& prev, const format::Vec3f& at, const format::Vec3f& next);
+
 struct PolygonMesherResult {
   PatchMesherResult mesh;  // planar_patches: triangulated in their plane; collapse_patches: 0
   PolygonMesherStats stats;
