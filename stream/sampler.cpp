@@ -386,7 +386,7 @@ struct MergeLabels {
 // The per-vertex decisions of one vertex (docs/sampling.md); appends a record when the vertex
 // is a candidate or an exact sample.
 template <typename Labels>
-void evaluate_vertex(const VertexInputs& in, const Labels& labels, std::uint32_t v, Scratch& s,
+void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t v, Scratch& s,
                      std::vector<VertexRecord>& out) {
   const MeshAdjacency& adjacency = in.adjacency;
   const GaussSphere& gauss = in.gauss;
