@@ -60,6 +60,47 @@ format::Status sample_chunk(const ChunkMesh& chunk, const GaussSphere& gauss, co
   return format::Status();
 }
 
+format::Status for_each_chunk(const Partition& partition, std::uint32_t threads, const ChunkBody& body,
+                              const std::function<void(std::size_t, std::size_t)>& progress) {
+  const std::size_t nc = partition.chunks.size();
+  std::vector<format::Status> errors(nc);
+  std::atomic<bool> failed{false};
+  std::atomic<std::size_t> done{0};
+  std::mutex progress_mutex;
+  tbb::enumerable_thread_specific<ChunkSamplerWorkspace> workspaces;
+  tbb::task_arena arena(static_cast<int>(std::max<std::uint32_t>(threads, 1)));
+  arena.execute([&] {
+    tbb::parallel_for(std::size_t{0}, nc, [&](std::size_t c) {
+      if (failed) return;
+      auto chunk = load_chunk(partition.chunks[c]);
+      format::Status st = chunk ? body(c, *chunk, workspaces.local()) : chunk.status();
+      if (!st) {
+        errors[c] = st;
+        failed = true;
+        return;
+      }
+      const std::size_t n = ++done;
+      if (progress) {
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        progress(n, nc);
+      }
+    });
+  });
+  for (const format::Status& e : errors)
+    if (!e) return e;
+  return format::Status();
+}
+
+format::Result<std::vector<GaussSphere>> create_spheres(const std::vector<GaussSphereOptions>& options) {
+  std::vector<GaussSphere> spheres;
+  for (const auto& o : options) {
+    auto g = GaussSphere::create(o);
+    if (!g) return g.status();
+    spheres.push_back(std::move(g).value());
+  }
+  return spheres;
+}
+
 std::uint64_t pass_two_chunk_faces(std::uint64_t memory_bytes, std::uint32_t threads) {
   constexpr std::uint64_t kReserve = std::uint64_t{20} << 20, kBytesPerFace = 256;
   const std::uint64_t budget = memory_bytes > 2 * kReserve ? memory_bytes - kReserve : memory_bytes / 2;
@@ -76,12 +117,8 @@ format::Result<OutOfCoreSampling> sample_out_of_core(const std::string& input_pa
   if (options.spheres.empty() || options.threads == 0) {
     return format::Status::error(format::Code::kUsage, "sample", "no orientation, or 0 threads");
   }
-  std::vector<GaussSphere> spheres;
-  for (const auto& o : options.spheres) {
-    auto g = GaussSphere::create(o);
-    if (!g) return g.status();
-    spheres.push_back(std::move(g).value());
-  }
+  auto spheres = create_spheres(options.spheres);
+  if (!spheres) return spheres.status();
   PartitionOptions partition_options = options.partition;
   partition_options.rings = required_overlap_rings(options.sampler.smooth_iterations);
   partition_options.threads = options.threads;
@@ -101,43 +138,19 @@ format::Result<OutOfCoreSampling> sample_out_of_core(const std::string& input_pa
   const auto start = std::chrono::steady_clock::now();
 
   // Per chunk and orientation: the chunk's samples and counts (output-sized).
-  const std::size_t nc = partition->chunks.size(), no = spheres.size();
+  const std::size_t nc = partition->chunks.size(), no = spheres->size();
   std::vector<std::vector<GlobalSample>> samples(nc * no);
   std::vector<ChunkSamplingStats> stats(nc * no);
-  std::vector<format::Status> errors(nc);
-  std::atomic<bool> failed{false};
-  std::atomic<std::size_t> done{0};
-  std::mutex progress_mutex;
-  tbb::enumerable_thread_specific<ChunkSamplerWorkspace> workspaces;
-  tbb::task_arena arena(static_cast<int>(options.threads));
-  arena.execute([&] {
-    tbb::parallel_for(std::size_t{0}, nc, [&](std::size_t c) {
-      if (failed) return;
-      auto chunk = load_chunk(partition->chunks[c]);
-      if (!chunk) {
-        errors[c] = chunk.status();
-        failed = true;
-        return;
-      }
-      ChunkSamplerWorkspace& ws = workspaces.local();
-      for (std::size_t k = 0; k < no; ++k) {
-        format::Status st = sample_chunk(*chunk, spheres[k], options.sampler, ws, samples[c * no + k], stats[c * no + k]);
-        if (!st) {
-          errors[c] = st;
-          failed = true;
-          return;
-        }
-      }
-      const std::size_t n = ++done;
-      if (options.progress) {
-        std::lock_guard<std::mutex> lock(progress_mutex);
-        options.progress(n, nc, partition->faces);
-      }
-    });
-  });
-  for (const format::Status& e : errors) {
-    if (!e) return e;
-  }
+  GM_RETURN_IF_ERROR(for_each_chunk(
+      *partition, options.threads,
+      [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
+        for (std::size_t k = 0; k < no; ++k)
+          GM_RETURN_IF_ERROR(sample_chunk(chunk, (*spheres)[k], options.sampler, ws, samples[c * no + k], stats[c * no + k]));
+        return format::Status();
+      },
+      [&](std::size_t done, std::size_t total) {
+        if (options.progress) options.progress(done, total, partition->faces);
+      }));
   out.bytes_spilled = partition->bytes_spilled;
   partition->remove_temp();
 
@@ -155,7 +168,7 @@ format::Result<OutOfCoreSampling> sample_out_of_core(const std::string& input_pa
   }
   std::sort(out.samples.begin(), out.samples.end(),
             [](const GlobalSample& a, const GlobalSample& b) { return a.vertex < b.vertex; });
-  out.gauss.emplace(std::move(spheres[out.chosen]));
+  out.gauss.emplace(std::move((*spheres)[out.chosen]));
   out.seconds_sample = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;
 }

@@ -64,6 +64,16 @@ format::Status sample_chunk(const ChunkMesh& chunk, const GaussSphere& gauss, co
 // window, samples) takes ~20 MiB.
 std::uint64_t pass_two_chunk_faces(std::uint64_t memory_bytes, std::uint32_t threads);
 
+// Loads every chunk of `partition`, `threads` at a time (a oneTBB task arena), and calls
+// body(chunk index, chunk, this thread's workspace); then progress(chunks done, chunks), from one
+// thread at a time. The first error stops the chunks not yet started and is returned.
+using ChunkBody = std::function<format::Status(std::size_t, const ChunkMesh&, ChunkSamplerWorkspace&)>;
+format::Status for_each_chunk(const Partition& partition, std::uint32_t threads, const ChunkBody& body,
+                              const std::function<void(std::size_t, std::size_t)>& progress);
+
+// The Gaussian spheres of `options` (kUsage for bad options).
+format::Result<std::vector<GaussSphere>> create_spheres(const std::vector<GaussSphereOptions>& options);
+
 struct OutOfCoreSamplingOptions {
   PartitionOptions partition;  // memory, tmp dir; rings and threads are set from the fields below
   std::uint32_t threads = 1;   // chunks in flight (--threads)

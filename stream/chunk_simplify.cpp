@@ -2,19 +2,13 @@
 #include "stream/chunk_simplify.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <map>
-#include <mutex>
 #include <iterator>
 #include <numbers>
 
 #include <sys/resource.h>
-
-#include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 namespace gaussmesh::stream {
 namespace {
@@ -34,37 +28,12 @@ std::uint64_t peak_rss() {
   return ::getrusage(RUSAGE_SELF, &usage) == 0 ? static_cast<std::uint64_t>(usage.ru_maxrss) * 1024 : 0;
 }
 
-// Loads every chunk (in parallel, `threads` at a time) and calls body(c, chunk, workspace).
+// Loads every chunk and calls body (stream/chunk_sampler.h for_each_chunk), reporting `pass`.
 format::Status for_each_chunk(const Partition& partition, std::uint32_t threads, const char* pass,
-                              const OutOfCoreSimplifyOptions& options,
-                              const std::function<format::Status(std::size_t, const ChunkMesh&, ChunkSamplerWorkspace&)>& body) {
-  const std::size_t nc = partition.chunks.size();
-  std::vector<format::Status> errors(nc);
-  std::atomic<bool> failed{false};
-  std::atomic<std::size_t> done{0};
-  std::mutex progress_mutex;
-  tbb::enumerable_thread_specific<ChunkSamplerWorkspace> workspaces;
-  tbb::task_arena arena(static_cast<int>(threads));
-  arena.execute([&] {
-    tbb::parallel_for(std::size_t{0}, nc, [&](std::size_t c) {
-      if (failed) return;
-      auto chunk = load_chunk(partition.chunks[c]);
-      format::Status st = chunk ? body(c, *chunk, workspaces.local()) : chunk.status();
-      if (!st) {
-        errors[c] = st;
-        failed = true;
-        return;
-      }
-      const std::size_t n = ++done;
-      if (options.progress) {
-        std::lock_guard<std::mutex> lock(progress_mutex);
-        options.progress(pass, n, nc, partition.faces);
-      }
-    });
+                              const OutOfCoreSimplifyOptions& options, const ChunkBody& body) {
+  return stream::for_each_chunk(partition, threads, body, [&](std::size_t done, std::size_t total) {
+    if (options.progress) options.progress(pass, done, total, partition.faces);
   });
-  for (const format::Status& e : errors)
-    if (!e) return e;
-  return format::Status();
 }
 
 }  // namespace
@@ -264,12 +233,9 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   if (options.spheres.empty() || options.threads == 0) {
     return format::Status::error(format::Code::kUsage, "simplify", "no orientation, or 0 threads");
   }
-  std::vector<GaussSphere> spheres;
-  for (const auto& o : options.spheres) {
-    auto g = GaussSphere::create(o);
-    if (!g) return g.status();
-    spheres.push_back(std::move(g).value());
-  }
+  auto created = create_spheres(options.spheres);
+  if (!created) return created.status();
+  std::vector<GaussSphere>& spheres = *created;
   PartitionOptions partition_options = options.partition;
   partition_options.rings = required_overlap_rings(options.sampler.smooth_iterations);
   partition_options.threads = options.threads;
