@@ -131,6 +131,9 @@ int run_sample_out_of_core(const SampleCommandOptions& o, const std::vector<stre
   options.progress = [&](std::size_t done, std::size_t total, std::uint64_t faces) {
     progress.update("sample", done, total, faces);
   };
+  options.partition.progress = [&](const char* pass, std::uint64_t done, std::uint64_t total) {
+    progress.update(pass, done, total, total);
+  };
   auto sampled = stream::sample_out_of_core(o.input, {}, options);
   if (!sampled) return report_error(sampled.status());
   const auto t1 = Clock::now();

@@ -57,6 +57,9 @@ int run_simplify_out_of_core(const SimplifyArgs& args, OutputKind kind, const st
   options.progress = [&](const char* pass, std::size_t done, std::size_t total, std::uint64_t faces) {
     progress.update(pass, done, total, faces);
   };
+  options.partition.progress = [&](const char* pass, std::uint64_t done, std::uint64_t total) {
+    progress.update(pass, done, total, total);
+  };
   auto result = stream::simplify_out_of_core(args.input, read_options, options);
   if (!result) return report_error(result.status());
   if (result->faces == 0) {

@@ -512,7 +512,13 @@ struct Grid {
 
 class IngestSink final : public format::MeshSink {
  public:
-  IngestSink(SpillWriter& positions, SpillWriter& faces) : positions_(positions), faces_(faces) {}
+  IngestSink(SpillWriter& positions, SpillWriter& faces,
+             const std::function<void(const char*, std::uint64_t, std::uint64_t)>& progress)
+      : positions_(positions), faces_(faces), progress_(progress) {}
+  Status on_header(const format::MeshHeader& header) override {
+    declared_faces_ = header.declared_faces.value_or(0);
+    return {};
+  }
   Status on_vertices(std::span<const Vec3f> batch) override {
     if (vertices_ + batch.size() > format::kMaxVertices) {
       return Status::error(Code::kResources, "", "more than " + std::to_string(format::kMaxVertices) +
@@ -531,6 +537,7 @@ class IngestSink final : public format::MeshSink {
   }
   Status on_triangles(std::span<const Triangle> batch) override {
     faces_count_ += batch.size();
+    if (progress_) progress_("ingest", faces_count_, std::max(declared_faces_, faces_count_));
     return faces_.write(batch.data(), batch.size_bytes());
   }
   std::uint64_t vertices() const { return vertices_; }
@@ -550,6 +557,8 @@ class IngestSink final : public format::MeshSink {
   SpillWriter& positions_;
   SpillWriter& faces_;
   std::uint64_t vertices_ = 0, faces_count_ = 0;
+  std::uint64_t declared_faces_ = 0;  // the header's count (polygons): untrusted, for progress only
+  const std::function<void(const char*, std::uint64_t, std::uint64_t)>& progress_;
   float lo_[3] = {INFINITY, INFINITY, INFINITY}, hi_[3] = {-INFINITY, -INFINITY, -INFINITY};
 };
 
@@ -740,6 +749,7 @@ class PartitionRun {
   Status write_chunks();
 
   const PartitionOptions& options_;
+  const char* scan_pass_ = "rings";  // what scan_faces reports to options_.progress
   Partition& out_;
   std::string positions_path_, faces_path_, vertices_path_;
   Planner planner_;
@@ -757,7 +767,7 @@ Status PartitionRun::ingest(const std::string& input_path, const format::ReadOpt
   SpillWriter positions, faces;
   GM_RETURN_IF_ERROR(positions.open(positions_path_, std::size_t{1} << 20));
   GM_RETURN_IF_ERROR(faces.open(faces_path_, std::size_t{1} << 20));
-  IngestSink sink(positions, faces);
+  IngestSink sink(positions, faces, options_.progress);
   Status status = format::read_mesh_file(input_path, read, sink);
   if (!status.is_ok()) {
     // A sink error has no place of its own: name the input.
@@ -846,6 +856,7 @@ Status PartitionRun::scan_faces(Fn&& fn, Stop&& stop) {
                                   }
                                   fn(first + i, t);
                                 }
+                                if (options_.progress) options_.progress(scan_pass_, first + batch.size(), out_.faces);
                                 if (stop()) return Status::error(Code::kOutput, out_.dir, "stopped");
                                 return cache_->status();
                               });
@@ -1034,6 +1045,7 @@ Status PartitionRun::run(const std::string& input_path, const format::ReadOption
     frontier_[1] = std::make_unique<CachedBitmap>(*cache_, *f1);
     GM_RETURN_IF_ERROR(expand_rings());
   }
+  scan_pass_ = "chunks";
   GM_RETURN_IF_ERROR(write_chunks());
   GM_RETURN_IF_ERROR(cache_->status());
   out_.bytes_spilled = bytes_spilled_ + cache_->bytes_written();

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -50,6 +51,10 @@ struct PartitionOptions {
   std::uint32_t max_open_chunks = 0;
   // zstd level of the chunk files (1 = fast; negative = faster, larger).
   int compression_level = 1;
+  // Called now and then with (pass, done, total): "ingest" counts triangles read against the
+  // count the header declares (0 when it declares none; untrusted, for display only); "rings"
+  // and "chunks" count the faces of each scan of the face spill against all faces.
+  std::function<void(const char*, std::uint64_t, std::uint64_t)> progress;
   // Where the run's temporary directory is made (empty = $TMPDIR, else /tmp).
   std::string tmp_dir;
 };
