@@ -101,6 +101,21 @@ format::Result<std::vector<GaussSphere>> create_spheres(const std::vector<GaussS
   return spheres;
 }
 
+std::uint64_t peak_rss() {
+  rusage usage{};
+  return ::getrusage(RUSAGE_SELF, &usage) == 0 ? static_cast<std::uint64_t>(usage.ru_maxrss) * 1024 : 0;
+}
+
+format::Result<Partition> partition_for_chunks(const std::string& input_path, const format::ReadOptions& read,
+                                               const PartitionOptions& options, const SamplerOptions& sampler,
+                                               std::uint32_t threads) {
+  PartitionOptions o = options;
+  o.rings = required_overlap_rings(sampler.smooth_iterations);
+  o.threads = threads;
+  if (o.max_chunk_faces == 0) o.max_chunk_faces = pass_two_chunk_faces(o.memory_bytes, threads);
+  return partition_mesh(input_path, read, o);
+}
+
 std::uint64_t pass_two_chunk_faces(std::uint64_t memory_bytes, std::uint32_t threads) {
   constexpr std::uint64_t kReserve = std::uint64_t{20} << 20, kBytesPerFace = 256;
   const std::uint64_t budget = memory_bytes > 2 * kReserve ? memory_bytes - kReserve : memory_bytes / 2;
@@ -119,12 +134,7 @@ format::Result<OutOfCoreSampling> sample_out_of_core(const std::string& input_pa
   }
   auto spheres = create_spheres(options.spheres);
   if (!spheres) return spheres.status();
-  PartitionOptions partition_options = options.partition;
-  partition_options.rings = required_overlap_rings(options.sampler.smooth_iterations);
-  partition_options.threads = options.threads;
-  if (partition_options.max_chunk_faces == 0)
-    partition_options.max_chunk_faces = pass_two_chunk_faces(partition_options.memory_bytes, options.threads);
-  auto partition = partition_mesh(input_path, read, partition_options);
+  auto partition = partition_for_chunks(input_path, read, options.partition, options.sampler, options.threads);
   if (!partition) return partition.status();
 
   OutOfCoreSampling out;
@@ -133,8 +143,7 @@ format::Result<OutOfCoreSampling> sample_out_of_core(const std::string& input_pa
   out.chunks = partition->chunks.size();
   out.seconds_ingest = partition->seconds_ingest;
   out.seconds_partition = partition->seconds_partition;
-  if (rusage usage{}; ::getrusage(RUSAGE_SELF, &usage) == 0)
-    out.peak_rss_after_partition = static_cast<std::uint64_t>(usage.ru_maxrss) * 1024;
+  out.peak_rss_after_partition = peak_rss();
   const auto start = std::chrono::steady_clock::now();
 
   // Per chunk and orientation: the chunk's samples and counts (output-sized).

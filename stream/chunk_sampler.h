@@ -71,6 +71,15 @@ using ChunkBody = std::function<format::Status(std::size_t, const ChunkMesh&, Ch
 format::Status for_each_chunk(const Partition& partition, std::uint32_t threads, const ChunkBody& body,
                               const std::function<void(std::size_t, std::size_t)>& progress);
 
+// Passes 0-1 for the chunk passes: options' memory and tmp dir, the overlap the sampler's
+// smoothing needs, chunks sized for `threads` in flight (unless max_chunk_faces is set).
+format::Result<Partition> partition_for_chunks(const std::string& input_path, const format::ReadOptions& read,
+                                               const PartitionOptions& options, const SamplerOptions& sampler,
+                                               std::uint32_t threads);
+
+// The process's peak RSS so far (getrusage), in bytes.
+std::uint64_t peak_rss();
+
 // The Gaussian spheres of `options` (kUsage for bad options).
 format::Result<std::vector<GaussSphere>> create_spheres(const std::vector<GaussSphereOptions>& options);
 

@@ -8,8 +8,6 @@
 #include <iterator>
 #include <numbers>
 
-#include <sys/resource.h>
-
 namespace gaussmesh::stream {
 namespace {
 
@@ -21,11 +19,6 @@ format::Status damaged(const std::string& what) { return format::Status::error(f
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-std::uint64_t peak_rss() {
-  rusage usage{};
-  return ::getrusage(RUSAGE_SELF, &usage) == 0 ? static_cast<std::uint64_t>(usage.ru_maxrss) * 1024 : 0;
 }
 
 // Loads every chunk and calls body (stream/chunk_sampler.h for_each_chunk), reporting `pass`.
@@ -236,12 +229,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   auto created = create_spheres(options.spheres);
   if (!created) return created.status();
   std::vector<GaussSphere>& spheres = *created;
-  PartitionOptions partition_options = options.partition;
-  partition_options.rings = required_overlap_rings(options.sampler.smooth_iterations);
-  partition_options.threads = options.threads;
-  if (partition_options.max_chunk_faces == 0)
-    partition_options.max_chunk_faces = pass_two_chunk_faces(partition_options.memory_bytes, options.threads);
-  auto partition = partition_mesh(input_path, read, partition_options);
+  auto partition = partition_for_chunks(input_path, read, options.partition, options.sampler, options.threads);
   if (!partition) return partition.status();
   OutOfCoreSimplify out;
   out.vertices = partition->vertices;
@@ -311,22 +299,37 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     return p < 0 ? kNone : merged.patch_of[p];
   };
 
+  // A chunk's faces under the merged patches: labels again (sample_chunk), pieces again
+  // (deterministic), owned faces through their piece, the others through the owners' answers;
+  // kNone where neither knows (faces far from every owned face).
+  auto merged_patches_of_chunk = [&](const ChunkMesh& chunk, ChunkSamplerWorkspace& ws,
+                                     std::vector<std::uint32_t>& patch) -> format::Status {
+    std::vector<GlobalSample> unused;
+    ChunkSamplingStats stats;
+    GM_RETURN_IF_ERROR(sample_chunk(chunk, gauss, options.sampler, ws, unused, stats));
+    ChunkPieces scratch;
+    std::vector<std::uint32_t> piece_index;
+    find_chunk_pieces(chunk, ws.adjacency, ws.labels, ws.feature, scratch, &piece_index);
+    patch.resize(chunk.triangles.size());
+    for (std::uint32_t f = 0; f < patch.size(); ++f) {
+      if (chunk.owned_face[f]) {
+        patch[f] = merged_patch_of_piece(PieceId{chunk.chunk} << 32 | piece_index[f]);
+      } else {
+        const std::int64_t p = stitched->patch_of_face(chunk.global_face[f]);
+        patch[f] = p < 0 ? kNone : merged.patch_of[p];
+      }
+    }
+    return format::Status();
+  };
+
   // Pass C: loops under the merged patches.
   std::vector<ChunkLoops> loops(nc);
   GM_RETURN_IF_ERROR(for_each_chunk(
       *partition, options.threads, "loops", options,
       [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
-        std::vector<GlobalSample> unused;
-        ChunkSamplingStats stats;
-        GM_RETURN_IF_ERROR(sample_chunk(chunk, gauss, options.sampler, ws, unused, stats));
-        ChunkPieces scratch;
-        std::vector<std::uint32_t> piece_index;
-        find_chunk_pieces(chunk, ws.adjacency, ws.labels, ws.feature, scratch, &piece_index);
-        auto patch_of_face = [&](std::uint32_t f) -> std::uint32_t {
-          if (chunk.owned_face[f]) return merged_patch_of_piece(PieceId{chunk.chunk} << 32 | piece_index[f]);
-          const std::int64_t p = stitched->patch_of_face(chunk.global_face[f]);
-          return p < 0 ? kNone : merged.patch_of[p];
-        };
+        std::vector<std::uint32_t> patch;
+        GM_RETURN_IF_ERROR(merged_patches_of_chunk(chunk, ws, patch));
+        auto patch_of_face = [&](std::uint32_t f) { return patch[f]; };
         auto is_corner = [&](std::uint32_t v) { return std::binary_search(corners.begin(), corners.end(), v); };
         find_chunk_loops(chunk, ws.adjacency, patch_of_face, is_corner, chosen[c], loops[c]);
         return format::Status();
@@ -368,16 +371,12 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     GM_RETURN_IF_ERROR(for_each_chunk(
         *partition, options.threads, "faces", options,
         [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
-          std::vector<GlobalSample> unused;
-          ChunkSamplingStats stats;
-          GM_RETURN_IF_ERROR(sample_chunk(chunk, gauss, options.sampler, ws, unused, stats));
-          ChunkPieces scratch;
-          std::vector<std::uint32_t> piece_index;
-          find_chunk_pieces(chunk, ws.adjacency, ws.labels, ws.feature, scratch, &piece_index);
+          std::vector<std::uint32_t> patch_of;
+          GM_RETURN_IF_ERROR(merged_patches_of_chunk(chunk, ws, patch_of));
           for (std::uint32_t f = 0; f < chunk.triangles.size(); ++f) {
             const auto& t = chunk.triangles[f];
             if (!chunk.owned_face[f] || is_collapsed(t)) continue;
-            const std::uint32_t patch = merged_patch_of_piece(PieceId{chunk.chunk} << 32 | piece_index[f]);
+            const std::uint32_t patch = patch_of[f];
             if (!std::binary_search(now.begin(), now.end(), patch)) continue;
             Fetched r{chunk.global_face[f], patch, {}, {}};
             for (int i = 0; i < 3; ++i) {
