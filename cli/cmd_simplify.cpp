@@ -120,6 +120,8 @@ int run_simplify_out_of_core(const SimplifyArgs& args, OutputKind kind, const st
     report["chunks"] = result->chunks;
     report["bytes_spilled"] = result->bytes_spilled;
     report["stitch_half_edges"] = result->stitch_half_edges;
+    report["stitch_runs"] = result->stitch_runs;
+    report["stitch_vertices"] = result->stitch_vertices;
     report["fetched_patches"] = result->fetched_patches;
     report["fetched_faces"] = result->fetched_faces;
     report["peak_rss_bytes"] = peak_rss_bytes();

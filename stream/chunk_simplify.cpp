@@ -1,12 +1,20 @@
 // simplify out of core: passes A-C over the chunks and the stitch. See chunk_simplify.h.
 #include "stream/chunk_simplify.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
-#include <map>
+#include <cstring>
 #include <iterator>
+#include <map>
 #include <numbers>
+#include <span>
+
+#include "format/record_file.h"
 
 namespace gaussmesh::stream {
 namespace {
@@ -45,8 +53,16 @@ void find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
     const std::uint32_t g = nb[3 * std::size_t{f} + i];
     return g == MeshAdjacency::kNoFace || patch[g] != patch[f];
   };
-  // Half-edges of owned faces on a patch border, with their successor around the end vertex
-  // (the polygon mesher's next_border, under the merged patches).
+  // Half-edges of owned faces on a patch border (ascending id, as faces are in ascending global
+  // id), with their successor around the end vertex (the polygon mesher's next_border, under the
+  // merged patches): its id, and its index here when an owned face holds it.
+  struct Half {
+    std::uint64_t id, next;
+    std::uint32_t from, patch, succ;
+    bool is_break;
+  };
+  std::vector<Half> halves;
+  std::vector<std::uint32_t> half_of(3 * nf, kNone);
   for (std::uint32_t f = 0; f < nf; ++f) {
     if (!chunk.owned_face[f] || is_collapsed(tris[f])) continue;
     for (int i = 0; i < 3; ++i) {
@@ -55,10 +71,12 @@ void find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
       std::uint32_t g = f;
       int j = (i + 1) % 3;
       std::uint64_t next = ~std::uint64_t{0};
+      std::uint32_t next_local = kNone;
       const std::size_t bound = adjacency.star_end(b) - adjacency.star_begin(b) + 2;
       for (std::size_t step = 0; step < bound; ++step) {
         if (border(g, j)) {
           next = 3 * chunk.global_face[g] + static_cast<std::uint64_t>(j);
+          if (chunk.owned_face[g] && !is_collapsed(tris[g])) next_local = 3 * g + static_cast<std::uint32_t>(j);
           break;
         }
         const std::uint32_t h = nb[3 * std::size_t{g} + j];
@@ -68,10 +86,48 @@ void find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
         g = h;
         j = k;
       }
-      out.half_edges.push_back({3 * chunk.global_face[f] + static_cast<std::uint64_t>(i), next,
-                                chunk.global_vertex[tris[f].v[i]], patch[f], nb[3 * std::size_t{f} + i] == MeshAdjacency::kNoFace});
+      half_of[3 * std::size_t{f} + i] = static_cast<std::uint32_t>(halves.size());
+      halves.push_back({3 * chunk.global_face[f] + static_cast<std::uint64_t>(i), next, tris[f].v[i], patch[f],
+                        next_local, nb[3 * std::size_t{f} + i] == MeshAdjacency::kNoFace});
     }
   }
+  for (Half& h : halves) h.succ = h.succ == kNone ? kNone : half_of[h.succ];
+  half_of = {};
+  // Runs: from every half-edge no owned half-edge leads to, along successors while they are
+  // here; what is left are loops inside the chunk, each one run from its lowest id.
+  std::vector<std::uint8_t> has_pred(halves.size(), 0), taken(halves.size(), 0);
+  for (const Half& h : halves)
+    if (h.succ != kNone) has_pred[h.succ] = 1;
+  auto emit_run = [&](std::uint32_t start) {
+    LoopRunRecord run;
+    run.first = halves[start].id;
+    run.min_id = run.first;
+    run.offset = out.run_vertices.size();
+    run.patch = halves[start].patch;
+    run.chunk = chunk.chunk;
+    std::uint32_t at = start;
+    for (;;) {
+      const Half& h = halves[at];
+      taken[at] = 1;
+      if (h.id < run.min_id) {
+        run.min_id = h.id;
+        run.min_index = run.length;
+      }
+      ++run.length;
+      run.breaks += h.is_break;
+      out.run_vertices.push_back({chunk.global_vertex[h.from], chunk.positions[h.from]});
+      run.next = h.next;
+      // A successor on another patch, or taken already (a successor with two predecessors), ends
+      // the run too: the stitch refuses what does not close into loops.
+      if (h.succ == kNone || h.succ == start || taken[h.succ] || halves[h.succ].patch != run.patch) break;
+      at = h.succ;
+    }
+    out.runs.push_back(run);
+  };
+  for (std::uint32_t k = 0; k < halves.size(); ++k)
+    if (!has_pred[k] && !taken[k]) emit_run(k);
+  for (std::uint32_t k = 0; k < halves.size(); ++k)
+    if (!taken[k]) emit_run(k);
   // Owned vertices with feature edges, and owned samples.
   for (std::uint32_t v = 0; v < chunk.positions.size(); ++v) {
     if (!chunk.owned_vertex[v]) continue;
@@ -94,6 +150,9 @@ void find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
                                     [](const GlobalSample& a, std::uint32_t x) { return a.vertex < x; });
     const bool is_sample = s != samples.end() && s->vertex == gv;
     if (degree == 0 && !is_sample) continue;
+    const bool is_turn = degree == 2 && out_breaks == 1 && in_breaks == 1 &&
+                         turns_at_boundary(chunk.positions[u], chunk.positions[v], chunk.positions[w]);
+    if (!is_sample && degree == 2 && !is_turn && !is_corner(gv)) continue;  // a plain chain vertex
     LoopVertexRecord r;
     r.vertex = gv;
     r.position = chunk.positions[v];
@@ -102,8 +161,7 @@ void find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
       r.role = VertexRole::kSample;
     } else if (degree == 1 || degree >= 3 || is_corner(gv)) {
       r.role = VertexRole::kCorner;
-    } else if (degree == 2 && out_breaks == 1 && in_breaks == 1 &&
-               turns_at_boundary(chunk.positions[u], chunk.positions[v], chunk.positions[w])) {
+    } else if (is_turn) {
       r.role = VertexRole::kCorner;
     }
     if (is_sample && degree == 0 && adjacency.star_end(v) > adjacency.star_begin(v))
@@ -127,92 +185,264 @@ void find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
   for (const auto& [p, sum] : areas) out.areas.emplace_back(p, sum);
 }
 
-format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoops>& chunks, std::size_t patches,
-                                               const std::vector<format::Vec3f>& plane_normal,
-                                               const std::vector<std::pair<std::uint32_t, format::Vec3f>>& extra_vertices) {
-  std::vector<HalfEdgeRecord> halves;
-  std::vector<LoopVertexRecord> vertices;
+format::Result<ChunkLoopSummary> spill_chunk_loops(ChunkLoops&& loops, const std::string& path) {
+  ChunkLoopSummary out;
+  out.runs = std::move(loops.runs);
+  out.vertices = std::move(loops.vertices);
+  out.areas = std::move(loops.areas);
+  out.entries = loops.run_vertices.size();
+  if (out.entries == 0) return out;
+  out.path = path;
+  auto writer = format::RecordWriter::create(path, kLoopVertexRecordKind, sizeof(LoopVertexEntry));
+  if (!writer) return writer.status();
+  static_assert(sizeof(LoopVertexEntry) == 16, "16 bytes per run vertex on disk");
+  GM_RETURN_IF_ERROR((*writer)->append(std::as_bytes(std::span(loops.run_vertices))));
+  GM_RETURN_IF_ERROR((*writer)->finish());
+  out.bytes = (*writer)->bytes_written();
+  loops.run_vertices = {};
+  return out;
+}
+
+namespace {
+
+// Positions by dense vertex id from the file stitch_loops writes: 12 bytes per vertex, read with
+// pread on demand (the mesher caches what it reads).
+class FilePositions final : public VertexPositionSource {
+ public:
+  FilePositions(int fd, std::string path, std::size_t count) : fd_(fd), path_(std::move(path)), count_(count) {}
+  ~FilePositions() override { ::close(fd_); }
+  format::Vec3f position(std::uint32_t v) override {
+    float xyz[3] = {0, 0, 0};
+    if (v >= count_ || ::pread(fd_, xyz, sizeof xyz, static_cast<off_t>(std::uint64_t{v} * sizeof xyz)) != sizeof xyz) {
+      if (status_.is_ok())
+        status_ = format::Status::error(format::Code::kOutput, path_, "cannot read the position of loop vertex " + std::to_string(v));
+      return {};
+    }
+    return {xyz[0], xyz[1], xyz[2]};
+  }
+  format::Status status() const override { return status_; }
+
+ private:
+  int fd_;
+  std::string path_;
+  std::size_t count_;
+  format::Status status_;
+};
+
+// Calls body(run index in chunk, index in run, entry) for every run vertex of a chunk's file,
+// checking the file against the summary (its runs tile the records in order).
+template <class Body>
+format::Status read_run_vertices(const ChunkLoopSummary& chunk, Body&& body) {
+  std::uint64_t expect = 0;
+  for (const LoopRunRecord& r : chunk.runs) {
+    if (r.offset != expect || r.length == 0) return damaged("the runs of " + chunk.path + " do not tile its records");
+    expect += r.length;
+  }
+  if (expect != chunk.entries) return damaged("the runs of " + chunk.path + " do not tile its records");
+  if (chunk.entries == 0) return format::Status();
+  auto reader = format::RecordReader::open(chunk.path, kLoopVertexRecordKind, sizeof(LoopVertexEntry));
+  if (!reader) return reader.status();
+  if ((*reader)->records() != chunk.entries) return damaged(chunk.path + " holds a different number of run vertices");
+  std::uint64_t at = 0;
+  std::size_t run = 0;
+  for (;;) {
+    auto frame = (*reader)->next();
+    if (!frame) return frame.status();
+    if (frame->empty()) break;
+    for (std::size_t k = 0; k + sizeof(LoopVertexEntry) <= frame->size(); k += sizeof(LoopVertexEntry), ++at) {
+      if (at >= chunk.entries) return damaged(chunk.path + " holds more run vertices than its runs");
+      while (at >= chunk.runs[run].offset + chunk.runs[run].length) ++run;
+      LoopVertexEntry e;
+      std::memcpy(&e, frame->data() + k, sizeof e);
+      body(run, static_cast<std::uint32_t>(at - chunk.runs[run].offset), e);
+    }
+  }
+  if (at != chunk.entries) return damaged(chunk.path + " holds fewer run vertices than its runs");
+  return format::Status();
+}
+
+}  // namespace
+
+format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummary>& chunks, std::size_t patches,
+                                               const std::vector<format::Vec3f>& plane_normal, const std::string& dir,
+                                               const std::vector<std::pair<std::uint32_t, format::Vec3f>>& extra_vertices,
+                                               LoopStitchStats* stats) {
   PolygonGraphInput g;
   g.patches = patches;
   g.patch_area.assign(patches, {0, 0, 0});
   g.patch_has_faces.assign(patches, 0);
-  std::size_t total_halves = 0, total_vertices = extra_vertices.size();
-  for (const ChunkLoops& c : chunks) {
-    total_halves += c.half_edges.size();
-    total_vertices += c.vertices.size();
+  g.plane_normal = plane_normal;
+  // Runs by first half-edge id.
+  struct RunRef {
+    std::uint64_t first;
+    std::uint32_t chunk, index;
+  };
+  std::vector<RunRef> by_first;
+  std::size_t total_runs = 0, total_records = extra_vertices.size();
+  for (const ChunkLoopSummary& c : chunks) {
+    total_runs += c.runs.size();
+    total_records += c.vertices.size();
   }
-  halves.reserve(total_halves);
-  vertices.reserve(total_vertices);
-  for (const ChunkLoops& c : chunks) {
-    halves.insert(halves.end(), c.half_edges.begin(), c.half_edges.end());
-    vertices.insert(vertices.end(), c.vertices.begin(), c.vertices.end());
-    for (const auto& [p, sum] : c.areas) {
+  by_first.reserve(total_runs);
+  for (std::uint32_t c = 0; c < chunks.size(); ++c) {
+    for (std::uint32_t k = 0; k < chunks[c].runs.size(); ++k) {
+      const LoopRunRecord& r = chunks[c].runs[k];
+      if (r.patch >= patches) return damaged("a loop run names an unknown patch");
+      if (r.min_index >= r.length) return damaged("a loop run's lowest half-edge lies outside it");
+      by_first.push_back({r.first, c, k});
+    }
+    for (const auto& [p, sum] : chunks[c].areas) {
       if (p >= patches) return damaged("a vector area names an unknown patch");
       for (int k = 0; k < 3; ++k) g.patch_area[p][k] += sum[k];
       g.patch_has_faces[p] = 1;
     }
   }
-  for (const auto& [v, position] : extra_vertices) {
-    LoopVertexRecord r;
-    r.vertex = v;
-    r.position = position;
-    vertices.push_back(r);
-  }
-  std::sort(halves.begin(), halves.end(), [](const auto& a, const auto& b) { return a.id < b.id; });
-  std::sort(vertices.begin(), vertices.end(), [](const auto& a, const auto& b) { return a.vertex < b.vertex; });
-  for (std::size_t k = 1; k < halves.size(); ++k)
-    if (halves[k].id == halves[k - 1].id) return damaged("half-edge " + std::to_string(halves[k].id) + " twice");
-  for (std::size_t k = 1; k < vertices.size(); ++k)
-    if (vertices[k].vertex == vertices[k - 1].vertex) return damaged("vertex " + std::to_string(vertices[k].vertex) + " twice");
-  auto half_at = [&](std::uint64_t id) -> std::int64_t {
-    auto it = std::lower_bound(halves.begin(), halves.end(), id, [](const auto& a, std::uint64_t x) { return a.id < x; });
-    return it != halves.end() && it->id == id ? it - halves.begin() : -1;
-  };
-  auto dense = [&](std::uint32_t v) -> std::int64_t {
-    auto it = std::lower_bound(vertices.begin(), vertices.end(), v, [](const auto& a, std::uint32_t x) { return a.vertex < x; });
-    return it != vertices.end() && it->vertex == v ? it - vertices.begin() : -1;
-  };
-  for (const LoopVertexRecord& r : vertices) {
-    g.positions.push_back(r.position);
-    g.global.push_back(r.vertex);
-    g.degree.push_back(r.degree);
-    g.role.push_back(r.role);
-  }
-  g.interior_samples.assign(patches, {});
-  for (std::size_t k = 0; k < vertices.size(); ++k) {
-    const std::uint32_t p = vertices[k].interior_patch;
-    if (p == kNone) continue;
-    if (p >= patches) return damaged("an interior sample names an unknown patch");
-    g.interior_samples[p].push_back(static_cast<std::uint32_t>(k));
-  }
-  g.plane_normal = plane_normal;
-  // Loops: each patch's from its lowest unwalked half-edge id.
-  std::vector<std::uint32_t> order(halves.size());
-  for (std::uint32_t k = 0; k < order.size(); ++k) order[k] = k;
-  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return halves[a].patch < halves[b].patch; });
-  std::vector<std::uint8_t> walked(halves.size(), 0);
-  std::size_t breaks = 0;
-  for (std::uint32_t start : order) {
-    if (walked[start]) continue;
-    PatchLoop loop;
-    loop.patch = halves[start].patch;
-    if (loop.patch >= patches) return damaged("a half-edge names an unknown patch");
-    std::int64_t at = start;
-    for (std::size_t guard = 0;; ++guard) {
-      if (at < 0 || guard > halves.size() || walked[at] || halves[at].patch != loop.patch)
-        return damaged("the half-edges of patch " + std::to_string(loop.patch) + " do not close into a loop");
-      walked[at] = 1;
-      const std::int64_t d = dense(halves[at].from);
-      if (d < 0) return damaged("no record for loop vertex " + std::to_string(halves[at].from));
-      loop.vertices.push_back(static_cast<std::uint32_t>(d));
-      loop.is_break.push_back(halves[at].is_break);
-      breaks += halves[at].is_break;
-      at = half_at(halves[at].next);
-      if (at == start) break;
+  std::sort(by_first.begin(), by_first.end(), [](const RunRef& a, const RunRef& b) { return a.first < b.first; });
+  for (std::size_t k = 1; k < by_first.size(); ++k)
+    if (by_first[k].first == by_first[k - 1].first) return damaged("half-edge " + std::to_string(by_first[k].first) + " starts two runs");
+  auto run_of = [&](std::size_t k) -> const LoopRunRecord& { return chunks[by_first[k].chunk].runs[by_first[k].index]; };
+  // Each run's successor; every run must have exactly one predecessor.
+  const std::size_t nr = by_first.size();
+  std::vector<std::uint32_t> succ(nr);
+  {
+    std::vector<std::uint8_t> preds(nr, 0);
+    for (std::size_t k = 0; k < nr; ++k) {
+      const LoopRunRecord& r = run_of(k);
+      auto it = std::lower_bound(by_first.begin(), by_first.end(), r.next,
+                                 [](const RunRef& a, std::uint64_t x) { return a.first < x; });
+      if (it == by_first.end() || it->first != r.next)
+        return damaged("the half-edges of patch " + std::to_string(r.patch) + " do not close into a loop");
+      const std::size_t s = it - by_first.begin();
+      if (run_of(s).patch != r.patch || preds[s]++)
+        return damaged("the half-edges of patch " + std::to_string(r.patch) + " do not close into a loop");
+      succ[k] = static_cast<std::uint32_t>(s);
     }
-    g.loops.push_back(std::move(loop));
   }
-  g.graph.feature_edges = breaks + (halves.size() - breaks) / 2;
+  // Loops: cycles of runs, each starting at its lowest half-edge id; a patch's loops in that order.
+  struct LoopInfo {
+    std::uint32_t patch;
+    std::uint64_t min_id;
+    std::uint32_t start;  // the run holding min_id (index in by_first)
+    std::uint64_t length;
+  };
+  std::vector<LoopInfo> infos;
+  std::size_t breaks = 0, halves = 0;
+  {
+    std::vector<std::uint8_t> walked(nr, 0);
+    for (std::size_t k = 0; k < nr; ++k) {
+      if (walked[k]) continue;
+      LoopInfo info{run_of(k).patch, run_of(k).min_id, static_cast<std::uint32_t>(k), 0};
+      for (std::size_t at = k; !walked[at]; at = succ[at]) {
+        walked[at] = 1;
+        const LoopRunRecord& r = run_of(at);
+        info.length += r.length;
+        breaks += r.breaks;
+        if (r.min_id < info.min_id) {
+          info.min_id = r.min_id;
+          info.start = static_cast<std::uint32_t>(at);
+        }
+      }
+      if (info.length >= 0xFFFFFFFFu) return damaged("a loop is too long");
+      halves += info.length;
+      infos.push_back(info);
+    }
+  }
+  std::sort(infos.begin(), infos.end(),
+            [](const LoopInfo& a, const LoopInfo& b) { return a.patch != b.patch ? a.patch < b.patch : a.min_id < b.min_id; });
+  // Where each run's vertices go: its loop, and its offset there before the loop is turned to
+  // start at min_id.
+  std::vector<std::uint32_t> run_loop(nr), run_at(nr);
+  std::vector<std::vector<std::uint32_t>> chunk_run(chunks.size());  // index in by_first of each chunk's runs
+  for (std::uint32_t c = 0; c < chunks.size(); ++c) chunk_run[c].resize(chunks[c].runs.size());
+  for (std::size_t k = 0; k < nr; ++k) chunk_run[by_first[k].chunk][by_first[k].index] = static_cast<std::uint32_t>(k);
+  g.loops.resize(infos.size());
+  for (std::uint32_t l = 0; l < infos.size(); ++l) {
+    g.loops[l].patch = infos[l].patch;
+    g.loops[l].vertices.resize(infos[l].length);
+    std::uint32_t at = 0, k = infos[l].start;
+    do {
+      run_loop[k] = l;
+      run_at[k] = at;
+      at += run_of(k).length;
+      k = succ[k];
+    } while (k != infos[l].start);
+  }
+  succ = {};
+  for (std::uint32_t c = 0; c < chunks.size(); ++c) {
+    GM_RETURN_IF_ERROR(read_run_vertices(chunks[c], [&](std::size_t run, std::uint32_t i, const LoopVertexEntry& e) {
+      const std::uint32_t k = chunk_run[c][run];
+      g.loops[run_loop[k]].vertices[run_at[k] + i] = e.vertex;
+    }));
+  }
+  for (std::uint32_t l = 0; l < infos.size(); ++l) {
+    auto& v = g.loops[l].vertices;
+    std::rotate(v.begin(), v.begin() + run_of(infos[l].start).min_index, v.end());
+  }
+  // Dense ids: every loop vertex, record and extra vertex, in global id order.
+  std::vector<std::uint32_t>& global = g.global;
+  global.reserve(halves + total_records);
+  for (const PatchLoop& loop : g.loops) global.insert(global.end(), loop.vertices.begin(), loop.vertices.end());
+  for (const ChunkLoopSummary& c : chunks)
+    for (const LoopVertexRecord& r : c.vertices) global.push_back(r.vertex);
+  for (const auto& e : extra_vertices) global.push_back(e.first);
+  std::sort(global.begin(), global.end());
+  global.erase(std::unique(global.begin(), global.end()), global.end());
+  global.shrink_to_fit();
+  const std::size_t nv = global.size();
+  auto dense = [&](std::uint32_t v) {
+    return static_cast<std::uint32_t>(std::lower_bound(global.begin(), global.end(), v) - global.begin());
+  };
+  for (PatchLoop& loop : g.loops)
+    for (std::uint32_t& v : loop.vertices) v = dense(v);
+  g.role.assign(nv, VertexRole::kNone);
+  g.interior_samples.assign(patches, {});
+  std::vector<std::uint8_t> has_record(nv, 0);
+  for (const ChunkLoopSummary& c : chunks) {
+    for (const LoopVertexRecord& r : c.vertices) {
+      const std::uint32_t d = dense(r.vertex);
+      if (has_record[d]++) return damaged("vertex " + std::to_string(r.vertex) + " twice");
+      g.role[d] = r.role;
+      if (r.degree > 0 && r.role != VertexRole::kNone) ++g.graph.corners;
+      if (r.interior_patch == kNone) continue;
+      if (r.interior_patch >= patches) return damaged("an interior sample names an unknown patch");
+      g.interior_samples[r.interior_patch].push_back(d);
+    }
+  }
+  has_record = {};
+  for (auto& list : g.interior_samples) std::sort(list.begin(), list.end());
+  g.graph.feature_edges = breaks + (halves - breaks) / 2;
+  // Positions in dense order, to a file: one range of dense ids at a time, the run files read
+  // once per range.
+  const std::string path = dir + "/loop-positions.bin";
+  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+  if (fd < 0) return format::Status::error(format::Code::kOutput, path, std::strerror(errno));
+  auto source = std::make_shared<FilePositions>(fd, path, nv);
+  constexpr std::size_t kRange = (std::size_t{8} << 20) / sizeof(format::Vec3f);
+  std::vector<format::Vec3f> buffer;
+  std::vector<std::uint8_t> filled;
+  for (std::size_t lo = 0; lo < nv; lo += kRange) {
+    const std::size_t hi = std::min(nv, lo + kRange);
+    buffer.assign(hi - lo, {});
+    filled.assign(hi - lo, 0);
+    auto put = [&](std::uint32_t v, const format::Vec3f& p) {
+      const std::size_t d = dense(v);
+      if (d < lo || d >= hi) return;
+      buffer[d - lo] = p;
+      filled[d - lo] = 1;
+    };
+    for (const ChunkLoopSummary& c : chunks) {
+      GM_RETURN_IF_ERROR(read_run_vertices(c, [&](std::size_t, std::uint32_t, const LoopVertexEntry& e) { put(e.vertex, e.position); }));
+      for (const LoopVertexRecord& r : c.vertices) put(r.vertex, r.position);
+    }
+    for (const auto& [v, p] : extra_vertices) put(v, p);
+    if (std::find(filled.begin(), filled.end(), 0) != filled.end()) return damaged("a loop vertex has no position");
+    const std::size_t bytes = buffer.size() * sizeof(format::Vec3f);
+    if (::pwrite(fd, buffer.data(), bytes, static_cast<off_t>(lo * sizeof(format::Vec3f))) != static_cast<ssize_t>(bytes))
+      return format::Status::error(format::Code::kOutput, path, "cannot write loop vertex positions: " + std::string(std::strerror(errno)));
+  }
+  g.position_source = std::move(source);
+  g.vertex_count = nv;
+  if (stats) *stats = {nr, halves, nv};
   return g;
 }
 
@@ -322,8 +552,8 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     return format::Status();
   };
 
-  // Pass C: loops under the merged patches.
-  std::vector<ChunkLoops> loops(nc);
+  // Pass C: loops under the merged patches; each chunk's run vertices go to a file.
+  std::vector<ChunkLoopSummary> loops(nc);
   GM_RETURN_IF_ERROR(for_each_chunk(
       *partition, options.threads, "loops", options,
       [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
@@ -331,24 +561,33 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
         GM_RETURN_IF_ERROR(merged_patches_of_chunk(chunk, ws, patch));
         auto patch_of_face = [&](std::uint32_t f) { return patch[f]; };
         auto is_corner = [&](std::uint32_t v) { return std::binary_search(corners.begin(), corners.end(), v); };
-        find_chunk_loops(chunk, ws.adjacency, patch_of_face, is_corner, chosen[c], loops[c]);
+        ChunkLoops found;
+        find_chunk_loops(chunk, ws.adjacency, patch_of_face, is_corner, chosen[c], found);
+        auto summary = spill_chunk_loops(std::move(found), partition->dir + "/loops-" + std::to_string(c) + ".gmr");
+        if (!summary) return summary.status();
+        loops[c] = std::move(summary).value();
         return format::Status();
       }));
-  for (const ChunkLoops& l : loops) out.stitch_half_edges += l.half_edges.size();
   out.peak_rss_after_loops = peak_rss();
   out.bytes_spilled = partition->bytes_spilled;
+  for (const ChunkLoopSummary& l : loops) out.bytes_spilled += l.bytes;
   std::vector<format::Vec3f> plane(merged.patch_label.size());
   for (std::size_t p = 0; p < plane.size(); ++p) {
     if (merged.patch_label[p] == kNoLabel) continue;
     const Vec3d& c = gauss.triangle_center(merged.patch_label[p]);
     plane[p] = {float(c.x), float(c.y), float(c.z)};
   }
-  auto graph = stitch_loops(loops, merged.patch_label.size(), plane);
+  LoopStitchStats stitch_stats;
+  auto graph = stitch_loops(loops, merged.patch_label.size(), plane, partition->dir, {}, &stitch_stats);
   if (!graph) return graph.status();
+  out.stitch_runs = stitch_stats.runs;
+  out.stitch_half_edges = stitch_stats.half_edges;
+  out.stitch_vertices = stitch_stats.vertices;
+  out.bytes_spilled += 12 * stitch_stats.vertices;
   out.seconds_stitch = seconds_since(start);
 
   start = std::chrono::steady_clock::now();
-  auto meshed = mesh_patch_loops(*graph);
+  auto meshed = mesh_patch_loops(std::move(*graph));
   if (!meshed) return meshed.status();
   // Patches that need their input faces: pass D collects them from the chunks (owned,
   // non-collapsed faces, ascending global id), then the mesher runs again from the start.
@@ -398,14 +637,11 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     std::sort(extra.begin(), extra.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     extra.erase(std::unique(extra.begin(), extra.end(), [](const auto& a, const auto& b) { return a.first == b.first; }),
                 extra.end());
-    std::vector<std::pair<std::uint32_t, format::Vec3f>> missing;
-    for (const auto& e : extra)
-      if (!std::binary_search(graph->global.begin(), graph->global.end(), e.first)) missing.push_back(e);
-    auto regraph = stitch_loops(loops, merged.patch_label.size(), plane, missing);
+    auto regraph = stitch_loops(loops, merged.patch_label.size(), plane, partition->dir, extra);
     if (!regraph) return regraph.status();
-    graph = std::move(regraph);
+    const std::vector<std::uint32_t>& global = regraph->global;
     auto dense = [&](std::uint32_t v) {
-      return static_cast<std::uint32_t>(std::lower_bound(graph->global.begin(), graph->global.end(), v) - graph->global.begin());
+      return static_cast<std::uint32_t>(std::lower_bound(global.begin(), global.end(), v) - global.begin());
     };
     std::map<std::uint32_t, PatchFaces> by_patch;
     for (const Fetched& r : fetched) {
@@ -413,10 +649,10 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
       pf.patch = r.patch;
       pf.triangles.push_back({dense(r.v[0]), dense(r.v[1]), dense(r.v[2])});
     }
-    for (auto& [patch, pf] : by_patch) graph->patch_faces.push_back(std::move(pf));
+    for (auto& [patch, pf] : by_patch) regraph->patch_faces.push_back(std::move(pf));
     out.fetched_patches = wanted.size();
     out.fetched_faces = fetched.size();
-    meshed = mesh_patch_loops(*graph);
+    meshed = mesh_patch_loops(std::move(*regraph));
     if (!meshed) return meshed.status();
   }
   partition->remove_temp();

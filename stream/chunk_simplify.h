@@ -25,47 +25,85 @@
 
 namespace gaussmesh::stream {
 
-// A feature half-edge of an owned face (patch on its left): id = 3 × global face + edge.
-struct HalfEdgeRecord {
-  std::uint64_t id = 0;
-  std::uint64_t next = 0;     // the next half-edge of the same loop, around the end vertex
-  std::uint32_t from = 0;     // global id of its start vertex
-  std::uint32_t patch = 0;    // merged patch on its left
-  bool is_break = false;      // boundary or non-manifold edge
+// Pass C chains the feature half-edges of a chunk's owned faces (half-edge id = 3 × global face +
+// edge, patch on its left) into runs: maximal sequences in which each half-edge's successor
+// around its end vertex (the polygon mesher's next_border, under the merged patches) is the next
+// one. A run ends where the successor lies on a face another chunk owns; a loop that never
+// leaves the chunk is one run that closes on itself. The stitch joins runs into loops by ids
+// alone, so it holds one summary per run, not one record per half-edge.
+struct LoopRunRecord {
+  std::uint64_t first = 0;     // id of its first half-edge
+  std::uint64_t next = 0;      // id of the successor of its last half-edge (another run's first)
+  std::uint64_t min_id = 0;    // its lowest half-edge id (a loop starts at its lowest)
+  std::uint64_t offset = 0;    // index of its first vertex in the chunk's run vertices
+  std::uint32_t min_index = 0; // index of min_id in the run
+  std::uint32_t length = 0;    // half-edges
+  std::uint32_t patch = 0;     // merged patch on the left
+  std::uint32_t breaks = 0;    // boundary or non-manifold half-edges among them
+  std::uint32_t chunk = 0;
 };
 
-// An owned vertex with feature edges, or an owned sample.
+// The start vertex of one half-edge of a run: 16 bytes in the chunk's run file.
+struct LoopVertexEntry {
+  std::uint32_t vertex = 0;  // global id
+  format::Vec3f position;
+};
+
+// An owned vertex the mesher must keep or place: a sample, or a corner (feature degree 1 or
+// >= 3, a candidate after the merge, a boundary turn).
 struct LoopVertexRecord {
   std::uint32_t vertex = 0;
   format::Vec3f position;
   std::uint32_t degree = 0;           // distinct feature edges under the merged patches
-  VertexRole role = VertexRole::kNone;  // kSample, kCorner or kNone (the mesher's rules)
+  VertexRole role = VertexRole::kNone;  // kSample or kCorner
   std::uint32_t interior_patch = 0xFFFFFFFFu;  // a sample off every feature edge: its patch
 };
 
 struct ChunkLoops {
-  std::vector<HalfEdgeRecord> half_edges;
-  std::vector<LoopVertexRecord> vertices;
+  std::vector<LoopRunRecord> runs;
+  std::vector<LoopVertexEntry> run_vertices;  // every run's start vertices, run after run
+  std::vector<LoopVertexRecord> vertices;     // ascending vertex
   // Per merged patch touched: the sum of its owned faces' cross products.
   std::vector<std::pair<std::uint32_t, std::array<double, 3>>> areas;
 };
 
 // Pass C for one chunk. patch_of_face(local face) gives the merged patch of every face sharing a
 // vertex with an owned face; is_corner(global vertex) whether it is a candidate after the merge;
-// samples are the chunk's owned samples (ascending). Appends to out.
+// samples are the chunk's owned samples (ascending). Appends to out (offsets count from the
+// run vertices already there).
 void find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
                       const std::function<std::uint32_t(std::uint32_t)>& patch_of_face,
                       const std::function<bool(std::uint32_t)>& is_corner, const std::vector<GlobalSample>& samples,
                       ChunkLoops& out);
 
-// The stitch's last step before the mesher: half-edges chained into loops (each patch's loops
-// from its lowest unwalked half-edge id, as mesh_patch_polygons walks them), vertices renumbered
-// densely in global id order. kBadInput when the records do not close into loops.
+// What the stitch keeps of a chunk's pass C: its run vertices go to a file, the rest stays.
+struct ChunkLoopSummary {
+  std::vector<LoopRunRecord> runs;
+  std::vector<LoopVertexRecord> vertices;
+  std::vector<std::pair<std::uint32_t, std::array<double, 3>>> areas;
+  std::string path;           // record file of its run vertices (kLoopVertexRecordKind)
+  std::uint64_t entries = 0;  // records in it
+  std::uint64_t bytes = 0;    // its size on disk
+};
+inline constexpr std::uint32_t kLoopVertexRecordKind = 0x564C4D47u;  // "GMLV"
+
+// Writes a chunk's run vertices to path (a record file) and returns the summary.
+format::Result<ChunkLoopSummary> spill_chunk_loops(ChunkLoops&& loops, const std::string& path);
+
+// The stitch's last step before the mesher: runs joined into loops (each patch's loops from
+// their lowest half-edge id, as mesh_patch_polygons walks them), vertices renumbered densely in
+// global id order. The loops hold 4 bytes per half-edge; positions go to a file in dir (dense
+// order) that the mesher reads on demand. Records are untrusted: runs that do not close into
+// loops, run files that disagree with their summaries, are kBadInput.
 // extra_vertices: (global id, position) of vertices no record names — the inner vertices of
-// fetched patch faces — added with degree 0 and no role. The chunks' records are left as they are.
-format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoops>& chunks, std::size_t patches,
-                                               const std::vector<format::Vec3f>& plane_normal,
-                                               const std::vector<std::pair<std::uint32_t, format::Vec3f>>& extra_vertices = {});
+// fetched patch faces — added with no role.
+struct LoopStitchStats {
+  std::size_t runs = 0, half_edges = 0, vertices = 0;
+};
+format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummary>& chunks, std::size_t patches,
+                                               const std::vector<format::Vec3f>& plane_normal, const std::string& dir,
+                                               const std::vector<std::pair<std::uint32_t, format::Vec3f>>& extra_vertices = {},
+                                               LoopStitchStats* stats = nullptr);
 
 struct OutOfCoreSimplifyOptions {
   PartitionOptions partition;  // memory, tmp dir; rings and threads follow from the fields below
@@ -88,7 +126,9 @@ struct OutOfCoreSimplify {
   std::uint64_t vertices = 0, faces = 0;
   std::size_t chunks = 0;
   std::uint64_t bytes_spilled = 0;
-  std::size_t stitch_half_edges = 0;  // records the stitch held at once (its memory grows with them)
+  std::size_t stitch_half_edges = 0;  // half-edges of the stitched loops (4 bytes each in memory)
+  std::size_t stitch_runs = 0;        // run summaries the stitch joined
+  std::size_t stitch_vertices = 0;    // loop vertices (positions on disk, 5 bytes each in memory)
   std::size_t fetched_patches = 0, fetched_faces = 0;  // input faces fetched for the mesher's last steps
   double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0, seconds_stitch = 0, seconds_mesh = 0;
   // The process's peak RSS (getrusage) after passes 0-1, after pass A/B, after the piece stitch

@@ -61,8 +61,14 @@ class PolygonMesher {
   // Out of core: everything from records (PolygonGraphInput); no faces.
   // graph's loops are moved from; its positions and plane normals must outlive the mesher.
   explicit PolygonMesher(PolygonGraphInput& graph)
-      : in_(nullptr), tris_(nullptr), positions_(graph.positions), plane_(graph.plane_normal), has_faces_(false),
+      : in_(nullptr),
+        tris_(nullptr),
+        positions_(graph.positions),
+        source_(graph.position_source),
+        plane_(graph.plane_normal),
+        has_faces_(false),
         from_mesh_(false) {
+    vertex_count_ = source_ ? graph.vertex_count : graph.positions.size();
     patch_count_ = graph.patches;
     // Input faces fetched for some patches: a face list per patch, as group_faces makes it.
     face_available_.assign(patch_count_, 0);
@@ -92,7 +98,7 @@ class PolygonMesher {
     }
     graph.loops = {};
     for (std::size_t q = 0; q < patch_count_; ++q) patch_loop_offset_[q + 1] += patch_loop_offset_[q];
-    degree_ = graph.degree;
+    degree_ = std::move(graph.degree);
     keep_.assign(graph.role.size(), Keep::kNo);
     for (std::size_t v = 0; v < graph.role.size(); ++v) {
       if (graph.role[v] == VertexRole::kSample) keep_[v] = Keep::kSample;
@@ -103,8 +109,9 @@ class PolygonMesher {
     for (const auto& list : interior_of_patch_) result_.stats.interior_samples += list.size();
     patch_area_ = graph.patch_area;
     patch_has_faces_ = graph.patch_has_faces;
-    global_ = graph.global;
+    global_ = std::move(graph.global);
     result_.mesh.graph = graph.graph;
+    corners_given_ = degree_.empty();
   }
 
   format::Result<PolygonMesherResult> run() {
@@ -132,7 +139,10 @@ class PolygonMesher {
         if (!has_faces(p) && (mode_[p] == PatchMode::kCollapsed || mode_[p] == PatchMode::kDensified))
           result_.needs_faces.push_back(p);
       }
-      if (!result_.needs_faces.empty()) return std::move(result_);
+      if (!result_.needs_faces.empty()) {
+        if (source_ && !source_->status().is_ok()) return source_->status();
+        return std::move(result_);
+      }
       for (std::uint32_t p : failed) densify(p);
     }
     return format::Status::error(format::Code::kProcessing, "polygon mesher",
@@ -141,6 +151,13 @@ class PolygonMesher {
 
  private:
   std::uint32_t vertex(std::uint32_t f, int i) const { return tris_[f].v[i]; }
+  // A vertex's position: in memory, or fetched once from the source.
+  const format::Vec3f& pos(std::uint32_t v) {
+    if (!source_) return positions_[v];
+    auto [it, inserted] = fetched_.try_emplace(v);
+    if (inserted) it->second = source_->position(v);
+    return it->second;
+  }
   std::uint32_t neighbor(std::uint32_t f, int i) const { return adj_.edge_neighbor[3 * std::size_t{f} + i]; }
   bool is_border(std::uint32_t f, int i) const {
     const std::uint32_t g = neighbor(f, i);
@@ -262,12 +279,11 @@ class PolygonMesher {
     }
   }
 
-  bool is_boundary_turn(const Loop& loop, std::size_t k) const {
+  bool is_boundary_turn(const Loop& loop, std::size_t k) {
     const std::size_t n = loop.vertices.size();
     const std::size_t prev = (k + n - 1) % n;
     if (!loop.is_break[prev] || !loop.is_break[k]) return false;
-    return turns_at_boundary(positions_[loop.vertices[prev]], positions_[loop.vertices[k]],
-                             positions_[loop.vertices[(k + 1) % n]]);
+    return turns_at_boundary(pos(loop.vertices[prev]), pos(loop.vertices[k]), pos(loop.vertices[(k + 1) % n]));
   }
 
   void keep(std::uint32_t v, Keep k) {
@@ -299,6 +315,7 @@ class PolygonMesher {
   }
 
   void count_corners() {
+    if (corners_given_) return;
     for (std::size_t v = 0; v < degree_.size(); ++v) {
       if (degree_[v] > 0 && (degree_[v] != 2 || keep_[v] != Keep::kNo)) ++result_.mesh.graph.corners;
     }
@@ -307,7 +324,7 @@ class PolygonMesher {
   // Chains between stops, canonical (the same whichever patch's loop they are read from), and
   // the guard rules over them.
   void choose_guards() {
-    auto is_stop = [&](std::uint32_t v) { return keep_[v] != Keep::kNo || degree_[v] != 2; };
+    auto is_stop = [&](std::uint32_t v) { return keep_[v] != Keep::kNo || (!corners_given_ && degree_[v] != 2); };
     struct Chain {
       std::vector<std::uint32_t> path;  // stop, inner..., stop; canonical direction
     };
@@ -525,7 +542,7 @@ class PolygonMesher {
       return static_cast<format::VertexIndex>(std::lower_bound(vertices.begin(), vertices.end(), v) - vertices.begin());
     };
     Mesh sub;
-    for (std::uint32_t v : vertices) sub.positions.push_back(positions_[v]);
+    for (std::uint32_t v : vertices) sub.positions.push_back(pos(v));
     for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
       const auto& t = tris_[patch_faces_[k]];
       sub.triangles.push_back({{local(t.v[0]), local(t.v[1]), local(t.v[2])}});
@@ -622,7 +639,7 @@ class PolygonMesher {
     auto local_id = [&](std::uint32_t v) {
       for (std::size_t i = 0; i < local_to_vertex.size(); ++i)
         if (local_to_vertex[i] == v) return static_cast<std::uint32_t>(i);
-      const auto& q = positions_[v];
+      const auto& q = pos(v);
       local_to_vertex.push_back(v);
       points.push_back({double(q.x), double(q.y), double(q.z)});
       return static_cast<std::uint32_t>(local_to_vertex.size() - 1);
@@ -637,8 +654,8 @@ class PolygonMesher {
       const auto& r = reduced_loops[l];
       for (std::size_t k = 0; k < r.size(); ++k) {
         local.push_back(local_id(r[k]));
-        const auto& a = positions_[r[k]];
-        const auto& b = positions_[r[(k + 1) % r.size()]];
+        const auto& a = pos(r[k]);
+        const auto& b = pos(r[(k + 1) % r.size()]);
         newell[0] += double(a.y) * b.z - double(a.z) * b.y;
         newell[1] += double(a.z) * b.x - double(a.x) * b.z;
         newell[2] += double(a.x) * b.y - double(a.y) * b.x;
@@ -736,7 +753,7 @@ class PolygonMesher {
     Mesh mesh;
     std::vector<VertexRole> roles;
     for (std::uint32_t v : used) {
-      mesh.positions.push_back(positions_[v]);
+      mesh.positions.push_back(pos(v));
       roles.push_back(keep_[v] == Keep::kSample   ? VertexRole::kSample
                       : keep_[v] == Keep::kCorner ? VertexRole::kCorner
                                                   : VertexRole::kGuard);
@@ -750,6 +767,7 @@ class PolygonMesher {
     auto collapsed = mesh_patches(phase_two);
     if (!collapsed) return collapsed.status();
     if (collapsed->skipped_input_faces > 0) return fail("a vertex of the output would not be manifold");
+    if (source_ && !source_->status().is_ok()) return source_->status();
     PolygonMesherResult out;
     out.stats = result_.stats;
     out.mesh = std::move(collapsed).value();
@@ -766,6 +784,10 @@ class PolygonMesher {
   const format::Triangle* tris_;
   std::vector<std::uint8_t> skip_;
   std::span<const format::Vec3f> positions_;
+  std::shared_ptr<VertexPositionSource> source_;          // out of core: positions on demand
+  std::unordered_map<std::uint32_t, format::Vec3f> fetched_;  // the positions read from source_
+  std::size_t vertex_count_ = 0;
+  bool corners_given_ = false;  // out of core without degrees: loop stops are the kept vertices
   std::span<const format::Vec3f> plane_;
   bool has_faces_;
   bool from_mesh_;                           // in core: everything comes from the mesh
@@ -837,14 +859,14 @@ format::Result<PolygonMesherResult> mesh_patch_polygons(const PatchMesherInput& 
 }
 
 format::Result<PolygonMesherResult> mesh_patch_loops(PolygonGraphInput graph) {
-  const std::size_t nv = graph.positions.size();
-  if (graph.degree.size() != nv || graph.role.size() != nv || (!graph.global.empty() && graph.global.size() != nv) ||
+  const std::size_t nv = graph.position_source ? graph.vertex_count : graph.positions.size();
+  if ((!graph.degree.empty() && graph.degree.size() != nv) || graph.role.size() != nv || (!graph.global.empty() && graph.global.size() != nv) ||
       graph.interior_samples.size() != graph.patches || graph.plane_normal.size() != graph.patches ||
       graph.patch_area.size() != graph.patches || graph.patch_has_faces.size() != graph.patches) {
     return format::Status::error(format::Code::kProcessing, "polygon mesher", "patch graph arrays do not match");
   }
   for (const PatchLoop& l : graph.loops) {
-    if (l.patch >= graph.patches || l.vertices.size() != l.is_break.size() || l.vertices.empty())
+    if (l.patch >= graph.patches || (!l.is_break.empty() && l.vertices.size() != l.is_break.size()) || l.vertices.empty())
       return format::Status::error(format::Code::kProcessing, "polygon mesher", "a loop is malformed");
     for (std::uint32_t v : l.vertices)
       if (v >= nv) return format::Status::error(format::Code::kProcessing, "polygon mesher", "a loop vertex is out of range");

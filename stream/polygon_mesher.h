@@ -23,6 +23,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "format/status.h"
@@ -69,21 +70,36 @@ format::Result<PolygonMesherResult> mesh_patch_polygons(const PatchMesherInput& 
 struct PatchLoop {
   std::uint32_t patch = 0;
   std::vector<std::uint32_t> vertices;  // the loop's half-edges' start vertices, patch on the left
-  std::vector<std::uint8_t> is_break;   // per half-edge: a break edge (boundary, non-manifold)
+  std::vector<std::uint8_t> is_break;   // per half-edge: a break edge (boundary, non-manifold); may be empty
 };
 // A patch's input faces (non-collapsed, ascending global face id), in the graph's vertex ids.
 struct PatchFaces {
   std::uint32_t patch = 0;
   std::vector<std::array<std::uint32_t, 3>> triangles;
 };
+// Positions of a graph's vertices fetched on demand (out of core: from a file the stitch wrote),
+// so the mesher holds positions only for the vertices it uses. A read that fails returns a zero
+// position and sets failed(); the mesher then ends with the source's error.
+class VertexPositionSource {
+ public:
+  virtual ~VertexPositionSource() = default;
+  virtual format::Vec3f position(std::uint32_t v) = 0;
+  virtual format::Status status() const = 0;
+};
+
 struct PolygonGraphInput {
-  std::vector<format::Vec3f> positions;  // every vertex a loop or a sample names
+  // Every vertex a loop or a sample names: in memory, or (positions empty) from position_source.
+  std::vector<format::Vec3f> positions;
+  std::shared_ptr<VertexPositionSource> position_source;
+  std::size_t vertex_count = 0;  // with position_source: the number of vertices
   std::vector<std::uint32_t> global;
   std::size_t patches = 0;
   // Loops of every patch, patches in id order, each patch's loops in walk order: a loop starts
   // at the lowest unwalked half-edge id (3 × face + edge) of its patch.
   std::vector<PatchLoop> loops;
-  std::vector<std::uint32_t> degree;  // distinct feature edges per vertex
+  // Distinct feature edges per vertex. May be empty: then every loop vertex with a degree other
+  // than 2 must have role kCorner, and graph.corners must be given.
+  std::vector<std::uint32_t> degree;
   // kSample, kCorner (a candidate after the merge, feature degree 1 or >= 3, or a boundary turn
   // of more than 30°), or kNone; per vertex.
   std::vector<VertexRole> role;
