@@ -21,7 +21,6 @@ namespace {
 
 constexpr std::uint32_t kNone = 0xFFFFFFFFu;
 
-bool is_collapsed(const format::Triangle& t) { return t.v[0] == t.v[1] || t.v[1] == t.v[2] || t.v[0] == t.v[2]; }
 
 format::Status damaged(const std::string& what) { return format::Status::error(format::Code::kBadInput, "stitch", what); }
 
@@ -39,11 +38,24 @@ format::Status for_each_chunk(const Partition& partition, std::uint32_t threads,
 
 }  // namespace
 
-void find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
-                      const std::function<std::uint32_t(std::uint32_t)>& patch_of_face,
-                      const std::function<bool(std::uint32_t)>& is_corner, const std::vector<GlobalSample>& samples,
-                      ChunkLoops& out) {
+format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& sampler_adjacency,
+                                const std::function<std::uint32_t(std::uint32_t)>& patch_of_face,
+                                const std::function<bool(std::uint32_t)>& is_corner,
+                                const std::vector<GlobalSample>& samples, ChunkLoops& out) {
   const std::size_t nf = chunk.triangles.size();
+  // The mesher leaves collapsed faces and repeats of a vertex set out, and walks an adjacency
+  // without them. A face and its repeats share their vertices, so they are owned by one chunk and
+  // travel together: the chunk sees every repeat the whole mesh has.
+  bool any_repeat = false;
+  const std::vector<std::uint8_t> skip = faces_the_mesher_skips(chunk.triangles, &any_repeat);
+  MeshAdjacency without_repeats;
+  if (any_repeat) {
+    std::vector<format::Triangle> kept(chunk.triangles);
+    for (std::size_t f = 0; f < nf; ++f)
+      if (skip[f]) kept[f] = {{kept[f].v[0], kept[f].v[0], kept[f].v[0]}};
+    GM_RETURN_IF_ERROR(build_mesh_adjacency({chunk.positions, kept}, without_repeats));
+  }
+  const MeshAdjacency& adjacency = any_repeat ? without_repeats : sampler_adjacency;
   const std::uint32_t* nb = adjacency.edge_neighbor.data();
   const std::uint32_t* corners = adjacency.vertex_corners.data();
   const auto& tris = chunk.triangles;
@@ -64,7 +76,7 @@ void find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
   std::vector<Half> halves;
   std::vector<std::uint32_t> half_of(3 * nf, kNone);
   for (std::uint32_t f = 0; f < nf; ++f) {
-    if (!chunk.owned_face[f] || is_collapsed(tris[f])) continue;
+    if (!chunk.owned_face[f] || skip[f]) continue;
     for (int i = 0; i < 3; ++i) {
       if (!border(f, i)) continue;
       const std::uint32_t b = tris[f].v[(i + 1) % 3];
@@ -76,7 +88,7 @@ void find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
       for (std::size_t step = 0; step < bound; ++step) {
         if (border(g, j)) {
           next = 3 * chunk.global_face[g] + static_cast<std::uint64_t>(j);
-          if (chunk.owned_face[g] && !is_collapsed(tris[g])) next_local = 3 * g + static_cast<std::uint32_t>(j);
+          if (chunk.owned_face[g] && !skip[g]) next_local = 3 * g + static_cast<std::uint32_t>(j);
           break;
         }
         const std::uint32_t h = nb[3 * std::size_t{g} + j];
@@ -171,7 +183,7 @@ void find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
   // Vector areas of the merged patches, over owned faces.
   std::map<std::uint32_t, std::array<double, 3>> areas;
   for (std::uint32_t f = 0; f < nf; ++f) {
-    if (!chunk.owned_face[f] || is_collapsed(tris[f])) continue;
+    if (!chunk.owned_face[f] || skip[f]) continue;
     const auto& a = chunk.positions[tris[f].v[0]];
     const auto& b = chunk.positions[tris[f].v[1]];
     const auto& c = chunk.positions[tris[f].v[2]];
@@ -183,6 +195,7 @@ void find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
     sum[2] += ux * vy - uy * vx;
   }
   for (const auto& [p, sum] : areas) out.areas.emplace_back(p, sum);
+  return format::Status();
 }
 
 format::Result<ChunkLoopSummary> spill_chunk_loops(ChunkLoops&& loops, const std::string& path) {
@@ -562,7 +575,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
         auto patch_of_face = [&](std::uint32_t f) { return patch[f]; };
         auto is_corner = [&](std::uint32_t v) { return std::binary_search(corners.begin(), corners.end(), v); };
         ChunkLoops found;
-        find_chunk_loops(chunk, ws.adjacency, patch_of_face, is_corner, chosen[c], found);
+        GM_RETURN_IF_ERROR(find_chunk_loops(chunk, ws.adjacency, patch_of_face, is_corner, chosen[c], found));
         auto summary = spill_chunk_loops(std::move(found), partition->dir + "/loops-" + std::to_string(c) + ".gmr");
         if (!summary) return summary.status();
         loops[c] = std::move(summary).value();
@@ -612,9 +625,10 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
         [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
           std::vector<std::uint32_t> patch_of;
           GM_RETURN_IF_ERROR(merged_patches_of_chunk(chunk, ws, patch_of));
+          const std::vector<std::uint8_t> skip = faces_the_mesher_skips(chunk.triangles);
           for (std::uint32_t f = 0; f < chunk.triangles.size(); ++f) {
             const auto& t = chunk.triangles[f];
-            if (!chunk.owned_face[f] || is_collapsed(t)) continue;
+            if (!chunk.owned_face[f] || skip[f]) continue;
             const std::uint32_t patch = patch_of[f];
             if (!std::binary_search(now.begin(), now.end(), patch)) continue;
             Fetched r{chunk.global_face[f], patch, {}, {}};

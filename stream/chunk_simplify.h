@@ -70,8 +70,9 @@ struct ChunkLoops {
 // Pass C for one chunk. patch_of_face(local face) gives the merged patch of every face sharing a
 // vertex with an owned face; is_corner(global vertex) whether it is a candidate after the merge;
 // samples are the chunk's owned samples (ascending). Appends to out (offsets count from the
-// run vertices already there).
-void find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
+// run vertices already there). Collapsed faces and repeats of a face's vertex set take no part
+// (faces_the_mesher_skips). Errors: the adjacency's, when repeats force a second one.
+format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
                       const std::function<std::uint32_t(std::uint32_t)>& patch_of_face,
                       const std::function<bool(std::uint32_t)>& is_corner, const std::vector<GlobalSample>& samples,
                       ChunkLoops& out);

@@ -816,15 +816,7 @@ class PolygonMesher {
 
 }  // namespace
 
-format::Result<PolygonMesherResult> mesh_patch_polygons(const PatchMesherInput& input) {
-  const std::size_t vertices = input.mesh.positions.size();
-  if (input.face_patch.size() != input.mesh.triangles.size() || input.vertex_role.size() != vertices) {
-    return format::Status::error(format::Code::kProcessing, "polygon mesher",
-                                 "face_patch or vertex_role does not match the mesh");
-  }
-  // Faces the mesher leaves out, as the collapse mesher does: repeated indices, and repeats of an
-  // earlier face's vertex set (which would make its edges non-manifold).
-  const auto& tris = input.mesh.triangles;
+std::vector<std::uint8_t> faces_the_mesher_skips(std::span<const format::Triangle> tris, bool* any_repeat) {
   std::vector<std::uint8_t> skip(tris.size(), 0);
   std::vector<std::pair<std::array<std::uint32_t, 3>, std::uint32_t>> keys;
   keys.reserve(tris.size());
@@ -838,11 +830,23 @@ format::Result<PolygonMesherResult> mesh_patch_polygons(const PatchMesherInput& 
     keys.emplace_back(key, f);
   }
   std::sort(keys.begin(), keys.end());
-  bool any_repeat = false;
+  bool repeat = false;
   for (std::size_t k = 1; k < keys.size(); ++k) {
-    if (keys[k].first == keys[k - 1].first) skip[keys[k].second] = any_repeat = 1;
+    if (keys[k].first == keys[k - 1].first) skip[keys[k].second] = repeat = true;
   }
-  keys = {};
+  if (any_repeat) *any_repeat = repeat;
+  return skip;
+}
+
+format::Result<PolygonMesherResult> mesh_patch_polygons(const PatchMesherInput& input) {
+  const std::size_t vertices = input.mesh.positions.size();
+  if (input.face_patch.size() != input.mesh.triangles.size() || input.vertex_role.size() != vertices) {
+    return format::Status::error(format::Code::kProcessing, "polygon mesher",
+                                 "face_patch or vertex_role does not match the mesh");
+  }
+  const auto& tris = input.mesh.triangles;
+  bool any_repeat = false;
+  std::vector<std::uint8_t> skip = faces_the_mesher_skips(tris, &any_repeat);
   format::Result<MeshAdjacency> adjacency = format::Status();
   if (any_repeat) {
     std::vector<format::Triangle> kept(tris.begin(), tris.end());

@@ -24,6 +24,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include "format/status.h"
@@ -45,6 +46,12 @@ struct PolygonMesherStats {
 // Whether a boundary turns by more than 30° at `at` (coming from prev, going to next): such a
 // boundary vertex is a corner (normals cannot see how a boundary curves within its surface).
 bool turns_at_boundary(const format::Vec3f& prev, const format::Vec3f& at, const format::Vec3f& next);
+
+// The input faces the mesher leaves out, as the collapse mesher does: collapsed faces (a
+// repeated index), and repeats of an earlier face's vertex set (which would make their edges
+// non-manifold). any_repeat (optional): whether there was a repeat. Its adjacency is the mesh's
+// with those faces collapsed (in no star).
+std::vector<std::uint8_t> faces_the_mesher_skips(std::span<const format::Triangle> triangles, bool* any_repeat = nullptr);
 
 struct PolygonMesherResult {
   PatchMesherResult mesh;  // planar_patches: triangulated in their plane; collapse_patches: 0

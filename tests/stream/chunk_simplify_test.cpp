@@ -109,6 +109,30 @@ TEST(ChunkSimplify, NoisyTorusWithDefectsFetchesPatchFaces) {
   expect_same_as_in_core({path, 1, 2, 200, 2});
 }
 
+// Repeats of a face's vertex set (CAD exports have them): the mesher leaves them out of its
+// adjacency; every chunk holding a face holds its repeats, so out of core does the same.
+TEST(ChunkSimplify, RepeatedFacesGiveTheInCoreOutput) {
+  testing::ScratchDir dir;
+  testing::ShapeOptions shape;
+  shape.vertices = 6000;
+  Mesh torus = testing::make_torus(1.0, 0.4, shape);
+  const std::size_t nf = torus.triangles.size();
+  for (std::size_t i = 0; i < 60; ++i) {
+    const auto t = torus.triangles[(i * 7919) % nf];
+    if (i % 3 == 0) torus.triangles.push_back(t);                            // the same face
+    if (i % 3 == 1) torus.triangles.push_back({{t.v[1], t.v[2], t.v[0]}});  // rotated
+    if (i % 3 == 2) torus.triangles.push_back({{t.v[0], t.v[2], t.v[1]}});  // flipped
+  }
+  const std::string path = dir.file("torus.ply");
+  {
+    auto out = format::OutputFile::create(path, true);
+    ASSERT_TRUE(out.is_ok());
+    ASSERT_TRUE(format::write_ply(**out, torus.view(), {}).is_ok());
+    ASSERT_TRUE((*out)->commit().is_ok());
+  }
+  expect_same_as_in_core({path, 0, 1, 120, 2});
+}
+
 // A square patch 0 whose loop runs through two chunks: chunk 0 holds half-edges 30, 31 (from
 // vertices 40, 41), chunk 1 holds 10, 11 (from 42, 43). Chunk 1 also owns vertex 41, a corner.
 std::vector<ChunkLoops> two_chunk_square() {
