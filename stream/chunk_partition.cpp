@@ -6,6 +6,7 @@
 #include "stream/chunk_partition.h"
 
 #include <fcntl.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -598,14 +599,16 @@ void remove_tree(const std::string& dir) {
 // Records bound for a set of chunk writers, staged in one frame-sized buffer per chunk. A full
 // buffer is one frame: compressed straight from the buffer (RecordWriter::append never copies a
 // whole frame), inline or — with background — by one compression thread fed through a queue
-// (frames of one chunk stay in order: one consumer, FIFO). Memory: (chunks + kSpare) frames.
+// (frames of one chunk stay in order: one consumer, FIFO). Memory: (chunks + spare) frames.
 class ChunkOutput {
  public:
-  static constexpr std::size_t kSpare = 4;
+  // Spare frames for the compression thread: enough that the scan seldom waits for one when
+  // frames are small (many chunks per scan make every frame small).
+  static std::size_t spare_frames(std::size_t chunks) { return std::max<std::size_t>(4, chunks / 8); }
 
   ChunkOutput(std::vector<std::unique_ptr<format::RecordWriter>>& writers, std::size_t frame_bytes, bool background)
       : writers_(writers), frame_bytes_(frame_bytes) {
-    const std::size_t buffers = writers.size() + (background ? kSpare : 0);
+    const std::size_t buffers = writers.size() + (background ? spare_frames(writers.size()) : 0);
     arena_.reset(new std::byte[buffers * frame_bytes]);  // touched only as records arrive
     for (std::size_t i = 0; i < writers.size(); ++i) staged_.push_back({arena_.get() + i * frame_bytes, 0});
     for (std::size_t i = writers.size(); i < buffers; ++i) free_.push_back(arena_.get() + i * frame_bytes);
@@ -928,10 +931,14 @@ Status PartitionRun::write_chunks() {
   const bool background = options_.threads > 1;
   const std::size_t writer_budget = options_.memory_bytes / 8;
   const std::size_t min_frame = std::size_t{64} * kChunkFaceRecordBytes;
-  const std::size_t spare = background ? ChunkOutput::kSpare : 0;
+  std::size_t spare = background ? ChunkOutput::spare_frames(0) : 0;
   std::size_t per_scan = std::max<std::size_t>(writer_budget / min_frame, spare + 1) - spare;
   if (options_.max_open_chunks > 0) per_scan = std::min<std::size_t>(per_scan, options_.max_open_chunks);
   per_scan = std::min<std::size_t>(per_scan, chunks);
+  if (background) {
+    spare = ChunkOutput::spare_frames(per_scan);
+    while (per_scan > 1 && (per_scan + spare) * min_frame > writer_budget) spare = ChunkOutput::spare_frames(--per_scan);
+  }
   std::size_t frame_bytes = std::clamp(writer_budget / (per_scan + spare), min_frame, std::size_t{1} << 20);
   frame_bytes -= frame_bytes % kChunkFaceRecordBytes;
   auto compressor = format::RecordCompressor::create(options_.compression_level);
@@ -939,7 +946,11 @@ Status PartitionRun::write_chunks() {
   format::RecordWriterOptions writer_options;
   writer_options.frame_bytes = frame_bytes;
   writer_options.shared = compressor->get();
-  writer_options.keep_open = per_scan <= 128;
+  // Writers keep their file open between frames when the descriptors fit well under the
+  // process's limit; else each frame reopens its file (an open and a close per frame).
+  rlimit files{};
+  const std::uint64_t fd_limit = ::getrlimit(RLIMIT_NOFILE, &files) == 0 ? files.rlim_cur : 1024;
+  writer_options.keep_open = per_scan <= 128 || per_scan + 256 <= fd_limit / 2;
 
   std::vector<std::unique_ptr<format::RecordWriter>> writers;
   std::vector<std::uint32_t> set;
