@@ -47,7 +47,7 @@ format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& sam
   // without them. A face and its repeats share their vertices, so they are owned by one chunk and
   // travel together: the chunk sees every repeat the whole mesh has.
   bool any_repeat = false;
-  const std::vector<std::uint8_t> skip = faces_the_mesher_skips(chunk.triangles, &any_repeat);
+  const std::vector<std::uint8_t> skip = faces_the_mesher_skips(chunk.triangles, sampler_adjacency, &any_repeat);
   MeshAdjacency without_repeats;
   if (any_repeat) {
     std::vector<format::Triangle> kept(chunk.triangles);
@@ -625,7 +625,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
         [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
           std::vector<std::uint32_t> patch_of;
           GM_RETURN_IF_ERROR(merged_patches_of_chunk(chunk, ws, patch_of));
-          const std::vector<std::uint8_t> skip = faces_the_mesher_skips(chunk.triangles);
+          const std::vector<std::uint8_t> skip = faces_the_mesher_skips(chunk.triangles, ws.adjacency);
           for (std::uint32_t f = 0; f < chunk.triangles.size(); ++f) {
             const auto& t = chunk.triangles[f];
             if (!chunk.owned_face[f] || skip[f]) continue;

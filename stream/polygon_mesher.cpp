@@ -816,18 +816,26 @@ class PolygonMesher {
 
 }  // namespace
 
-std::vector<std::uint8_t> faces_the_mesher_skips(std::span<const format::Triangle> tris, bool* any_repeat) {
+std::vector<std::uint8_t> faces_the_mesher_skips(std::span<const format::Triangle> tris, const MeshAdjacency& adjacency,
+                                                 bool* any_repeat) {
   std::vector<std::uint8_t> skip(tris.size(), 0);
   std::vector<std::pair<std::array<std::uint32_t, 3>, std::uint32_t>> keys;
-  keys.reserve(tris.size());
+  auto sorted = [&](std::uint32_t f) {
+    std::array<std::uint32_t, 3> key{tris[f].v[0], tris[f].v[1], tris[f].v[2]};
+    std::sort(key.begin(), key.end());
+    return key;
+  };
   for (std::uint32_t f = 0; f < tris.size(); ++f) {
     if (is_collapsed(tris[f])) {
       skip[f] = 1;
       continue;
     }
-    std::array<std::uint32_t, 3> key{tris[f].v[0], tris[f].v[1], tris[f].v[2]};
-    std::sort(key.begin(), key.end());
-    keys.emplace_back(key, f);
+    bool suspect = false;
+    for (int i = 0; i < 3 && !suspect; ++i) {
+      const std::uint32_t g = adjacency.edge_neighbor[3 * std::size_t{f} + i];
+      suspect = g == MeshAdjacency::kNoFace || sorted(g) == sorted(f);
+    }
+    if (suspect) keys.emplace_back(sorted(f), f);
   }
   std::sort(keys.begin(), keys.end());
   bool repeat = false;
@@ -845,19 +853,18 @@ format::Result<PolygonMesherResult> mesh_patch_polygons(const PatchMesherInput& 
                                  "face_patch or vertex_role does not match the mesh");
   }
   const auto& tris = input.mesh.triangles;
+  format::Result<MeshAdjacency> adjacency = build_mesh_adjacency(input.mesh);
+  if (!adjacency) return adjacency.status();
   bool any_repeat = false;
-  std::vector<std::uint8_t> skip = faces_the_mesher_skips(tris, &any_repeat);
-  format::Result<MeshAdjacency> adjacency = format::Status();
+  std::vector<std::uint8_t> skip = faces_the_mesher_skips(tris, *adjacency, &any_repeat);
   if (any_repeat) {
     std::vector<format::Triangle> kept(tris.begin(), tris.end());
     for (std::size_t f = 0; f < kept.size(); ++f) {
       if (skip[f]) kept[f] = {{tris[f].v[0], tris[f].v[0], tris[f].v[0]}};  // collapsed: in no star
     }
     adjacency = build_mesh_adjacency({input.mesh.positions, kept});
-  } else {
-    adjacency = build_mesh_adjacency(input.mesh);
+    if (!adjacency) return adjacency.status();
   }
-  if (!adjacency) return adjacency.status();
   PolygonMesher mesher(input, std::move(adjacency).value(), std::move(skip));
   return mesher.run();
 }

@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "format/status.h"
+#include "stream/mesh_adjacency.h"
 #include "stream/patch_mesher.h"
 
 namespace gaussmesh::stream {
@@ -50,8 +51,11 @@ bool turns_at_boundary(const format::Vec3f& prev, const format::Vec3f& at, const
 // The input faces the mesher leaves out, as the collapse mesher does: collapsed faces (a
 // repeated index), and repeats of an earlier face's vertex set (which would make their edges
 // non-manifold). any_repeat (optional): whether there was a repeat. Its adjacency is the mesh's
-// with those faces collapsed (in no star).
-std::vector<std::uint8_t> faces_the_mesher_skips(std::span<const format::Triangle> triangles, bool* any_repeat = nullptr);
+// with those faces collapsed (in no star). adjacency is the whole mesh's (build_mesh_adjacency):
+// two faces on one vertex set meet across a break edge or across each other, so only faces
+// with a break edge or a neighbour on their own vertex set are compared.
+std::vector<std::uint8_t> faces_the_mesher_skips(std::span<const format::Triangle> triangles,
+                                                 const MeshAdjacency& adjacency, bool* any_repeat = nullptr);
 
 struct PolygonMesherResult {
   PatchMesherResult mesh;  // planar_patches: triangulated in their plane; collapse_patches: 0
