@@ -79,24 +79,12 @@ format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& sam
     if (!chunk.owned_face[f] || skip[f]) continue;
     for (int i = 0; i < 3; ++i) {
       if (!border(f, i)) continue;
-      const std::uint32_t b = tris[f].v[(i + 1) % 3];
-      std::uint32_t g = f;
-      int j = (i + 1) % 3;
+      const auto [g, j] = next_loop_half_edge(adjacency, tris.data(), f, i, border);
       std::uint64_t next = ~std::uint64_t{0};
       std::uint32_t next_local = kNone;
-      const std::size_t bound = adjacency.star_end(b) - adjacency.star_begin(b) + 2;
-      for (std::size_t step = 0; step < bound; ++step) {
-        if (border(g, j)) {
-          next = 3 * chunk.global_face[g] + static_cast<std::uint64_t>(j);
-          if (chunk.owned_face[g] && !skip[g]) next_local = 3 * g + static_cast<std::uint32_t>(j);
-          break;
-        }
-        const std::uint32_t h = nb[3 * std::size_t{g} + j];
-        int k = 0;
-        while (k < 3 && tris[h].v[k] != b) ++k;
-        if (k == 3) break;
-        g = h;
-        j = k;
+      if (g != MeshAdjacency::kNoFace) {
+        next = 3 * chunk.global_face[g] + static_cast<std::uint64_t>(j);
+        if (chunk.owned_face[g] && !skip[g]) next_local = 3 * g + static_cast<std::uint32_t>(j);
       }
       half_of[3 * std::size_t{f} + i] = static_cast<std::uint32_t>(halves.size());
       halves.push_back({3 * chunk.global_face[f] + static_cast<std::uint64_t>(i), next, tris[f].v[i], patch[f],

@@ -189,20 +189,9 @@ class PolygonMesher {
   // The half-edge after (f, i) on the border of f's patch (by_patch) or on a break edge (not
   // by_patch): turn around its end vertex through the faces until such a half-edge leaves it.
   std::pair<std::uint32_t, int> next_border(std::uint32_t f, int i, bool by_patch = true) const {
-    const std::uint32_t b = vertex(f, (i + 1) % 3);
-    std::uint32_t g = f;
-    int j = (i + 1) % 3;
-    const std::size_t bound = adj_.star_end(b) - adj_.star_begin(b) + 2;
-    for (std::size_t step = 0; step < bound; ++step) {
-      if (by_patch ? is_border(g, j) : neighbor(g, j) == MeshAdjacency::kNoFace) return {g, j};
-      const std::uint32_t h = neighbor(g, j);
-      int k = 0;
-      while (k < 3 && vertex(h, k) != b) ++k;
-      if (k == 3) break;
-      g = h;
-      j = k;
-    }
-    return {kNone, 0};
+    return next_loop_half_edge(adj_, tris_, f, i, [&](std::uint32_t g, int j) {
+      return by_patch ? is_border(g, j) : neighbor(g, j) == MeshAdjacency::kNoFace;
+    });
   }
 
   // Loops of break edges (holes of the input), for the report.

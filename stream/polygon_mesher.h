@@ -57,6 +57,29 @@ bool turns_at_boundary(const format::Vec3f& prev, const format::Vec3f& at, const
 std::vector<std::uint8_t> faces_the_mesher_skips(std::span<const format::Triangle> triangles,
                                                  const MeshAdjacency& adjacency, bool* any_repeat = nullptr);
 
+// The half-edge after (f, i) on a loop: turn around its end vertex through the faces across
+// edges that are not on the loop until a half-edge leaving it is (is_on_loop(g, j)); a patch's
+// border loops and the input's break loops are both walked this way. {kNoFace, 0} when the
+// star gives none.
+template <class IsOnLoop>
+std::pair<std::uint32_t, int> next_loop_half_edge(const MeshAdjacency& adjacency, const format::Triangle* tris,
+                                                  std::uint32_t f, int i, IsOnLoop&& is_on_loop) {
+  const std::uint32_t b = tris[f].v[(i + 1) % 3];
+  std::uint32_t g = f;
+  int j = (i + 1) % 3;
+  const std::size_t bound = adjacency.star_end(b) - adjacency.star_begin(b) + 2;
+  for (std::size_t step = 0; step < bound; ++step) {
+    if (is_on_loop(g, j)) return {g, j};
+    const std::uint32_t h = adjacency.edge_neighbor[3 * std::size_t{g} + j];
+    int k = 0;
+    while (k < 3 && tris[h].v[k] != b) ++k;
+    if (k == 3) break;
+    g = h;
+    j = k;
+  }
+  return {MeshAdjacency::kNoFace, 0};
+}
+
 struct PolygonMesherResult {
   PatchMesherResult mesh;  // planar_patches: triangulated in their plane; collapse_patches: 0
   PolygonMesherStats stats;
