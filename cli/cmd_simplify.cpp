@@ -36,6 +36,42 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+// The report fields in and out of core share (DESIGN §5); result is a stream::SimplifyResult or
+// a stream::OutOfCoreSimplify.
+Json simplify_report(const SimplifyArgs& args, OutputKind kind, std::uint64_t input_vertices, std::uint64_t input_faces,
+                     const stream::GaussSphereOptions& sphere, const stream::SamplerOptions& sampler, const auto& result,
+                     std::size_t chosen, std::uint64_t bytes) {
+  Json report;
+  report["command"] = "simplify";
+  report["input"] = args.input;
+  report["output"] = args.output;
+  report["output_format"] = output_kind_name(kind);
+  report["input_vertices"] = input_vertices;
+  report["input_faces"] = input_faces;
+  report["gauss_base"] = stream::gauss_base_name(sphere.base);
+  report["gauss_frequency"] = sphere.frequency;
+  report["gauss_vertices"] = result.gauss_vertices;
+  report["gauss_triangles"] = result.gauss_triangles;
+  report["rotation"] = result.rotation;
+  report["orientations"] = result.samples_per_orientation.size();
+  report["orientation_chosen"] = chosen;
+  report["samples_per_orientation"] = result.samples_per_orientation;
+  report["sample_test"] = stream::sample_test_name(sampler.sample_test);
+  report["smooth"] = sampler.smooth_iterations;
+  report["patches"] = result.patches;
+  report["candidates"] = result.candidates;
+  report["samples"] = result.samples;
+  report["mesher_rounds"] = result.polygon.rounds;
+  report["refined_patches"] = result.polygon.refined_patches;
+  report["guards"] = result.polygon.guards;
+  report["output_vertices"] = result.mesh.positions.size();
+  report["output_faces"] = result.mesh.triangles.size();
+  report["output_bytes"] = bytes;
+  report["qp"] = args.qp;
+  report["cl"] = args.cl;
+  return report;
+}
+
 // --memory: the out-of-core pipeline (stream/chunk_simplify.h); same output as in core.
 int run_simplify_out_of_core(const SimplifyArgs& args, OutputKind kind, const std::vector<stream::GaussSphereOptions>& spheres,
                              const stream::SamplerOptions& sampler, const format::ReadOptions& read_options,
@@ -83,37 +119,11 @@ int run_simplify_out_of_core(const SimplifyArgs& args, OutputKind kind, const st
                  static_cast<unsigned long long>(*bytes), output_kind_name(kind), result->chunks);
   }
   if (!args.report.empty()) {
-    Json report;
-    report["command"] = "simplify";
-    report["input"] = args.input;
-    report["output"] = args.output;
-    report["output_format"] = output_kind_name(kind);
-    report["input_vertices"] = result->vertices;
-    report["input_faces"] = result->faces;
-    report["gauss_base"] = stream::gauss_base_name(spheres[0].base);
-    report["gauss_frequency"] = spheres[0].frequency;
-    report["gauss_vertices"] = result->gauss_vertices;
-    report["gauss_triangles"] = result->gauss_triangles;
-    report["rotation"] = result->rotation;
-    report["orientations"] = result->samples_per_orientation.size();
-    report["orientation_chosen"] = result->chosen;
-    report["samples_per_orientation"] = result->samples_per_orientation;
-    report["sample_test"] = stream::sample_test_name(sampler.sample_test);
-    report["smooth"] = sampler.smooth_iterations;
-    report["patches"] = result->patches;
-    report["candidates"] = result->candidates;
-    report["samples"] = result->samples;
+    Json report = simplify_report(args, kind, result->vertices, result->faces, spheres[0], sampler, *result,
+                                  result->chosen, *bytes);
     report["merged_patches"] = result->merged_patches;
     report["merge_rounds"] = result->merge_rounds;
     report["mesher"] = "patch";
-    report["mesher_rounds"] = result->polygon.rounds;
-    report["refined_patches"] = result->polygon.refined_patches;
-    report["guards"] = result->polygon.guards;
-    report["output_vertices"] = result->mesh.positions.size();
-    report["output_faces"] = result->mesh.triangles.size();
-    report["output_bytes"] = *bytes;
-    report["qp"] = args.qp;
-    report["cl"] = args.cl;
     report["out_of_core"] = true;
     report["memory_bytes"] = *memory;
     report["threads"] = options.threads;
@@ -206,26 +216,8 @@ int run_simplify(const SimplifyArgs& args) {
                  output_kind_name(*kind));
   }
   if (!args.report.empty()) {
-    Json report;
-    report["command"] = "simplify";
-    report["input"] = args.input;
-    report["output"] = args.output;
-    report["output_format"] = output_kind_name(*kind);
-    report["input_vertices"] = mesh->positions.size();
-    report["input_faces"] = mesh->triangles.size();
-    report["gauss_base"] = stream::gauss_base_name(options.spheres[0].base);
-    report["gauss_frequency"] = options.spheres[0].frequency;
-    report["gauss_vertices"] = result->gauss_vertices;
-    report["gauss_triangles"] = result->gauss_triangles;
-    report["rotation"] = result->rotation;
-    report["orientations"] = result->samples_per_orientation.size();
-    report["orientation_chosen"] = result->orientation_index;
-    report["samples_per_orientation"] = result->samples_per_orientation;
-    report["sample_test"] = stream::sample_test_name(options.sampler.sample_test);
-    report["smooth"] = options.sampler.smooth_iterations;
-    report["patches"] = result->patches;
-    report["candidates"] = result->candidates;
-    report["samples"] = result->samples;
+    Json report = simplify_report(args, *kind, mesh->positions.size(), mesh->triangles.size(), options.spheres[0],
+                                  options.sampler, *result, result->orientation_index, *bytes);
     report["mesher"] = stream::mesher_name(options.mesher);
     report["chains"] = result->graph.chains;
     report["corners"] = result->graph.corners;
@@ -235,21 +227,13 @@ int run_simplify(const SimplifyArgs& args) {
     report["skipped_input_faces"] = result->skipped_input_faces;
     report["planar_patches"] = result->planar_patches;
     report["collapse_patches"] = result->collapse_patches;
-    report["mesher_rounds"] = result->polygon.rounds;
     report["mean_plane_patches"] = result->polygon.mean_plane_patches;
-    report["refined_patches"] = result->polygon.refined_patches;
     report["densified_patches"] = result->polygon.densified_patches;
     report["collapsed_patches"] = result->polygon.collapsed_patches;
     report["original_patches"] = result->polygon.original_patches;
     report["interior_samples"] = result->polygon.interior_samples;
-    report["guards"] = result->polygon.guards;
     report["mesher_fallback"] = result->mesher_fallback;
     if (result->mesher_fallback) report["mesher_fallback_reason"] = result->mesher_fallback_reason;
-    report["output_vertices"] = result->mesh.positions.size();
-    report["output_faces"] = result->mesh.triangles.size();
-    report["output_bytes"] = *bytes;
-    report["qp"] = args.qp;
-    report["cl"] = args.cl;
     report["chunks"] = 1;
     report["peak_rss_bytes"] = peak_rss_bytes();
     report["seconds"] = {{"read", seconds_read},
