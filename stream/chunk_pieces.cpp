@@ -96,7 +96,7 @@ void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const
         e.next = chunk.global_face[g];
         e.next_owner = face_owner(partition, chunk, g);
       }
-      e.entering_break = nb[3 * std::size_t{f} + (i + 2) % 3] == MeshAdjacency::kNoFace;
+      e.entering_break = nb[3 * std::size_t{f} + (i + 2) % 3] == MeshAdjacency::kNoFace ? 1 : 0;
       out.star.push_back(e);
       in_star[f] = 1;
       if (g != MeshAdjacency::kNoFace) in_star[g] = 1;
@@ -157,6 +157,9 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
                                               std::uint64_t memory_bytes) {
   // Dense indices for pieces: ascending piece id.
   std::vector<PieceRecord> pieces;
+  std::size_t total_pieces = 0;
+  for (const ChunkPieces& c : chunks) total_pieces += c.pieces.size();
+  pieces.reserve(total_pieces);
   for (const ChunkPieces& c : chunks) pieces.insert(pieces.end(), c.pieces.begin(), c.pieces.end());
   std::vector<std::uint32_t> order(pieces.size());
   std::iota(order.begin(), order.end(), 0u);
@@ -244,11 +247,18 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
   // Candidates' stars in patches: each face's piece from its owner's answers, for a group of
   // chunks at a time (each answer file read once per group, the group's requests in memory),
   // then the chunks' stars are dropped.
-  const std::size_t group_entries = std::max<std::uint64_t>(bucket_bytes(memory_bytes) / 32, 1024);
+  const std::size_t group_entries = std::max<std::uint64_t>(bucket_bytes(memory_bytes) / 64, 1024);  // ~60 B an entry
   std::vector<std::uint32_t> owners;
   std::vector<std::uint64_t> faces;
   std::vector<PieceId> found;
   auto patch_of = [&](PieceId piece) { return piece == kNoPiece ? -1 : out.patch_of_piece(piece); };
+  std::size_t total_candidates = 0, total_entries = 0;
+  for (const ChunkPieces& c : chunks) {
+    total_candidates += c.candidates.size();
+    total_entries += c.star.size();
+  }
+  out.candidates.reserve(total_candidates);
+  out.star.reserve(total_entries);
   for (std::size_t first = 0; first < chunks.size();) {
     std::size_t last = first, entries = 0;
     while (last < chunks.size() && (last == first || entries + chunks[last].star.size() <= group_entries))
@@ -286,8 +296,8 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
           out.star.push_back(s);
         }
       }
-      chunks[c].star = {};
-      chunks[c].candidates = {};
+      std::vector<StarEntry>().swap(chunks[c].star);  // "= {}" would keep the capacity
+      std::vector<CandidateRecord>().swap(chunks[c].candidates);
     }
     first = last;
   }

@@ -65,13 +65,15 @@ struct FacePieceRecord {
 // break]: with pieces for faces, the stitch recounts it after merges change labels.
 // The owners (chunks) of the two faces say whose answers the stitch reads for them.
 inline constexpr std::uint64_t kNoFaceId = ~std::uint64_t{0};
+// Chunks number < 2^18 (the partition's cells), so an owner fits in 31 bits.
 struct StarEntry {
   std::uint64_t face = 0;
   std::uint64_t next = kNoFaceId;
-  std::uint32_t owner = 0;       // of face
-  std::uint32_t next_owner = 0;  // of next (0 for a break)
-  bool entering_break = false;
+  std::uint32_t owner = 0;                 // of face
+  std::uint32_t next_owner : 31 = 0;       // of next (0 for a break)
+  std::uint32_t entering_break : 1 = 0;
 };
+static_assert(sizeof(StarEntry) == 24, "one star entry per candidate face stays in memory until the stitch");
 
 // An owned vertex with >= 3 feature edges (a candidate before the merge): its star.
 struct CandidateRecord {

@@ -127,7 +127,7 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
       return Status::error(Code::kProcessing, "stitch", "face answers of chunk " + std::to_string(chunk) + " not ascending");
   }
   GM_RETURN_IF_ERROR(write_answer_file(chunk, pieces.border_faces));
-  pieces.border_faces = {};
+  std::vector<FacePieceRecord>().swap(pieces.border_faces);  // "= {}" would keep the capacity
   // Border edges grouped by bucket (a counting sort), then appended under the lock.
   const std::size_t nb = bucket_paths_.size();
   std::vector<std::size_t> start(nb + 1, 0);
@@ -150,7 +150,7 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
     bucket_records_[b] += start[b + 1] - start[b];
   }
   border_records_ += pieces.border.size();
-  pieces.border = {};
+  std::vector<BorderEdgeRecord>().swap(pieces.border);
   return {};
 }
 
