@@ -841,7 +841,13 @@ Status PartitionRun::plan() {
   GM_RETURN_IF_ERROR(vertices.close());
   bytes_spilled_ += vertices.bytes();
   ::unlink(positions_path_.c_str());
-  std::vector<std::uint32_t>().swap(p.cell_chunk);
+  // The cell table stays with the partition for owner_of.
+  for (int a = 0; a < 3; ++a) {
+    out_.owner_map.lo[a] = p.grid.lo[a];
+    out_.owner_map.scale[a] = p.grid.scale[a];
+    out_.owner_map.n[a] = p.grid.n[a];
+  }
+  out_.owner_map.cell_chunk = std::move(p.cell_chunk);
   return {};
 }
 
@@ -1094,9 +1100,22 @@ Partition& Partition::operator=(Partition&& other) noexcept {
   seconds_ingest = other.seconds_ingest;
   seconds_partition = other.seconds_partition;
   temp_slot = other.temp_slot;
+  owner_map = std::move(other.owner_map);
   other.dir.clear();
   other.temp_slot = -1;
   return *this;
+}
+
+std::uint32_t Partition::owner_of(const Vec3f& p) const {
+  if (owner_map.cell_chunk.empty()) return 0;
+  Grid grid;
+  for (int a = 0; a < 3; ++a) {
+    grid.lo[a] = owner_map.lo[a];
+    grid.scale[a] = owner_map.scale[a];
+    grid.n[a] = owner_map.n[a];
+  }
+  const std::uint32_t cell = grid.cell(p);
+  return cell < owner_map.cell_chunk.size() ? owner_map.cell_chunk[cell] : 0;
 }
 
 void Partition::remove_temp() {

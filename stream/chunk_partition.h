@@ -88,6 +88,19 @@ struct Partition {
   // Deletes dir now (idempotent).
   void remove_temp();
 
+  // The chunk owning a vertex at p: the chunk of its grid cell, computed with pass 1's own
+  // arithmetic (the same function on the same grid), so it agrees bit for bit with the ownership
+  // flags of the chunk files. Any p is accepted (NaN and out-of-bounds coordinates clamp as in
+  // pass 1); 0 when there are no chunks.
+  std::uint32_t owner_of(const format::Vec3f& p) const;
+  // The map behind owner_of: the cell grid (origin, cells per unit, cells per axis) and the
+  // chunk of every cell (at most 2^18 cells: 1 MiB, whatever the input size).
+  struct OwnerMap {
+    double lo[3] = {0, 0, 0}, scale[3] = {0, 0, 0};
+    std::uint32_t n[3] = {1, 1, 1};
+    std::vector<std::uint32_t> cell_chunk;
+  } owner_map;
+
   int temp_slot = -1;  // format::register_temp_path slot of dir
 };
 

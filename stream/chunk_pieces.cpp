@@ -6,6 +6,8 @@
 #include <numeric>
 #include <string>
 
+#include "stream/piece_joins.h"
+
 namespace gaussmesh::stream {
 namespace {
 
@@ -17,8 +19,15 @@ format::Status damaged(const std::string& what) {
 
 }  // namespace
 
-void find_chunk_pieces(const ChunkMesh& chunk, const MeshAdjacency& adjacency, const std::vector<std::uint32_t>& labels,
-                       const std::vector<std::uint8_t>& feature, ChunkPieces& out, std::vector<std::uint32_t>* piece_index) {
+std::uint32_t face_owner(const Partition& partition, const ChunkMesh& chunk, std::uint32_t f) {
+  if (chunk.owned_face[f]) return chunk.chunk;
+  const auto& v = chunk.triangles[f].v;
+  return partition.owner_of(chunk.positions[std::min({v[0], v[1], v[2]})]);
+}
+
+void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const MeshAdjacency& adjacency,
+                       const std::vector<std::uint32_t>& labels, const std::vector<std::uint8_t>& feature,
+                       ChunkPieces& out, std::vector<std::uint32_t>* piece_index) {
   const std::size_t nf = chunk.triangles.size();
   const std::uint32_t* nb = adjacency.edge_neighbor.data();
   std::vector<std::uint32_t> piece_of(nf, kUnassigned), stack;
@@ -80,8 +89,15 @@ void find_chunk_pieces(const ChunkMesh& chunk, const MeshAdjacency& adjacency, c
     for (std::uint32_t k = sb; k < se; ++k) {
       const std::uint32_t f = corners[k] / 3, i = corners[k] % 3;
       const std::uint32_t g = nb[3 * std::size_t{f} + i];
-      out.star.push_back({chunk.global_face[f], g == MeshAdjacency::kNoFace ? kNoFaceId : chunk.global_face[g],
-                          nb[3 * std::size_t{f} + (i + 2) % 3] == MeshAdjacency::kNoFace});
+      StarEntry e;
+      e.face = chunk.global_face[f];
+      e.owner = face_owner(partition, chunk, f);
+      if (g != MeshAdjacency::kNoFace) {
+        e.next = chunk.global_face[g];
+        e.next_owner = face_owner(partition, chunk, g);
+      }
+      e.entering_break = nb[3 * std::size_t{f} + (i + 2) % 3] == MeshAdjacency::kNoFace ? 1 : 0;
+      out.star.push_back(e);
       in_star[f] = 1;
       if (g != MeshAdjacency::kNoFace) in_star[g] = 1;
     }
@@ -111,18 +127,39 @@ void find_chunk_pieces(const ChunkMesh& chunk, const MeshAdjacency& adjacency, c
 
 std::int64_t StitchedPatches::patch_of_piece(PieceId piece) const {
   auto it = std::lower_bound(sorted_pieces.begin(), sorted_pieces.end(), piece);
-  return it != sorted_pieces.end() && *it == piece ? sorted_piece_patch[it - sorted_pieces.begin()] : -1;
+  return it != sorted_pieces.end() && *it == piece ? std::int64_t{sorted_piece_patch[it - sorted_pieces.begin()]} : -1;
 }
 
-std::int64_t StitchedPatches::patch_of_face(std::uint64_t face) const {
-  auto it = std::lower_bound(answers.begin(), answers.end(), face,
-                             [](const FacePieceRecord& a, std::uint64_t f) { return a.face < f; });
-  return it != answers.end() && it->face == face ? patch_of_piece(it->piece) : -1;
+format::Status chunk_face_pieces(const Partition& partition, const ChunkMesh& chunk,
+                                 const std::vector<std::uint32_t>& piece_index, const PieceJoinFiles& joins,
+                                 std::vector<PieceId>& pieces) {
+  const std::size_t nf = chunk.triangles.size();
+  if (piece_index.size() != nf) return damaged("piece index of chunk " + std::to_string(chunk.chunk) + " has the wrong size");
+  pieces.assign(nf, kNoPiece);
+  std::vector<std::uint32_t> owners, local;
+  std::vector<std::uint64_t> faces;
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    if (chunk.owned_face[f]) {
+      pieces[f] = PieceId{chunk.chunk} << 32 | piece_index[f];
+    } else {
+      owners.push_back(face_owner(partition, chunk, f));
+      faces.push_back(chunk.global_face[f]);
+      local.push_back(f);
+    }
+  }
+  std::vector<PieceId> found(faces.size());
+  GM_RETURN_IF_ERROR(joins.look_up(owners, faces, found));
+  for (std::size_t k = 0; k < local.size(); ++k) pieces[local[k]] = found[k];
+  return {};
 }
 
-format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks) {
+format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, const PieceJoinFiles& joins,
+                                              std::uint64_t memory_bytes) {
   // Dense indices for pieces: ascending piece id.
   std::vector<PieceRecord> pieces;
+  std::size_t total_pieces = 0;
+  for (const ChunkPieces& c : chunks) total_pieces += c.pieces.size();
+  pieces.reserve(total_pieces);
   for (const ChunkPieces& c : chunks) pieces.insert(pieces.end(), c.pieces.begin(), c.pieces.end());
   std::vector<std::uint32_t> order(pieces.size());
   std::iota(order.begin(), order.end(), 0u);
@@ -132,7 +169,7 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks) 
   if (std::adjacent_find(sorted_ids.begin(), sorted_ids.end()) != sorted_ids.end()) return damaged("a piece id appears twice");
   auto dense = [&](PieceId id) -> std::int64_t {
     auto it = std::lower_bound(sorted_ids.begin(), sorted_ids.end(), id);
-    return it != sorted_ids.end() && *it == id ? order[it - sorted_ids.begin()] : -1;
+    return it != sorted_ids.end() && *it == id ? std::int64_t{order[it - sorted_ids.begin()]} : -1;
   };
   std::vector<std::uint32_t> parent(pieces.size());
   std::iota(parent.begin(), parent.end(), 0u);
@@ -152,39 +189,24 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks) 
       shared.push_back({static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b), r.edges});
     }
   }
-  // Border edges: both sides of every edge, joined on the unordered face pair.
-  std::vector<BorderEdgeRecord> border;
-  for (ChunkPieces& c : chunks) {
-    border.insert(border.end(), c.border.begin(), c.border.end());
-    c.border = {};
-  }
-  auto key = [](const BorderEdgeRecord& r) {
-    return std::pair(std::min(r.face, r.other), std::max(r.face, r.other));
-  };
-  std::sort(border.begin(), border.end(), [&](const BorderEdgeRecord& x, const BorderEdgeRecord& y) {
-    return key(x) != key(y) ? key(x) < key(y) : x.face < y.face;
-  });
-  for (std::size_t k = 0; k < border.size(); k += 2) {
-    if (k + 1 >= border.size() || key(border[k]) != key(border[k + 1]) ||
-        (k + 2 < border.size() && key(border[k + 2]) == key(border[k])) || border[k].face == border[k + 1].face) {
-      return damaged("border edge between faces " + std::to_string(border[k].face) + " and " +
-                     std::to_string(border[k].other) + " is not seen once from each side");
-    }
-    if (border[k].feature != border[k + 1].feature) {
-      return damaged("the two sides of the edge between faces " + std::to_string(border[k].face) + " and " +
-                     std::to_string(border[k].other) + " disagree on whether it is a feature edge");
-    }
-    const std::int64_t a = dense(border[k].piece), b = dense(border[k + 1].piece);
-    if (a < 0 || b < 0) return damaged("a border edge names an unknown piece");
-    if (border[k].feature) {
-      shared.push_back({static_cast<std::uint32_t>(std::min(a, b)), static_cast<std::uint32_t>(std::max(a, b)), 1});
-    } else {
-      if (pieces[a].label != pieces[b].label) return damaged("two pieces of different labels are joined");
-      const std::uint32_t ra = find(static_cast<std::uint32_t>(a)), rb = find(static_cast<std::uint32_t>(b));
-      if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
-    }
-  }
-  border = {};
+  // Border edges: both sides of every edge, joined on the unordered face pair a bucket at a
+  // time; what stays is per piece pair.
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint64_t> border_shared;
+  GM_RETURN_IF_ERROR(joins.join_border_edges(
+      memory_bytes, [&](const BorderEdgeRecord& x, const BorderEdgeRecord& y) -> format::Status {
+        const std::int64_t a = dense(x.piece), b = dense(y.piece);
+        if (a < 0 || b < 0) return damaged("a border edge names an unknown piece");
+        if (x.feature) {
+          ++border_shared[{static_cast<std::uint32_t>(std::min(a, b)), static_cast<std::uint32_t>(std::max(a, b))}];
+        } else {
+          if (pieces[a].label != pieces[b].label) return damaged("two pieces of different labels are joined");
+          const std::uint32_t ra = find(static_cast<std::uint32_t>(a)), rb = find(static_cast<std::uint32_t>(b));
+          if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+        }
+        return format::Status();
+      }));
+  for (const auto& [ab, edges] : border_shared) shared.push_back({ab.first, ab.second, edges});
+  border_shared.clear();
   // Patches, numbered by lowest face.
   const std::size_t np = pieces.size();
   std::vector<StitchedPatch> by_root(np);
@@ -222,34 +244,64 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks) 
   out.sorted_pieces = sorted_ids;
   out.sorted_piece_patch.resize(sorted_ids.size());
   for (std::size_t k = 0; k < sorted_ids.size(); ++k) out.sorted_piece_patch[k] = out.piece_patch[order[k]];
-  // Face -> patch for every face a candidate's star names.
-  std::vector<FacePieceRecord>& answers = out.answers;
-  for (ChunkPieces& c : chunks) {
-    answers.insert(answers.end(), c.border_faces.begin(), c.border_faces.end());
-    c.border_faces = {};
-  }
-  std::sort(answers.begin(), answers.end(),
-            [](const FacePieceRecord& a, const FacePieceRecord& b) { return a.face < b.face; });
-  for (std::size_t k = 1; k < answers.size(); ++k) {
-    if (answers[k].face == answers[k - 1].face) return damaged("face " + std::to_string(answers[k].face) + " answered twice");
-  }
-  auto patch_of_face = [&](std::uint64_t face) { return out.patch_of_face(face); };
+  // Candidates' stars in patches: each face's piece from its owner's answers, for a group of
+  // chunks at a time (each answer file read once per group, the group's requests in memory),
+  // then the chunks' stars are dropped.
+  const std::size_t group_entries = std::max<std::uint64_t>(bucket_bytes(memory_bytes) / 64, 1024);  // ~60 B an entry
+  std::vector<std::uint32_t> owners;
+  std::vector<std::uint64_t> faces;
+  std::vector<PieceId> found;
+  auto patch_of = [&](PieceId piece) { return piece == kNoPiece ? -1 : out.patch_of_piece(piece); };
+  std::size_t total_candidates = 0, total_entries = 0;
   for (const ChunkPieces& c : chunks) {
-    for (const CandidateRecord& r : c.candidates) {
-      if (std::size_t{r.first} + r.count > c.star.size()) return damaged("a candidate's star is out of range");
-      out.candidates.push_back({r.vertex, static_cast<std::uint32_t>(out.star.size()), r.count});
-      for (std::uint32_t k = r.first; k < r.first + r.count; ++k) {
-        const StarEntry& e = c.star[k];
-        StitchedPatches::Star s;
-        const std::int64_t p = patch_of_face(e.face);
-        const std::int64_t q = e.next == kNoFaceId ? 0 : patch_of_face(e.next);
-        if (p < 0 || q < 0) return damaged("no piece for a face in the star of vertex " + std::to_string(r.vertex));
-        s.patch = static_cast<std::uint32_t>(p);
-        if (e.next != kNoFaceId) s.next_patch = static_cast<std::uint32_t>(q);
-        s.entering_break = e.entering_break;
-        out.star.push_back(s);
+    total_candidates += c.candidates.size();
+    total_entries += c.star.size();
+  }
+  out.candidates.reserve(total_candidates);
+  out.star.reserve(total_entries);
+  for (std::size_t first = 0; first < chunks.size();) {
+    std::size_t last = first, entries = 0;
+    while (last < chunks.size() && (last == first || entries + chunks[last].star.size() <= group_entries))
+      entries += chunks[last++].star.size();
+    owners.clear();
+    faces.clear();
+    for (std::size_t c = first; c < last; ++c) {
+      for (const CandidateRecord& r : chunks[c].candidates) {
+        if (std::size_t{r.first} + r.count > chunks[c].star.size()) return damaged("a candidate's star is out of range");
+        for (std::uint32_t k = r.first; k < r.first + r.count; ++k) {
+          const StarEntry& e = chunks[c].star[k];
+          owners.push_back(e.owner);
+          faces.push_back(e.face);
+          if (e.next == kNoFaceId) continue;
+          owners.push_back(e.next_owner);
+          faces.push_back(e.next);
+        }
       }
     }
+    found.resize(faces.size());
+    GM_RETURN_IF_ERROR(joins.look_up(owners, faces, found));
+    std::size_t at = 0;
+    for (std::size_t c = first; c < last; ++c) {
+      for (const CandidateRecord& r : chunks[c].candidates) {
+        out.candidates.push_back({r.vertex, static_cast<std::uint32_t>(out.star.size()), r.count});
+        for (std::uint32_t k = r.first; k < r.first + r.count; ++k) {
+          const StarEntry& e = chunks[c].star[k];
+          StitchedPatches::Star s;
+          const std::int64_t p = patch_of(found[at++]);
+          const std::int64_t q = e.next == kNoFaceId ? 0 : patch_of(found[at++]);
+          if (p < 0 || q < 0) return damaged("no piece for a face in the star of vertex " + std::to_string(r.vertex));
+          s.patch = static_cast<std::uint32_t>(p);
+          if (e.next != kNoFaceId) s.next_patch = static_cast<std::uint32_t>(q);
+          s.entering_break = e.entering_break;
+          out.star.push_back(s);
+        }
+      }
+      std::vector<StarEntry>().swap(chunks[c].star);  // "= {}" would keep the capacity
+      std::vector<CandidateRecord>().swap(chunks[c].candidates);
+    }
+    first = last;
+  }
+  for (const ChunkPieces& c : chunks) {
     for (const CollapsedFaceRecord& r : c.collapsed) {
       const std::int64_t d = dense(r.piece);
       if (d < 0) return damaged("a collapsed face names an unknown piece");

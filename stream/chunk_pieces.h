@@ -24,6 +24,10 @@ namespace gaussmesh::stream {
 
 // A piece id: chunk << 32 | index of the piece in its chunk.
 using PieceId = std::uint64_t;
+// No piece: a face nobody answered for.
+inline constexpr PieceId kNoPiece = ~PieceId{0};
+
+class PieceJoinFiles;  // stream/piece_joins.h
 
 struct PieceRecord {
   PieceId piece = 0;
@@ -59,12 +63,17 @@ struct FacePieceRecord {
 // is a break. What the sampler counts as the vertex's feature edges (evaluate_vertex) is
 // sum over the star of [leaving edge is a break or joins another label] + [entering edge is a
 // break]: with pieces for faces, the stitch recounts it after merges change labels.
+// The owners (chunks) of the two faces say whose answers the stitch reads for them.
 inline constexpr std::uint64_t kNoFaceId = ~std::uint64_t{0};
+// Chunks number < 2^18 (the partition's cells), so an owner fits in 31 bits.
 struct StarEntry {
   std::uint64_t face = 0;
   std::uint64_t next = kNoFaceId;
-  bool entering_break = false;
+  std::uint32_t owner = 0;                 // of face
+  std::uint32_t next_owner : 31 = 0;       // of next (0 for a break)
+  std::uint32_t entering_break : 1 = 0;
 };
+static_assert(sizeof(StarEntry) == 24, "one star entry per candidate face stays in memory until the stitch");
 
 // An owned vertex with >= 3 feature edges (a candidate before the merge): its star.
 struct CandidateRecord {
@@ -80,23 +89,38 @@ struct CollapsedFaceRecord {
   std::uint32_t vertices[3] = {0, 0, 0};  // distinct global ids, the unused ones repeat the first
 };
 
+// What find_chunk_pieces finds in one chunk. border and border_faces grow with the chunk's
+// border: PieceJoinFiles::spill moves them to disk before the next chunk; the rest grows with
+// the pieces and candidates and stays for the stitch.
 struct ChunkPieces {
   std::vector<PieceRecord> pieces;  // in piece index order
   std::vector<BorderEdgeRecord> border;
   std::vector<PieceAdjacencyRecord> adjacency;
-  std::vector<FacePieceRecord> border_faces;
+  std::vector<FacePieceRecord> border_faces;  // ascending face
   std::vector<CandidateRecord> candidates;  // ascending vertex
   std::vector<StarEntry> star;
   std::vector<CollapsedFaceRecord> collapsed;
 };
 
-// Pieces of one chunk from its adjacency, labels and feature bits (stream/sampler.h, computed on
-// the whole chunk mesh). Appends to out.
+// The chunk owning local face f of chunk: chunk.chunk for an owned face, else the owner of its
+// lowest-id vertex (its lowest local index: local vertices ascend in global id), from the
+// partition's cell map (Partition::owner_of).
+std::uint32_t face_owner(const Partition& partition, const ChunkMesh& chunk, std::uint32_t f);
+
+// Pieces of one chunk of `partition` from its adjacency, labels and feature bits (stream/sampler.h,
+// computed on the whole chunk mesh). Appends to out (border_faces ascend within the chunk).
 // piece_index (optional): per local face, the index of its piece in this chunk (PieceId & 0xFFFFFFFF),
 // or 0xFFFFFFFF for faces the chunk does not own.
-void find_chunk_pieces(const ChunkMesh& chunk, const MeshAdjacency& adjacency, const std::vector<std::uint32_t>& labels,
-                       const std::vector<std::uint8_t>& feature, ChunkPieces& out,
-                       std::vector<std::uint32_t>* piece_index = nullptr);
+void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const MeshAdjacency& adjacency,
+                       const std::vector<std::uint32_t>& labels, const std::vector<std::uint8_t>& feature,
+                       ChunkPieces& out, std::vector<std::uint32_t>* piece_index = nullptr);
+
+// The piece of every local face of chunk: owned faces through piece_index (find_chunk_pieces),
+// the others through their owners' answers (PieceJoinFiles::look_up; kNoPiece where none, as
+// for faces far from every owned face). Each owner's answer file is read once.
+format::Status chunk_face_pieces(const Partition& partition, const ChunkMesh& chunk,
+                                 const std::vector<std::uint32_t>& piece_index, const PieceJoinFiles& joins,
+                                 std::vector<PieceId>& pieces);
 
 // A patch of the stitched graph; patches are numbered by lowest face, as find_patches numbers
 // them.
@@ -117,10 +141,8 @@ struct StitchedPatches {
   std::vector<std::uint32_t> piece_patch;  // patch of every piece, in the order of all pieces given
   std::vector<PieceId> sorted_pieces;       // every piece id, ascending
   std::vector<std::uint32_t> sorted_piece_patch;  // patch of sorted_pieces[k]
-  std::vector<FacePieceRecord> answers;     // face -> piece, ascending face
-  // Patch of a piece, of a face named by an answer; -1 when unknown.
+  // Patch of a piece; -1 when unknown (kNoPiece included).
   std::int64_t patch_of_piece(PieceId piece) const;
-  std::int64_t patch_of_face(std::uint64_t face) const;
   // Candidates (before the merge), ascending vertex, with their stars in patch ids.
   struct Candidate {
     std::uint32_t vertex = 0;
@@ -141,13 +163,17 @@ struct StitchedPatches {
   std::vector<Collapsed> collapsed;
 };
 
-// Joins the pieces of every chunk and resolves the candidates' stars to patches (faces owned by
-// the candidate's chunk directly, others through the border-face records of their owners).
-// Records are untrusted (they come back from disk): a border edge seen other than exactly twice
-// with matching feature bits, a piece with two labels, a star face nobody answers for, is a
-// kBadInput error. Memory: the pieces, the border edges and faces (sorted in place), the
-// candidates' stars and the output.
-format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks);
+// Joins the pieces of every chunk over the border edges in `joins` (spilled and finished; the
+// join holds about bucket_bytes(memory_bytes) of them at a time) and resolves the candidates'
+// stars to patches through the answer files of the faces' owners (each read once).
+// chunks[c] holds chunk c's pieces, adjacency, candidates with their stars, and collapsed faces
+// (border and border_faces are ignored: they are in `joins`). Records are untrusted (they come
+// back from disk): a border edge seen other than exactly twice with matching feature bits, a
+// piece with two labels, a star face nobody answers for, is a kBadInput error. Memory: the
+// pieces, their union-find and piece-pair feature-edge counts, the candidates' stars and the
+// output — nothing per border edge or border face.
+format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, const PieceJoinFiles& joins,
+                                              std::uint64_t memory_bytes);
 
 // Step 3: the untriangulatable-patch merge (stream/patch_filters.h, the patch-graph merge that
 // sample_mesh runs in core) on the stitched patches, for the exact sample test: a touched

@@ -16,6 +16,8 @@
 
 #include "format/record_file.h"
 
+#include "stream/piece_joins.h"
+
 namespace gaussmesh::stream {
 namespace {
 
@@ -471,10 +473,22 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   out.peak_rss_after_partition = peak_rss();
   const std::size_t nc = partition->chunks.size(), no = spheres.size();
 
-  // Pass A: samples of every orientation (and, with one orientation, the pieces too).
+  // Pass A: samples of every orientation (and, with one orientation, the pieces too). Each
+  // chunk's border edges and face answers go to disk (stream/piece_joins.h) as it finishes.
   auto start = std::chrono::steady_clock::now();
   std::vector<std::vector<GlobalSample>> samples(nc * no);
   std::vector<ChunkPieces> pieces(nc);
+  // Border-edge records: about one per face of each chunk's first overlap ring, whose size is
+  // about the overlap's over the rings (a guess: a wrong one costs reads, not memory).
+  std::uint64_t expected_border = 0;
+  for (const ChunkInfo& info : partition->chunks)
+    expected_border += (info.faces - std::min(info.faces, info.owned_faces)) / std::max<std::uint32_t>(options.partition.rings, 1);
+  auto joins = PieceJoinFiles::create(partition->dir, nc, border_bucket_count(expected_border, options.partition.memory_bytes));
+  if (!joins) return joins.status();
+  auto find_pieces = [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
+    find_chunk_pieces(*partition, chunk, ws.adjacency, ws.labels, ws.feature, pieces[c]);
+    return (*joins)->spill(static_cast<std::uint32_t>(c), pieces[c]);
+  };
   GM_RETURN_IF_ERROR(for_each_chunk(*partition, options.threads, "sample", options,
                                     [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
                                       ChunkSamplingStats stats;
@@ -482,7 +496,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
                                         GM_RETURN_IF_ERROR(sample_chunk(chunk, spheres[k], options.sampler, ws,
                                                                         samples[c * no + k], stats));
                                       }
-                                      if (no == 1) find_chunk_pieces(chunk, ws.adjacency, ws.labels, ws.feature, pieces[c]);
+                                      if (no == 1) return find_pieces(c, chunk, ws);
                                       return format::Status();
                                     }));
   for (std::size_t k = 0; k < no; ++k) {
@@ -504,16 +518,17 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
                                         std::vector<GlobalSample> unused;
                                         ChunkSamplingStats stats;
                                         GM_RETURN_IF_ERROR(sample_chunk(chunk, gauss, options.sampler, ws, unused, stats));
-                                        find_chunk_pieces(chunk, ws.adjacency, ws.labels, ws.feature, pieces[c]);
-                                        return format::Status();
+                                        return find_pieces(c, chunk, ws);
                                       }));
   }
+  GM_RETURN_IF_ERROR((*joins)->finish());
+  partition->bytes_spilled += (*joins)->bytes_written();
   out.seconds_sample = seconds_since(start);
   out.peak_rss_after_pieces = peak_rss();
 
   // Stitch: patches, merge.
   start = std::chrono::steady_clock::now();
-  auto stitched = stitch_pieces(pieces);
+  auto stitched = stitch_pieces(pieces, **joins, options.partition.memory_bytes);
   if (!stitched) return stitched.status();
   pieces = {};
   const PatchMergeResult merged = merge_stitched_patches(*stitched);
@@ -531,8 +546,8 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   };
 
   // A chunk's faces under the merged patches: labels again (sample_chunk), pieces again
-  // (deterministic), owned faces through their piece, the others through the owners' answers;
-  // kNone where neither knows (faces far from every owned face).
+  // (deterministic), owned faces through their piece, the others through the owners' answer
+  // files (each read once per chunk); kNone where neither knows (faces far from every owned face).
   auto merged_patches_of_chunk = [&](const ChunkMesh& chunk, ChunkSamplerWorkspace& ws,
                                      std::vector<std::uint32_t>& patch) -> format::Status {
     std::vector<GlobalSample> unused;
@@ -540,16 +555,12 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     GM_RETURN_IF_ERROR(sample_chunk(chunk, gauss, options.sampler, ws, unused, stats));
     ChunkPieces scratch;
     std::vector<std::uint32_t> piece_index;
-    find_chunk_pieces(chunk, ws.adjacency, ws.labels, ws.feature, scratch, &piece_index);
+    find_chunk_pieces(*partition, chunk, ws.adjacency, ws.labels, ws.feature, scratch, &piece_index);
+    scratch = {};
+    std::vector<PieceId> face_piece;
+    GM_RETURN_IF_ERROR(chunk_face_pieces(*partition, chunk, piece_index, **joins, face_piece));
     patch.resize(chunk.triangles.size());
-    for (std::uint32_t f = 0; f < patch.size(); ++f) {
-      if (chunk.owned_face[f]) {
-        patch[f] = merged_patch_of_piece(PieceId{chunk.chunk} << 32 | piece_index[f]);
-      } else {
-        const std::int64_t p = stitched->patch_of_face(chunk.global_face[f]);
-        patch[f] = p < 0 ? kNone : merged.patch_of[p];
-      }
-    }
+    for (std::uint32_t f = 0; f < patch.size(); ++f) patch[f] = merged_patch_of_piece(face_piece[f]);
     return format::Status();
   };
 

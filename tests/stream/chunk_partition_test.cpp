@@ -69,6 +69,8 @@ Loaded load_and_check(const Partition& partition, const Mesh& mesh, const std::s
     for (std::size_t l = 0; l < c.global_vertex.size(); ++l) {
       const std::uint32_t g = c.global_vertex[l];
       EXPECT_EQ(std::memcmp(&c.positions[l], &mesh.positions[g], sizeof(format::Vec3f)), 0) << tag << " vertex " << g;
+      EXPECT_EQ(partition.owner_of(c.positions[l]) == info.id, c.owned_vertex[l] != 0)
+          << tag << ": owner_of disagrees with chunk " << info.id << " on vertex " << g;
       if (c.owned_vertex[l]) {
         EXPECT_EQ(loaded.owner[g], kNone) << tag << ": vertex " << g << " owned twice";
         loaded.owner[g] = info.id;
@@ -208,6 +210,46 @@ TEST(ChunkPartition, ChunksHoldExactlyTheirRingsOnTheCow) {
   auto cow = load_mesh(testing::fixture("real/cow.off"));
   ASSERT_TRUE(cow.is_ok()) << cow.status().to_string();
   for (std::uint32_t rings : {1u, 3u, 5u}) check_exact(*cow, "cow", 30, rings, 100);
+}
+
+// owner_of (the cell map kept after pass 1) names the chunk whose file flags a vertex as owned,
+// for every vertex of every chunk, on real meshes cut into hundreds of chunks and with 1 chunk.
+TEST(ChunkPartition, OwnerOfAgreesWithTheChunkFiles) {
+  for (const char* name : {"cow.off", "fandisk.off", "homer.off", "knot1.off", "mech-holes-shark.off", "bunny-lowres.ply"}) {
+    for (std::uint64_t chunk_faces : {std::uint64_t{32}, std::uint64_t{1} << 30}) {
+      SCOPED_TRACE(std::string(name) + " chunk faces " + std::to_string(chunk_faces));
+      testing::ScratchDir dir;
+      PartitionOptions options;
+      options.rings = 3;
+      options.max_chunk_faces = chunk_faces;
+      options.memory_bytes = 32ull << 20;
+      options.tmp_dir = dir.path().string();
+      auto partition = partition_mesh(testing::fixture(std::string("real/") + name), {}, options);
+      ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
+      if (chunk_faces == 32) {
+        EXPECT_GE(partition->chunks.size(), 100u);
+      }
+      std::size_t vertices = 0, wrong = 0;
+      for (const ChunkInfo& info : partition->chunks) {
+        auto chunk = load_chunk(info);
+        ASSERT_TRUE(chunk.is_ok()) << chunk.status().to_string();
+        for (std::size_t l = 0; l < chunk->positions.size(); ++l) {
+          const std::uint32_t owner = partition->owner_of(chunk->positions[l]);
+          ++vertices;
+          if (chunk->owned_vertex[l] ? owner != info.id : owner == info.id) ++wrong;
+          EXPECT_LT(owner, partition->chunks.size());
+        }
+      }
+      EXPECT_GT(vertices, 0u);
+      EXPECT_EQ(wrong, 0u);
+      // Positions outside the bounds and NaN clamp to a chunk, as in pass 1.
+      const float nan = std::nanf("");
+      for (const format::Vec3f& p : {format::Vec3f{nan, nan, nan}, format::Vec3f{-1e30f, 1e30f, 0.f}})
+        EXPECT_LT(partition->owner_of(p), partition->chunks.size());
+    }
+  }
+  // No chunks at all: 0.
+  EXPECT_EQ(Partition().owner_of({0, 0, 0}), 0u);
 }
 
 TEST(ChunkPartition, SeveralWriterRoundsGiveTheSameChunks) {

@@ -13,6 +13,7 @@
 #include "stream/chunk_sampler.h"
 #include "stream/mesh.h"
 #include "stream/patch_filters.h"
+#include "stream/piece_joins.h"
 #include "tests/support/test_util.h"
 
 namespace gaussmesh::stream {
@@ -20,6 +21,7 @@ namespace {
 
 struct InCore {
   std::vector<StitchedPatch> patches;
+  std::vector<std::uint32_t> face_patch;  // before the merge
   std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint64_t> adjacency;
   // Candidate vertex -> sorted (patch, next patch, entering break) of its star.
   std::map<std::uint32_t, std::vector<std::tuple<std::uint32_t, std::uint32_t, bool>>> stars;
@@ -32,6 +34,7 @@ InCore in_core_patches(const Mesh& mesh, const GaussSphere& gauss, const Sampler
   const auto feature = compute_feature_edges(adj, labels);
   const Patches p = find_patches(adj, labels, feature);
   InCore out;
+  out.face_patch = p.face_patch;
   out.patches.resize(p.patch_label.size());
   for (std::size_t k = 0; k < p.patch_label.size(); ++k) out.patches[k] = {~std::uint64_t{0}, 0, p.patch_label[k]};
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
@@ -80,20 +83,28 @@ void expect_stitch_equals_in_core(const std::string& path, std::uint32_t smooth,
   partition.tmp_dir = tmp.path().string();
   auto parts = partition_mesh(path, {}, partition);
   ASSERT_TRUE(parts.is_ok()) << parts.status().to_string();
-  std::vector<ChunkPieces> chunks(parts->chunks.size());
+  const std::size_t nc = parts->chunks.size();
+  std::vector<ChunkPieces> chunks(nc);
+  // Border edges and answers through the files, in several buckets.
+  auto joins = PieceJoinFiles::create(tmp.path().string(), nc, 7);
+  ASSERT_TRUE(joins.is_ok()) << joins.status().to_string();
   ChunkSamplerWorkspace ws;
-  for (std::size_t c = 0; c < parts->chunks.size(); ++c) {
+  std::size_t border = 0;
+  for (std::size_t c = 0; c < nc; ++c) {
     auto chunk = load_chunk(parts->chunks[c]);
     ASSERT_TRUE(chunk.is_ok());
     std::vector<GlobalSample> samples;
     ChunkSamplingStats stats;
     ASSERT_TRUE(sample_chunk(*chunk, *gauss, options, ws, samples, stats).is_ok());
-    find_chunk_pieces(*chunk, ws.adjacency, ws.labels, ws.feature, chunks[c]);
+    find_chunk_pieces(*parts, *chunk, ws.adjacency, ws.labels, ws.feature, chunks[c]);
+    border += chunks[c].border.size();
+    ASSERT_TRUE((*joins)->spill(static_cast<std::uint32_t>(c), chunks[c]).is_ok());
+    EXPECT_TRUE(chunks[c].border.empty() && chunks[c].border_faces.empty());
   }
-  std::size_t border = 0;
-  for (const auto& c : chunks) border += c.border.size();
   EXPECT_GT(border, 0u) << "no border edge: the chunking did not cut any patch";
-  auto stitched = stitch_pieces(chunks);
+  ASSERT_TRUE((*joins)->finish().is_ok());
+  EXPECT_EQ((*joins)->border_records(), border);
+  auto stitched = stitch_pieces(chunks, **joins, 0);
   ASSERT_TRUE(stitched.is_ok()) << stitched.status().to_string();
   const InCore want = in_core_patches(*mesh, *gauss, options);
   ASSERT_EQ(stitched->patches.size(), want.patches.size());
@@ -129,6 +140,38 @@ void expect_stitch_equals_in_core(const std::string& path, std::uint32_t smooth,
     ++it;
   }
 
+  // The faces of every chunk through their pieces (owned) or their owners' answer files (the
+  // rest): the in-core patch wherever an answer exists, and an answer for every face sharing a
+  // vertex with an owned face (what pass C needs).
+  std::size_t answered = 0;
+  for (std::size_t c = 0; c < nc; ++c) {
+    auto chunk = load_chunk(parts->chunks[c]);
+    ASSERT_TRUE(chunk.is_ok());
+    std::vector<GlobalSample> samples;
+    ChunkSamplingStats stats;
+    ASSERT_TRUE(sample_chunk(*chunk, *gauss, options, ws, samples, stats).is_ok());
+    ChunkPieces scratch;
+    std::vector<std::uint32_t> piece_index;
+    find_chunk_pieces(*parts, *chunk, ws.adjacency, ws.labels, ws.feature, scratch, &piece_index);
+    std::vector<PieceId> face_piece;
+    ASSERT_TRUE(chunk_face_pieces(*parts, *chunk, piece_index, **joins, face_piece).is_ok());
+    std::vector<std::uint8_t> near(chunk->positions.size(), 0);
+    for (std::size_t f = 0; f < chunk->triangles.size(); ++f)
+      if (chunk->owned_face[f])
+        for (std::uint32_t v : chunk->triangles[f].v) near[v] = 1;
+    for (std::size_t f = 0; f < chunk->triangles.size(); ++f) {
+      const auto& t = chunk->triangles[f];
+      if (near[t.v[0]] || near[t.v[1]] || near[t.v[2]]) {
+        ASSERT_NE(face_piece[f], kNoPiece) << "chunk " << c << " face " << chunk->global_face[f];
+      }
+      if (face_piece[f] == kNoPiece) continue;
+      ++answered;
+      EXPECT_EQ(stitched->patch_of_piece(face_piece[f]), want.face_patch[chunk->global_face[f]])
+          << "chunk " << c << " face " << chunk->global_face[f];
+    }
+  }
+  EXPECT_GE(answered, mesh->triangles.size());
+
   // Step 3: the merge on the stitched graph ends where the in-core sampler's merge ends.
   const PatchMergeResult merged = merge_stitched_patches(*stitched);
   auto sampled = sample_mesh(mesh->view(), *gauss, options);
@@ -158,29 +201,63 @@ TEST(ChunkPieces, StitchedPatchesEqualTheInCorePatchesOnEveryFixture) {
   expect_stitch_equals_in_core(testing::fixture("real/cow.off"), 2, 64);
 }
 
+// Stitches hand-made chunks: their border edges and answers go through the files as pass B's do.
+format::Result<StitchedPatches> stitch(std::vector<ChunkPieces> chunks, std::size_t buckets = 3) {
+  testing::ScratchDir tmp;
+  auto joins = PieceJoinFiles::create(tmp.path().string(), chunks.size(), buckets);
+  if (!joins) return joins.status();
+  for (std::size_t c = 0; c < chunks.size(); ++c) GM_RETURN_IF_ERROR((*joins)->spill(static_cast<std::uint32_t>(c), chunks[c]));
+  GM_RETURN_IF_ERROR((*joins)->finish());
+  return stitch_pieces(chunks, **joins, 64 << 20);
+}
+
 TEST(ChunkPieces, DamagedRecordsAreRefused) {
   std::vector<ChunkPieces> chunks(2);
   chunks[0].pieces = {{PieceId{0} << 32, 5, 3, 0}};
   chunks[1].pieces = {{PieceId{1} << 32, 7, 2, 3}};
   // One side of an edge only.
   chunks[0].border = {{0, 3, PieceId{0} << 32, false}};
-  EXPECT_EQ(stitch_pieces(chunks).status().code(), format::Code::kBadInput);
+  EXPECT_EQ(stitch(chunks).status().code(), format::Code::kBadInput);
   // Both sides, but a non-feature edge between two labels.
   chunks[0].border = {{0, 3, PieceId{0} << 32, false}};
   chunks[1].border = {{3, 0, PieceId{1} << 32, false}};
-  EXPECT_EQ(stitch_pieces(chunks).status().code(), format::Code::kBadInput);
+  EXPECT_EQ(stitch(chunks).status().code(), format::Code::kBadInput);
   // Sides that disagree on the feature bit.
   chunks[0].border = {{0, 3, PieceId{0} << 32, true}};
   chunks[1].border = {{3, 0, PieceId{1} << 32, false}};
-  EXPECT_EQ(stitch_pieces(chunks).status().code(), format::Code::kBadInput);
+  EXPECT_EQ(stitch(chunks).status().code(), format::Code::kBadInput);
+  // One side twice.
+  chunks[0].border = {{0, 3, PieceId{0} << 32, true}, {0, 3, PieceId{0} << 32, true}};
+  chunks[1].border = {{3, 0, PieceId{1} << 32, true}};
+  EXPECT_EQ(stitch(chunks).status().code(), format::Code::kBadInput);
+  // A border edge naming a piece nobody has.
+  chunks[0].border = {{0, 3, PieceId{0} << 32, true}};
+  chunks[1].border = {{3, 0, PieceId{9} << 32, true}};
+  EXPECT_EQ(stitch(chunks).status().code(), format::Code::kBadInput);
   // Consistent: two patches sharing one feature edge.
   chunks[0].border = {{0, 3, PieceId{0} << 32, true}};
   chunks[1].border = {{3, 0, PieceId{1} << 32, true}};
-  auto ok = stitch_pieces(chunks);
+  auto ok = stitch(chunks);
   ASSERT_TRUE(ok.is_ok()) << ok.status().to_string();
   ASSERT_EQ(ok->patches.size(), 2u);
   ASSERT_EQ(ok->adjacency.size(), 1u);
   EXPECT_EQ(ok->adjacency[0].edges, 1u);
+  // A candidate whose star names a face its owner does not answer for.
+  chunks[0].border_faces = {{0, PieceId{0} << 32}};
+  chunks[1].border_faces = {{3, PieceId{1} << 32}};
+  chunks[0].candidates = {{42, 0, 2}};
+  chunks[0].star = {{0, 3, 0, 1, true}, {3, 0, 1, 0, false}};
+  auto stars = stitch(chunks);
+  ASSERT_TRUE(stars.is_ok()) << stars.status().to_string();
+  ASSERT_EQ(stars->star.size(), 2u);
+  EXPECT_EQ(stars->star[0].patch, 0u);
+  EXPECT_EQ(stars->star[0].next_patch, 1u);
+  chunks[0].star[1].face = 4;  // chunk 1 owns faces 3 only
+  EXPECT_EQ(stitch(chunks).status().code(), format::Code::kBadInput);
+  chunks[0].star[1] = {3, 0, 5, 0, false};  // an owner that does not exist
+  EXPECT_EQ(stitch(chunks).status().code(), format::Code::kBadInput);
+  chunks[0].star[1] = {3, 0, 0, 0, false};  // the wrong owner: chunk 0 does not answer for face 3
+  EXPECT_EQ(stitch(chunks).status().code(), format::Code::kBadInput);
 }
 
 }  // namespace

@@ -1,0 +1,271 @@
+// Border-edge buckets and face-answer files of the out-of-core stitch. See piece_joins.h.
+#include "stream/piece_joins.h"
+
+#include <algorithm>
+#include <cstring>
+#include <numeric>
+
+namespace gaussmesh::stream {
+namespace {
+
+using format::Code;
+using format::Status;
+
+constexpr std::size_t kBucketFrameBytes = std::size_t{32} << 10;  // pending per bucket writer
+constexpr std::size_t kAnswerFrameBytes = std::size_t{256} << 10;
+
+Status damaged(const std::string& what) { return Status::error(Code::kBadInput, "stitch", what); }
+
+std::uint64_t mix(std::uint64_t x) {  // splitmix64's finalizer
+  x ^= x >> 30;
+  x *= 0xBF58476D1CE4E5B9ull;
+  x ^= x >> 27;
+  x *= 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+
+std::uint64_t pair_hash(std::uint64_t a, std::uint64_t b) {
+  return mix(mix(std::min(a, b)) ^ std::max(a, b));
+}
+
+void put_u64(std::byte* at, std::uint64_t v) { std::memcpy(at, &v, 8); }
+std::uint64_t get_u64(const std::byte* at) {
+  std::uint64_t v;
+  std::memcpy(&v, at, 8);
+  return v;
+}
+
+void encode(const BorderEdgeRecord& r, std::byte* at) {
+  put_u64(at, r.face);
+  put_u64(at + 8, r.other);
+  put_u64(at + 16, r.piece);
+  at[24] = std::byte{r.feature ? std::uint8_t{1} : std::uint8_t{0}};
+}
+
+std::pair<std::uint64_t, std::uint64_t> edge_key(const BorderEdgeRecord& r) {
+  return {std::min(r.face, r.other), std::max(r.face, r.other)};
+}
+
+}  // namespace
+
+std::size_t border_bucket(std::uint64_t a, std::uint64_t b, std::size_t buckets) {
+  return static_cast<std::size_t>(pair_hash(a, b) % buckets);
+}
+
+std::size_t border_bucket_part(std::uint64_t a, std::uint64_t b, std::size_t parts) {
+  return static_cast<std::size_t>(mix(pair_hash(a, b) + 0x9E3779B97F4A7C15ull) % parts);
+}
+
+std::uint64_t bucket_bytes(std::uint64_t memory_bytes) {
+  return std::max<std::uint64_t>(memory_bytes / 16, std::uint64_t{1} << 20);
+}
+
+std::size_t border_bucket_count(std::uint64_t expected_records, std::uint64_t memory_bytes) {
+  const std::uint64_t bytes = expected_records * sizeof(BorderEdgeRecord);
+  const std::uint64_t per = bucket_bytes(memory_bytes);
+  return static_cast<std::size_t>(std::clamp<std::uint64_t>((bytes + per - 1) / per, 1, kMaxBorderBuckets));
+}
+
+format::Result<std::unique_ptr<PieceJoinFiles>> PieceJoinFiles::create(const std::string& dir, std::size_t chunks,
+                                                                       std::size_t buckets) {
+  if (buckets == 0 || buckets > kMaxBorderBuckets) {
+    return Status::error(Code::kUsage, "stitch", "border-edge bucket count " + std::to_string(buckets) + " out of range");
+  }
+  std::unique_ptr<PieceJoinFiles> files(new PieceJoinFiles());
+  files->dir_ = dir;
+  files->chunks_ = chunks;
+  files->answered_.assign(chunks, 0);
+  auto compressor = format::RecordCompressor::create(1);
+  if (!compressor) return compressor.status();
+  files->compressor_ = std::move(*compressor);
+  format::RecordWriterOptions options;
+  options.frame_bytes = kBucketFrameBytes;
+  options.shared = files->compressor_.get();
+  for (std::size_t b = 0; b < buckets; ++b) {
+    files->bucket_paths_.push_back(dir + "/border-" + std::to_string(b) + ".rec");
+    auto writer = format::RecordWriter::create(files->bucket_paths_.back(), kBorderEdgeRecordKind,
+                                               kBorderEdgeRecordBytes, options);
+    if (!writer) return writer.status();
+    files->writers_.push_back(std::move(*writer));
+  }
+  files->bucket_records_.assign(buckets, 0);
+  return files;
+}
+
+PieceJoinFiles::~PieceJoinFiles() = default;
+
+std::string PieceJoinFiles::answer_path(std::uint32_t chunk) const {
+  return dir_ + "/answers-" + std::to_string(chunk) + ".rec";
+}
+
+Status PieceJoinFiles::write_answer_file(std::uint32_t chunk, std::span<const FacePieceRecord> answers) {
+  auto writer = format::RecordWriter::create(answer_path(chunk), kFaceAnswerRecordKind, kFaceAnswerRecordBytes, 1,
+                                             kAnswerFrameBytes);
+  if (!writer) return writer.status();
+  const std::size_t per_frame = (*writer)->frame_limit() / kFaceAnswerRecordBytes;
+  std::vector<std::byte> bytes(std::min(answers.size(), per_frame) * kFaceAnswerRecordBytes);
+  for (std::size_t at = 0; at < answers.size(); at += per_frame) {
+    const std::size_t n = std::min(per_frame, answers.size() - at);
+    for (std::size_t i = 0; i < n; ++i) {
+      put_u64(bytes.data() + i * kFaceAnswerRecordBytes, answers[at + i].face);
+      put_u64(bytes.data() + i * kFaceAnswerRecordBytes + 8, answers[at + i].piece);
+    }
+    GM_RETURN_IF_ERROR((*writer)->append(std::span(bytes.data(), n * kFaceAnswerRecordBytes)));
+  }
+  GM_RETURN_IF_ERROR((*writer)->finish());
+  std::lock_guard lock(mutex_);
+  answered_[chunk] = 1;
+  answer_records_ += answers.size();
+  bytes_written_ += (*writer)->bytes_written();
+  return {};
+}
+
+Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
+  if (chunk >= chunks_) return Status::error(Code::kProcessing, "stitch", "chunk " + std::to_string(chunk) + " out of range");
+  for (std::size_t k = 1; k < pieces.border_faces.size(); ++k) {
+    if (pieces.border_faces[k].face <= pieces.border_faces[k - 1].face)
+      return Status::error(Code::kProcessing, "stitch", "face answers of chunk " + std::to_string(chunk) + " not ascending");
+  }
+  GM_RETURN_IF_ERROR(write_answer_file(chunk, pieces.border_faces));
+  std::vector<FacePieceRecord>().swap(pieces.border_faces);  // "= {}" would keep the capacity
+  // Border edges grouped by bucket (a counting sort), then appended under the lock.
+  const std::size_t nb = bucket_paths_.size();
+  std::vector<std::size_t> start(nb + 1, 0);
+  std::vector<std::uint32_t> bucket_of(pieces.border.size());
+  for (std::size_t k = 0; k < pieces.border.size(); ++k) {
+    bucket_of[k] = static_cast<std::uint32_t>(border_bucket(pieces.border[k].face, pieces.border[k].other, nb));
+    ++start[bucket_of[k] + 1];
+  }
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  std::vector<std::byte> bytes(pieces.border.size() * kBorderEdgeRecordBytes);
+  std::vector<std::size_t> at(start.begin(), start.end() - 1);
+  for (std::size_t k = 0; k < pieces.border.size(); ++k)
+    encode(pieces.border[k], bytes.data() + at[bucket_of[k]]++ * kBorderEdgeRecordBytes);
+  std::lock_guard lock(mutex_);
+  if (finished_) return Status::error(Code::kProcessing, "stitch", "border edges after finish");
+  for (std::size_t b = 0; b < nb; ++b) {
+    if (start[b + 1] == start[b]) continue;
+    GM_RETURN_IF_ERROR(writers_[b]->append(std::span(bytes.data() + start[b] * kBorderEdgeRecordBytes,
+                                                     (start[b + 1] - start[b]) * kBorderEdgeRecordBytes)));
+    bucket_records_[b] += start[b + 1] - start[b];
+  }
+  border_records_ += pieces.border.size();
+  std::vector<BorderEdgeRecord>().swap(pieces.border);
+  return {};
+}
+
+Status PieceJoinFiles::finish() {
+  {
+    std::lock_guard lock(mutex_);
+    if (finished_) return {};
+    finished_ = true;
+    for (auto& writer : writers_) {
+      GM_RETURN_IF_ERROR(writer->finish());
+      bytes_written_ += writer->bytes_written();
+    }
+    writers_.clear();
+    compressor_.reset();
+  }
+  for (std::uint32_t c = 0; c < chunks_; ++c)
+    if (!answered_[c]) GM_RETURN_IF_ERROR(write_answer_file(c, {}));
+  return {};
+}
+
+Status PieceJoinFiles::join_border_edges(
+    std::uint64_t memory_bytes,
+    const std::function<Status(const BorderEdgeRecord&, const BorderEdgeRecord&)>& on_edge) const {
+  if (!finished_) return Status::error(Code::kProcessing, "stitch", "border edges joined before finish");
+  const std::size_t nb = bucket_paths_.size();
+  const std::uint64_t per = bucket_bytes(memory_bytes);
+  std::vector<BorderEdgeRecord> edges;
+  for (std::size_t b = 0; b < nb; ++b) {
+    // A bucket larger than the aim is read once per part, each read keeping one part.
+    const std::uint64_t bytes = bucket_records_[b] * sizeof(BorderEdgeRecord);
+    const std::size_t parts = static_cast<std::size_t>(std::max<std::uint64_t>((bytes + per - 1) / per, 1));
+    for (std::size_t part = 0; part < parts; ++part) {
+      auto reader = format::RecordReader::open(bucket_paths_[b], kBorderEdgeRecordKind, kBorderEdgeRecordBytes);
+      if (!reader) return reader.status();
+      edges.clear();
+      for (;;) {
+        auto frame = (*reader)->next();
+        if (!frame) return frame.status();
+        if (frame->empty()) break;
+        for (std::size_t at = 0; at + kBorderEdgeRecordBytes <= frame->size(); at += kBorderEdgeRecordBytes) {
+          const std::byte* r = frame->data() + at;
+          BorderEdgeRecord e;
+          e.face = get_u64(r);
+          e.other = get_u64(r + 8);
+          e.piece = get_u64(r + 16);
+          const auto feature = std::to_integer<std::uint8_t>(r[24]);
+          if (feature > 1) return damaged(bucket_paths_[b] + ": a border edge with feature byte " + std::to_string(feature));
+          e.feature = feature == 1;
+          if (border_bucket(e.face, e.other, nb) != b)
+            return damaged(bucket_paths_[b] + ": the edge between faces " + std::to_string(e.face) + " and " +
+                           std::to_string(e.other) + " is in the wrong bucket");
+          if (parts > 1 && border_bucket_part(e.face, e.other, parts) != part) continue;
+          edges.push_back(e);
+        }
+      }
+      std::sort(edges.begin(), edges.end(), [](const BorderEdgeRecord& x, const BorderEdgeRecord& y) {
+        return edge_key(x) != edge_key(y) ? edge_key(x) < edge_key(y) : x.face < y.face;
+      });
+      for (std::size_t k = 0; k < edges.size(); k += 2) {
+        if (k + 1 >= edges.size() || edge_key(edges[k]) != edge_key(edges[k + 1]) ||
+            (k + 2 < edges.size() && edge_key(edges[k + 2]) == edge_key(edges[k])) || edges[k].face == edges[k + 1].face) {
+          return damaged("border edge between faces " + std::to_string(edges[k].face) + " and " +
+                         std::to_string(edges[k].other) + " is not seen once from each side");
+        }
+        if (edges[k].feature != edges[k + 1].feature) {
+          return damaged("the two sides of the edge between faces " + std::to_string(edges[k].face) + " and " +
+                         std::to_string(edges[k].other) + " disagree on whether it is a feature edge");
+        }
+        GM_RETURN_IF_ERROR(on_edge(edges[k], edges[k + 1]));
+      }
+    }
+  }
+  return {};
+}
+
+Status PieceJoinFiles::look_up(std::span<const std::uint32_t> owners, std::span<const std::uint64_t> faces,
+                               std::span<PieceId> pieces) const {
+  if (owners.size() != faces.size() || pieces.size() != faces.size())
+    return Status::error(Code::kProcessing, "stitch", "look_up: spans of different sizes");
+  std::vector<std::uint32_t> order(faces.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return owners[a] != owners[b] ? owners[a] < owners[b] : faces[a] < faces[b];
+  });
+  for (std::size_t first = 0; first < order.size();) {
+    const std::uint32_t owner = owners[order[first]];
+    std::size_t last = first;
+    while (last < order.size() && owners[order[last]] == owner) ++last;
+    if (owner >= chunks_) return damaged("a face owned by chunk " + std::to_string(owner) + ", which does not exist");
+    const std::string path = answer_path(owner);
+    auto reader = format::RecordReader::open(path, kFaceAnswerRecordKind, kFaceAnswerRecordBytes);
+    if (!reader) return reader.status();
+    std::size_t at = first;
+    std::uint64_t previous = 0;
+    bool any = false;
+    while (at < last) {
+      auto frame = (*reader)->next();
+      if (!frame) return frame.status();
+      if (frame->empty()) break;
+      for (std::size_t k = 0; k + kFaceAnswerRecordBytes <= frame->size() && at < last; k += kFaceAnswerRecordBytes) {
+        const std::uint64_t face = get_u64(frame->data() + k);
+        const PieceId piece = get_u64(frame->data() + k + 8);
+        if (any && face <= previous) return damaged(path + ": face answers not ascending at face " + std::to_string(face));
+        if (piece >> 32 != owner || piece == kNoPiece)
+          return damaged(path + ": face " + std::to_string(face) + " answered with a piece of another chunk");
+        any = true;
+        previous = face;
+        for (; at < last && faces[order[at]] < face; ++at) pieces[order[at]] = kNoPiece;
+        for (; at < last && faces[order[at]] == face; ++at) pieces[order[at]] = piece;
+      }
+    }
+    for (; at < last; ++at) pieces[order[at]] = kNoPiece;
+    first = last;
+  }
+  return {};
+}
+
+}  // namespace gaussmesh::stream

@@ -1,0 +1,108 @@
+// The on-disk joins of the out-of-core stitch's first step (docs/out-of-core.md, "Pass B"): the
+// border-edge records of every chunk, bucketed by face pair into temporary record files and
+// joined one bucket at a time, and every chunk's face answers (face -> piece) in a file of its
+// own, read on demand by whoever needs the piece of a face that chunk owns. Nothing here grows
+// with the length of the chunk borders in memory: a bucket at a time, a frame at a time.
+//
+// Files live in a directory the caller owns and removes (the partition's temp dir). Everything
+// read back is untrusted: a damaged file, an edge seen other than exactly twice, two sides that
+// disagree, an answer out of order or from the wrong chunk is a kBadInput error, never a crash.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "format/record_file.h"
+#include "format/status.h"
+#include "stream/chunk_pieces.h"
+
+namespace gaussmesh::stream {
+
+// Record kinds (format/record_file.h): "GMBE" and "GMFA" read as little-endian u32.
+inline constexpr std::uint32_t kBorderEdgeRecordKind = 0x45424D47u;
+inline constexpr std::uint32_t kFaceAnswerRecordKind = 0x41464D47u;
+// Bytes of one border-edge record: u64 face, u64 other, u64 piece, u8 feature (0 or 1).
+inline constexpr std::uint32_t kBorderEdgeRecordBytes = 25;
+// Bytes of one face-answer record: u64 face, u64 piece.
+inline constexpr std::uint32_t kFaceAnswerRecordBytes = 16;
+// More buckets than this are never made (each holds a descriptor and a pending frame).
+inline constexpr std::size_t kMaxBorderBuckets = 256;
+
+// How many buckets for about `expected_records` border-edge records so that one bucket holds
+// about bucket_bytes(memory_bytes) in memory: at least 1, at most kMaxBorderBuckets. A bucket
+// that comes out larger is joined in several reads (join_border_edges), so this is a guess that
+// costs time, never memory, when wrong.
+std::size_t border_bucket_count(std::uint64_t expected_records, std::uint64_t memory_bytes);
+// The in-memory size aimed at for one bucket: 1/16 of the budget, at least 1 MiB.
+std::uint64_t bucket_bytes(std::uint64_t memory_bytes);
+
+class PieceJoinFiles {
+ public:
+  // Creates `buckets` (1..kMaxBorderBuckets) empty bucket files under dir; answer files are
+  // made by write_answers. Errors: kOutput when a file cannot be created; kUsage for a bucket
+  // count out of range.
+  static format::Result<std::unique_ptr<PieceJoinFiles>> create(const std::string& dir, std::size_t chunks,
+                                                                std::size_t buckets);
+  ~PieceJoinFiles();
+  PieceJoinFiles(const PieceJoinFiles&) = delete;
+  PieceJoinFiles& operator=(const PieceJoinFiles&) = delete;
+
+  // Moves one chunk's border edges to the buckets and its face answers (border_faces, strictly
+  // ascending face — as find_chunk_pieces emits them) to the chunk's answer file, and clears both
+  // vectors. Thread-safe for distinct chunks; once per chunk. Errors: kOutput (disk full),
+  // kProcessing when the answers are not ascending.
+  format::Status spill(std::uint32_t chunk, ChunkPieces& pieces);
+  // Closes the bucket files; required before join_border_edges. Chunks that never called spill
+  // get an empty answer file.
+  format::Status finish();
+
+  // Joins the two sides of every border edge, a bucket at a time, holding about
+  // bucket_bytes(memory_bytes) of records: on_edge(side of the lower face, side of the higher
+  // face) once per edge, in no particular order. Errors: the files' (kBadInput), an edge not seen
+  // exactly once from each side or whose sides disagree on the feature bit (kBadInput), and
+  // on_edge's.
+  format::Status join_border_edges(std::uint64_t memory_bytes,
+                                   const std::function<format::Status(const BorderEdgeRecord&, const BorderEdgeRecord&)>&
+                                       on_edge) const;
+
+  // The pieces of faces: faces[k] owned by chunk owners[k] gets pieces[k] from that chunk's
+  // answers, or kNoPiece when it has none for it. Each owner's file is read once, a frame at a
+  // time. Memory: an index over the requests and one frame. Errors: an owner out of range, a
+  // damaged file, answers not strictly ascending or naming a piece of another chunk (kBadInput).
+  format::Status look_up(std::span<const std::uint32_t> owners, std::span<const std::uint64_t> faces,
+                         std::span<PieceId> pieces) const;
+
+  std::uint64_t border_records() const { return border_records_; }
+  std::uint64_t answer_records() const { return answer_records_; }
+  std::uint64_t bytes_written() const { return bytes_written_; }  // compressed, every file
+  std::size_t buckets() const { return bucket_paths_.size(); }
+  std::string answer_path(std::uint32_t chunk) const;
+  const std::string& bucket_path(std::size_t bucket) const { return bucket_paths_[bucket]; }
+
+ private:
+  PieceJoinFiles() = default;
+  format::Status write_answer_file(std::uint32_t chunk, std::span<const FacePieceRecord> answers);
+
+  std::string dir_;
+  std::size_t chunks_ = 0;
+  std::vector<std::string> bucket_paths_;
+  std::vector<std::uint64_t> bucket_records_;
+  std::unique_ptr<format::RecordCompressor> compressor_;  // shared by the bucket writers, under mutex_
+  std::vector<std::unique_ptr<format::RecordWriter>> writers_;
+  std::vector<std::uint8_t> answered_;  // per chunk: its answer file is written
+  std::mutex mutex_;
+  std::uint64_t border_records_ = 0, answer_records_ = 0, bytes_written_ = 0;
+  bool finished_ = false;
+};
+
+// The bucket of the edge between faces a and b (either order), of `buckets`; `part` of `parts`
+// splits a bucket that is too large for one read. Exposed for tests.
+std::size_t border_bucket(std::uint64_t a, std::uint64_t b, std::size_t buckets);
+std::size_t border_bucket_part(std::uint64_t a, std::uint64_t b, std::size_t parts);
+
+}  // namespace gaussmesh::stream
