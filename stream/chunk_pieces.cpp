@@ -125,9 +125,19 @@ void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const
   if (piece_index) piece_index->swap(piece_of);
 }
 
+std::int64_t StitchedPatches::piece_index(PieceId piece) const {
+  const auto chunk = static_cast<std::uint32_t>(piece >> 32), index = static_cast<std::uint32_t>(piece);
+  auto it = std::lower_bound(chunk_first.begin(), chunk_first.end(), chunk,
+                             [](const auto& e, std::uint32_t c) { return e.first < c; });
+  if (it == chunk_first.end() || it->first != chunk) return -1;
+  const std::uint64_t end = it + 1 == chunk_first.end() ? piece_patch.size() : (it + 1)->second;
+  const std::uint64_t at = std::uint64_t{it->second} + index;
+  return at < end ? static_cast<std::int64_t>(at) : -1;
+}
+
 std::int64_t StitchedPatches::patch_of_piece(PieceId piece) const {
-  auto it = std::lower_bound(sorted_pieces.begin(), sorted_pieces.end(), piece);
-  return it != sorted_pieces.end() && *it == piece ? std::int64_t{sorted_piece_patch[it - sorted_pieces.begin()]} : -1;
+  const std::int64_t k = piece_index(piece);
+  return k < 0 ? -1 : std::int64_t{piece_patch[k]};
 }
 
 format::Status chunk_face_pieces(const Partition& partition, const ChunkMesh& chunk,
@@ -155,49 +165,83 @@ format::Status chunk_face_pieces(const Partition& partition, const ChunkMesh& ch
 
 format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, const PieceJoinFiles& joins,
                                               std::uint64_t memory_bytes) {
-  // Dense indices for pieces: ascending piece id.
-  std::vector<PieceRecord> pieces;
-  std::size_t total_pieces = 0;
-  for (const ChunkPieces& c : chunks) total_pieces += c.pieces.size();
-  pieces.reserve(total_pieces);
-  for (const ChunkPieces& c : chunks) pieces.insert(pieces.end(), c.pieces.begin(), c.pieces.end());
-  std::vector<std::uint32_t> order(pieces.size());
-  std::iota(order.begin(), order.end(), 0u);
-  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return pieces[a].piece < pieces[b].piece; });
-  std::vector<PieceId> sorted_ids(pieces.size());
-  for (std::size_t k = 0; k < order.size(); ++k) sorted_ids[k] = pieces[order[k]].piece;
-  if (std::adjacent_find(sorted_ids.begin(), sorted_ids.end()) != sorted_ids.end()) return damaged("a piece id appears twice");
-  auto dense = [&](PieceId id) -> std::int64_t {
-    auto it = std::lower_bound(sorted_ids.begin(), sorted_ids.end(), id);
-    return it != sorted_ids.end() && *it == id ? std::int64_t{order[it - sorted_ids.begin()]} : -1;
+  // Pieces in one array, chunk after chunk, each chunk's in index order: a piece's dense index
+  // is its chunk's first plus its index (no sort, no id table). The chunks' copies are freed.
+  StitchedPatches out;
+  struct Piece {
+    std::uint64_t min_face;  // then, on a root: the patch's lowest face
+    std::uint64_t faces;     // then, on a root: the patch's faces
+    std::uint32_t label;
   };
-  std::vector<std::uint32_t> parent(pieces.size());
+  std::vector<Piece> pieces;
+  {
+    std::size_t total = 0;
+    for (const ChunkPieces& c : chunks) total += c.pieces.size();
+    if (total >= 0xFFFFFFFFu) return format::Status::error(format::Code::kResources, "stitch", "more than 2^32 - 1 patch pieces");
+    pieces.reserve(total);
+  }
+  for (ChunkPieces& c : chunks) {
+    if (c.pieces.empty()) continue;
+    const auto chunk = static_cast<std::uint32_t>(c.pieces[0].piece >> 32);
+    if (!out.chunk_first.empty() && out.chunk_first.back().first >= chunk) return damaged("chunks' pieces out of order");
+    out.chunk_first.emplace_back(chunk, static_cast<std::uint32_t>(pieces.size()));
+    for (std::size_t k = 0; k < c.pieces.size(); ++k) {
+      const PieceRecord& r = c.pieces[k];
+      if (r.piece != (PieceId{chunk} << 32 | k)) return damaged("a chunk's piece ids are not its indices");
+      pieces.push_back({r.min_face, r.faces, r.label});
+    }
+    std::vector<PieceRecord>().swap(c.pieces);
+  }
+  const std::size_t np = pieces.size();
+  out.piece_patch.resize(np);  // sized now: piece_index() reads it
+  auto dense = [&](PieceId id) { return out.piece_index(id); };
+  std::vector<std::uint32_t> parent(np);
   std::iota(parent.begin(), parent.end(), 0u);
   auto find = [&](std::uint32_t x) {
     while (parent[x] != x) x = parent[x] = parent[parent[x]];
     return x;
   };
+  // Feature edges between pieces, (a, b, edges) with a < b; summed up now and then so that
+  // what is held grows with the piece pairs, not the edges.
   struct Shared {
     std::uint32_t a, b;
     std::uint64_t edges;
   };
   std::vector<Shared> shared;
-  for (const ChunkPieces& c : chunks) {
+  std::size_t compacted = 0;
+  auto compact = [&] {
+    std::sort(shared.begin(), shared.end(), [](const Shared& x, const Shared& y) { return std::pair(x.a, x.b) < std::pair(y.a, y.b); });
+    std::size_t w = 0;
+    for (std::size_t k = 0; k < shared.size(); ++k) {
+      if (w > 0 && shared[w - 1].a == shared[k].a && shared[w - 1].b == shared[k].b) {
+        shared[w - 1].edges += shared[k].edges;
+      } else {
+        shared[w++] = shared[k];
+      }
+    }
+    shared.resize(w);
+    compacted = w;
+  };
+  auto add_shared = [&](std::uint32_t a, std::uint32_t b, std::uint64_t edges) {
+    shared.push_back({std::min(a, b), std::max(a, b), edges});
+    if (shared.size() >= 2 * compacted + (1u << 20)) compact();
+  };
+  for (ChunkPieces& c : chunks) {
     for (const PieceAdjacencyRecord& r : c.adjacency) {
       const std::int64_t a = dense(r.a), b = dense(r.b);
       if (a < 0 || b < 0) return damaged("an adjacency record names an unknown piece");
-      shared.push_back({static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b), r.edges});
+      add_shared(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b), r.edges);
     }
+    std::vector<PieceAdjacencyRecord>().swap(c.adjacency);
   }
   // Border edges: both sides of every edge, joined on the unordered face pair a bucket at a
-  // time; what stays is per piece pair.
-  std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint64_t> border_shared;
+  // time.
   GM_RETURN_IF_ERROR(joins.join_border_edges(
       memory_bytes, [&](const BorderEdgeRecord& x, const BorderEdgeRecord& y) -> format::Status {
         const std::int64_t a = dense(x.piece), b = dense(y.piece);
         if (a < 0 || b < 0) return damaged("a border edge names an unknown piece");
         if (x.feature) {
-          ++border_shared[{static_cast<std::uint32_t>(std::min(a, b)), static_cast<std::uint32_t>(std::max(a, b))}];
+          add_shared(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b), 1);
         } else {
           if (pieces[a].label != pieces[b].label) return damaged("two pieces of different labels are joined");
           const std::uint32_t ra = find(static_cast<std::uint32_t>(a)), rb = find(static_cast<std::uint32_t>(b));
@@ -205,45 +249,37 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
         }
         return format::Status();
       }));
-  for (const auto& [ab, edges] : border_shared) shared.push_back({ab.first, ab.second, edges});
-  border_shared.clear();
-  // Patches, numbered by lowest face.
-  const std::size_t np = pieces.size();
-  std::vector<StitchedPatch> by_root(np);
-  std::vector<std::uint8_t> is_root(np, 0);
+  // Patches, numbered by lowest face: each root gathers its pieces' lowest face and size.
   for (std::uint32_t i = 0; i < np; ++i) {
     const std::uint32_t r = find(i);
-    StitchedPatch& p = by_root[r];
-    if (!is_root[r]) {
-      is_root[r] = 1;
-      p = {pieces[i].min_face, 0, pieces[i].label};
-    }
-    p.min_face = std::min(p.min_face, pieces[i].min_face);
-    p.faces += pieces[i].faces;
+    if (r == i) continue;
+    pieces[r].min_face = std::min(pieces[r].min_face, pieces[i].min_face);
+    pieces[r].faces += pieces[i].faces;
   }
   std::vector<std::uint32_t> roots;
   for (std::uint32_t i = 0; i < np; ++i)
-    if (is_root[i]) roots.push_back(i);
-  std::sort(roots.begin(), roots.end(), [&](std::uint32_t a, std::uint32_t b) { return by_root[a].min_face < by_root[b].min_face; });
-  StitchedPatches out;
-  std::vector<std::uint32_t> patch_of_root(np, 0);
+    if (parent[i] == i) roots.push_back(i);
+  std::sort(roots.begin(), roots.end(), [&](std::uint32_t a, std::uint32_t b) { return pieces[a].min_face < pieces[b].min_face; });
+  out.patches.reserve(roots.size());
   for (std::size_t k = 0; k < roots.size(); ++k) {
-    patch_of_root[roots[k]] = static_cast<std::uint32_t>(k);
-    out.patches.push_back(by_root[roots[k]]);
+    const Piece& r = pieces[roots[k]];
+    out.patches.push_back({r.min_face, r.faces, r.label});
+    out.piece_patch[roots[k]] = static_cast<std::uint32_t>(k);
   }
-  out.piece_patch.resize(np);
-  for (std::uint32_t i = 0; i < np; ++i) out.piece_patch[i] = patch_of_root[find(i)];
-  std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint64_t> adjacency;
-  for (const Shared& s : shared) {
-    const std::uint32_t p = out.piece_patch[s.a], q = out.piece_patch[s.b];
+  std::vector<std::uint32_t>().swap(roots);
+  std::vector<Piece>().swap(pieces);
+  for (std::uint32_t i = 0; i < np; ++i) out.piece_patch[i] = out.piece_patch[find(i)];  // roots are lower: done first
+  std::vector<std::uint32_t>().swap(parent);
+  // Piece pairs to patch pairs.
+  for (Shared& x : shared) {
+    const std::uint32_t p = out.piece_patch[x.a], q = out.piece_patch[x.b];
     if (p == q) return damaged("a feature edge inside one patch");
-    adjacency[{std::min(p, q), std::max(p, q)}] += s.edges;
+    x = {std::min(p, q), std::max(p, q), x.edges};
   }
-  for (const auto& [pq, edges] : adjacency) out.adjacency.push_back({pq.first, pq.second, edges});
-
-  out.sorted_pieces = sorted_ids;
-  out.sorted_piece_patch.resize(sorted_ids.size());
-  for (std::size_t k = 0; k < sorted_ids.size(); ++k) out.sorted_piece_patch[k] = out.piece_patch[order[k]];
+  compact();
+  out.adjacency.reserve(shared.size());
+  for (const Shared& x : shared) out.adjacency.push_back({x.a, x.b, x.edges});
+  std::vector<Shared>().swap(shared);
   // Candidates' stars in patches: each face's piece from its owner's answers, for a group of
   // chunks at a time (each answer file read once per group, the group's requests in memory),
   // then the chunks' stars are dropped.

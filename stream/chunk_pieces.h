@@ -139,8 +139,10 @@ struct StitchedPatches {
   };
   std::vector<Adjacent> adjacency;
   std::vector<std::uint32_t> piece_patch;  // patch of every piece, in the order of all pieces given
-  std::vector<PieceId> sorted_pieces;       // every piece id, ascending
-  std::vector<std::uint32_t> sorted_piece_patch;  // patch of sorted_pieces[k]
+  // (chunk, index of its first piece in piece_patch), ascending chunk: a piece id's index is its
+  // chunk's first plus its index in the chunk.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> chunk_first;
+  std::int64_t piece_index(PieceId piece) const;  // -1 when unknown
   // Patch of a piece; -1 when unknown (kNoPiece included).
   std::int64_t patch_of_piece(PieceId piece) const;
   // Candidates (before the merge), ascending vertex, with their stars in patch ids.
