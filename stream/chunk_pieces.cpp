@@ -288,20 +288,30 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
   std::vector<std::uint64_t> faces;
   std::vector<PieceId> found;
   auto patch_of = [&](PieceId piece) { return piece == kNoPiece ? -1 : out.patch_of_piece(piece); };
+  // A chunk's star entries: in memory, or (spilled in pass B) from its star file.
+  auto entries_of = [&](const ChunkPieces& c) {
+    std::uint64_t n = 0;
+    for (const CandidateRecord& r : c.candidates) n += r.count;
+    return n;
+  };
   std::size_t total_candidates = 0, total_entries = 0;
   for (const ChunkPieces& c : chunks) {
     total_candidates += c.candidates.size();
-    total_entries += c.star.size();
+    total_entries += entries_of(c);
   }
   out.candidates.reserve(total_candidates);
   out.star.reserve(total_entries);
   for (std::size_t first = 0; first < chunks.size();) {
     std::size_t last = first, entries = 0;
-    while (last < chunks.size() && (last == first || entries + chunks[last].star.size() <= group_entries))
-      entries += chunks[last++].star.size();
+    while (last < chunks.size() && (last == first || entries + entries_of(chunks[last]) <= group_entries))
+      entries += entries_of(chunks[last++]);
     owners.clear();
     faces.clear();
     for (std::size_t c = first; c < last; ++c) {
+      if (chunks[c].star.empty() && !chunks[c].candidates.empty()) {
+        const std::uint32_t id = static_cast<std::uint32_t>(c);
+        GM_RETURN_IF_ERROR(joins.read_stars(id, chunks[c].star));
+      }
       for (const CandidateRecord& r : chunks[c].candidates) {
         if (std::size_t{r.first} + r.count > chunks[c].star.size()) return damaged("a candidate's star is out of range");
         for (std::uint32_t k = r.first; k < r.first + r.count; ++k) {

@@ -75,6 +75,7 @@ format::Result<std::unique_ptr<PieceJoinFiles>> PieceJoinFiles::create(const std
   files->dir_ = dir;
   files->chunks_ = chunks;
   files->answered_.assign(chunks, 0);
+  files->star_entries_.assign(chunks, 0);
   auto compressor = format::RecordCompressor::create(1);
   if (!compressor) return compressor.status();
   files->compressor_ = std::move(*compressor);
@@ -96,6 +97,40 @@ PieceJoinFiles::~PieceJoinFiles() = default;
 
 std::string PieceJoinFiles::answer_path(std::uint32_t chunk) const {
   return dir_ + "/answers-" + std::to_string(chunk) + ".rec";
+}
+
+namespace {
+std::string star_path(const std::string& dir, std::uint32_t chunk) { return dir + "/stars-" + std::to_string(chunk) + ".rec"; }
+}  // namespace
+
+Status PieceJoinFiles::read_stars(std::uint32_t chunk, std::vector<StarEntry>& out) const {
+  out.clear();
+  if (chunk >= chunks_) return damaged("stars of chunk " + std::to_string(chunk) + ", which does not exist");
+  const std::uint64_t expect = star_entries_[chunk];
+  if (expect == 0) return {};
+  const std::string path = star_path(dir_, chunk);
+  auto reader = format::RecordReader::open(path, kStarRecordKind, kStarRecordBytes);
+  if (!reader) return reader.status();
+  if ((*reader)->records() != expect) return damaged(path + ": holds another number of star entries than were written");
+  out.reserve(expect);
+  for (;;) {
+    auto frame = (*reader)->next();
+    if (!frame) return frame.status();
+    if (frame->empty()) break;
+    for (std::size_t k = 0; k + kStarRecordBytes <= frame->size(); k += kStarRecordBytes) {
+      StarEntry e;
+      std::uint32_t owners[2];
+      e.face = get_u64(frame->data() + k);
+      e.next = get_u64(frame->data() + k + 8);
+      std::memcpy(owners, frame->data() + k + 16, 8);
+      e.owner = owners[0];
+      e.next_owner = owners[1] & 0x7FFFFFFFu;
+      e.entering_break = owners[1] >> 31;
+      out.push_back(e);
+    }
+  }
+  if (out.size() != expect) return damaged(path + ": holds another number of star entries than were written");
+  return {};
 }
 
 Status PieceJoinFiles::write_answer_file(std::uint32_t chunk, std::span<const FacePieceRecord> answers) {
@@ -128,6 +163,24 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
   }
   GM_RETURN_IF_ERROR(write_answer_file(chunk, pieces.border_faces));
   std::vector<FacePieceRecord>().swap(pieces.border_faces);  // "= {}" would keep the capacity
+  if (!pieces.star.empty()) {
+    auto writer = format::RecordWriter::create(star_path(dir_, chunk), kStarRecordKind, kStarRecordBytes);
+    if (!writer) return writer.status();
+    std::vector<std::byte> bytes(pieces.star.size() * kStarRecordBytes);
+    for (std::size_t k = 0; k < pieces.star.size(); ++k) {
+      const StarEntry& e = pieces.star[k];
+      const std::uint32_t owners[2] = {e.owner, e.next_owner | std::uint32_t{e.entering_break} << 31};
+      put_u64(bytes.data() + k * kStarRecordBytes, e.face);
+      put_u64(bytes.data() + k * kStarRecordBytes + 8, e.next);
+      std::memcpy(bytes.data() + k * kStarRecordBytes + 16, owners, 8);
+    }
+    GM_RETURN_IF_ERROR((*writer)->append(bytes));
+    GM_RETURN_IF_ERROR((*writer)->finish());
+    std::lock_guard lock(mutex_);
+    star_entries_[chunk] = pieces.star.size();
+    bytes_written_ += (*writer)->bytes_written();
+  }
+  std::vector<StarEntry>().swap(pieces.star);
   // Border edges grouped by bucket (a counting sort), then appended under the lock.
   const std::size_t nb = bucket_paths_.size();
   std::vector<std::size_t> start(nb + 1, 0);

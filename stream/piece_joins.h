@@ -30,6 +30,10 @@ inline constexpr std::uint32_t kFaceAnswerRecordKind = 0x41464D47u;
 inline constexpr std::uint32_t kBorderEdgeRecordBytes = 25;
 // Bytes of one face-answer record: u64 face, u64 piece.
 inline constexpr std::uint32_t kFaceAnswerRecordBytes = 16;
+// Candidates' star entries of one chunk ("GMST"): u64 face, u64 next face (all ones for a
+// break), u32 owner of face, u32 owner of next (bits 0..30) | entering edge is a break (bit 31).
+inline constexpr std::uint32_t kStarRecordKind = 0x54534D47u;
+inline constexpr std::uint32_t kStarRecordBytes = 24;
 // More buckets than this are never made (each holds a descriptor and a pending frame).
 inline constexpr std::size_t kMaxBorderBuckets = 256;
 
@@ -52,8 +56,9 @@ class PieceJoinFiles {
   PieceJoinFiles(const PieceJoinFiles&) = delete;
   PieceJoinFiles& operator=(const PieceJoinFiles&) = delete;
 
-  // Moves one chunk's border edges to the buckets and its face answers (border_faces, strictly
-  // ascending face — as find_chunk_pieces emits them) to the chunk's answer file, and clears both
+  // Moves one chunk's border edges to the buckets, its face answers (border_faces, strictly
+  // ascending face — as find_chunk_pieces emits them) to the chunk's answer file and its
+  // candidates' star entries to its star file (read back by read_stars), and clears the three
   // vectors. Thread-safe for distinct chunks; once per chunk. Errors: kOutput (disk full),
   // kProcessing when the answers are not ascending.
   format::Status spill(std::uint32_t chunk, ChunkPieces& pieces);
@@ -77,6 +82,9 @@ class PieceJoinFiles {
   format::Status look_up(std::span<const std::uint32_t> owners, std::span<const std::uint64_t> faces,
                          std::span<PieceId> pieces) const;
 
+  // The star entries spill() took from chunk (none if it was not spilled). Errors: a damaged
+  // file, or one holding another count of entries than was written (kBadInput).
+  format::Status read_stars(std::uint32_t chunk, std::vector<StarEntry>& out) const;
   std::uint64_t border_records() const { return border_records_; }
   std::uint64_t answer_records() const { return answer_records_; }
   std::uint64_t bytes_written() const { return bytes_written_; }  // compressed, every file
@@ -95,6 +103,7 @@ class PieceJoinFiles {
   std::unique_ptr<format::RecordCompressor> compressor_;  // shared by the bucket writers, under mutex_
   std::vector<std::unique_ptr<format::RecordWriter>> writers_;
   std::vector<std::uint8_t> answered_;  // per chunk: its answer file is written
+  std::vector<std::uint64_t> star_entries_;  // per chunk: entries in its star file
   std::mutex mutex_;
   std::uint64_t border_records_ = 0, answer_records_ = 0, bytes_written_ = 0;
   bool finished_ = false;

@@ -258,5 +258,47 @@ TEST(PieceJoins, AnswersComeFromTheOwnersFiles) {
   EXPECT_EQ((*fresh)->spill(1, unsorted).code(), Code::kProcessing);
 }
 
+TEST(PieceJoins, StarsComeBackAsSpilledAndDamageIsBadInput) {
+  testing::ScratchDir dir;
+  std::vector<ChunkPieces> chunks(2);
+  StarEntry a, b;
+  a.face = 7;
+  a.next = 9;
+  a.owner = 1;
+  a.next_owner = 0x7FFFFFFFu;
+  a.entering_break = 1;
+  b.face = 1ull << 40;
+  b.owner = 0;
+  chunks[1].star = {a, b};
+  chunks[1].candidates = {{5, 0, 2}};
+  auto joins = PieceJoinFiles::create(dir.path().string(), 2, 1);
+  ASSERT_TRUE(joins.is_ok());
+  ASSERT_TRUE((*joins)->spill(0, chunks[0]).is_ok());
+  ASSERT_TRUE((*joins)->spill(1, chunks[1]).is_ok());
+  EXPECT_TRUE(chunks[1].star.empty());
+  ASSERT_TRUE((*joins)->finish().is_ok());
+  std::vector<StarEntry> got;
+  ASSERT_TRUE((*joins)->read_stars(0, got).is_ok());
+  EXPECT_TRUE(got.empty());
+  ASSERT_TRUE((*joins)->read_stars(1, got).is_ok());
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[0].face, 7u);
+  EXPECT_EQ(got[0].next, 9u);
+  EXPECT_EQ(got[0].owner, 1u);
+  EXPECT_EQ(got[0].next_owner, 0x7FFFFFFFu);
+  EXPECT_EQ(got[0].entering_break, 1u);
+  EXPECT_EQ(got[1].face, 1ull << 40);
+  EXPECT_EQ(got[1].next, kNoFaceId);
+  EXPECT_EQ(got[1].entering_break, 0u);
+  EXPECT_EQ((*joins)->read_stars(2, got).code(), Code::kBadInput) << "no such chunk";
+  const std::string path = dir.file("stars-1.rec");
+  ASSERT_TRUE(std::filesystem::exists(path));
+  const std::string bytes = testing::read_file(path);
+  testing::write_file(path, bytes.substr(0, bytes.size() - 5));
+  EXPECT_EQ((*joins)->read_stars(1, got).code(), Code::kBadInput) << "truncated";
+  std::filesystem::remove(path);
+  EXPECT_EQ((*joins)->read_stars(1, got).code(), Code::kBadInput) << "missing";
+}
+
 }  // namespace
 }  // namespace gaussmesh::stream
