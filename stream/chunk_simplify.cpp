@@ -358,6 +358,43 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
   std::vector<std::vector<std::uint32_t>> chunk_run(chunks.size());  // index in by_first of each chunk's runs
   for (std::uint32_t c = 0; c < chunks.size(); ++c) chunk_run[c].resize(chunks[c].runs.size());
   for (std::size_t k = 0; k < nr; ++k) chunk_run[by_first[k].chunk][by_first[k].index] = static_cast<std::uint32_t>(k);
+  // Dense ids: every loop vertex, record and extra vertex, in global id order. Gathered from
+  // the run files before the loops exist, summed up now and then (each vertex is on two loops).
+  std::vector<std::uint32_t>& global = g.global;
+  {
+    std::size_t unique = 0;
+    auto compact = [&] {
+      std::sort(global.begin(), global.end());
+      global.erase(std::unique(global.begin(), global.end()), global.end());
+      unique = global.size();
+    };
+    for (const ChunkLoopSummary& c : chunks) {
+      GM_RETURN_IF_ERROR(read_run_vertices(c, [&](std::size_t, std::uint32_t, const LoopVertexEntry& e) {
+        global.push_back(e.vertex);
+        if (global.size() >= 2 * unique + (std::size_t{1} << 20)) compact();
+      }));
+      for (const LoopVertexRecord& r : c.vertices) global.push_back(r.vertex);
+    }
+    for (const auto& e : extra_vertices) global.push_back(e.first);
+    compact();
+    global.shrink_to_fit();
+  }
+  const std::size_t nv = global.size();
+  auto dense = [&](std::uint32_t v) {
+    return static_cast<std::uint32_t>(std::lower_bound(global.begin(), global.end(), v) - global.begin());
+  };
+  // The loops, in dense ids; positions of the first range of ids on the way (all of them when
+  // they fit in one).
+  constexpr std::size_t kRange = (std::size_t{8} << 20) / sizeof(format::Vec3f);
+  std::vector<format::Vec3f> buffer(std::min(nv, kRange));
+  std::vector<std::uint8_t> filled(buffer.size(), 0);
+  std::size_t lo = 0;
+  auto put = [&](std::uint32_t v, const format::Vec3f& p) {
+    const std::size_t d = dense(v);
+    if (d < lo || d >= lo + buffer.size()) return;
+    buffer[d - lo] = p;
+    filled[d - lo] = 1;
+  };
   g.loops.resize(infos.size());
   for (std::uint32_t l = 0; l < infos.size(); ++l) {
     g.loops[l].patch = infos[l].patch;
@@ -374,29 +411,14 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
   for (std::uint32_t c = 0; c < chunks.size(); ++c) {
     GM_RETURN_IF_ERROR(read_run_vertices(chunks[c], [&](std::size_t run, std::uint32_t i, const LoopVertexEntry& e) {
       const std::uint32_t k = chunk_run[c][run];
-      g.loops[run_loop[k]].vertices[run_at[k] + i] = e.vertex;
+      g.loops[run_loop[k]].vertices[run_at[k] + i] = dense(e.vertex);
+      put(e.vertex, e.position);
     }));
   }
   for (std::uint32_t l = 0; l < infos.size(); ++l) {
     auto& v = g.loops[l].vertices;
     std::rotate(v.begin(), v.begin() + run_of(infos[l].start).min_index, v.end());
   }
-  // Dense ids: every loop vertex, record and extra vertex, in global id order.
-  std::vector<std::uint32_t>& global = g.global;
-  global.reserve(halves + total_records);
-  for (const PatchLoop& loop : g.loops) global.insert(global.end(), loop.vertices.begin(), loop.vertices.end());
-  for (const ChunkLoopSummary& c : chunks)
-    for (const LoopVertexRecord& r : c.vertices) global.push_back(r.vertex);
-  for (const auto& e : extra_vertices) global.push_back(e.first);
-  std::sort(global.begin(), global.end());
-  global.erase(std::unique(global.begin(), global.end()), global.end());
-  global.shrink_to_fit();
-  const std::size_t nv = global.size();
-  auto dense = [&](std::uint32_t v) {
-    return static_cast<std::uint32_t>(std::lower_bound(global.begin(), global.end(), v) - global.begin());
-  };
-  for (PatchLoop& loop : g.loops)
-    for (std::uint32_t& v : loop.vertices) v = dense(v);
   g.role.assign(nv, VertexRole::kNone);
   g.interior_samples.assign(patches, {});
   std::vector<std::uint8_t> has_record(nv, 0);
@@ -414,29 +436,22 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
   has_record = {};
   for (auto& list : g.interior_samples) std::sort(list.begin(), list.end());
   g.graph.feature_edges = breaks + (halves - breaks) / 2;
-  // Positions in dense order, to a file: one range of dense ids at a time, the run files read
-  // once per range.
+  // Positions in dense order, to a file: one range of dense ids at a time (the first filled
+  // above), the run files read again for each further range.
   const std::string path = dir + "/loop-positions.bin";
   const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
   if (fd < 0) return format::Status::error(format::Code::kOutput, path, std::strerror(errno));
   auto source = std::make_shared<FilePositions>(fd, path, nv);
-  constexpr std::size_t kRange = (std::size_t{8} << 20) / sizeof(format::Vec3f);
-  std::vector<format::Vec3f> buffer;
-  std::vector<std::uint8_t> filled;
-  for (std::size_t lo = 0; lo < nv; lo += kRange) {
-    const std::size_t hi = std::min(nv, lo + kRange);
-    buffer.assign(hi - lo, {});
-    filled.assign(hi - lo, 0);
-    auto put = [&](std::uint32_t v, const format::Vec3f& p) {
-      const std::size_t d = dense(v);
-      if (d < lo || d >= hi) return;
-      buffer[d - lo] = p;
-      filled[d - lo] = 1;
-    };
-    for (const ChunkLoopSummary& c : chunks) {
-      GM_RETURN_IF_ERROR(read_run_vertices(c, [&](std::size_t, std::uint32_t, const LoopVertexEntry& e) { put(e.vertex, e.position); }));
-      for (const LoopVertexRecord& r : c.vertices) put(r.vertex, r.position);
+  for (lo = 0; lo < nv; lo += kRange) {
+    const std::size_t n = std::min(nv - lo, kRange);
+    if (lo > 0) {
+      buffer.assign(n, {});
+      filled.assign(n, 0);
+      for (const ChunkLoopSummary& c : chunks)
+        GM_RETURN_IF_ERROR(read_run_vertices(c, [&](std::size_t, std::uint32_t, const LoopVertexEntry& e) { put(e.vertex, e.position); }));
     }
+    for (const ChunkLoopSummary& c : chunks)
+      for (const LoopVertexRecord& r : c.vertices) put(r.vertex, r.position);
     for (const auto& [v, p] : extra_vertices) put(v, p);
     if (std::find(filled.begin(), filled.end(), 0) != filled.end()) return damaged("a loop vertex has no position");
     const std::size_t bytes = buffer.size() * sizeof(format::Vec3f);
@@ -531,7 +546,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   auto stitched = stitch_pieces(pieces, **joins, options.partition.memory_bytes);
   if (!stitched) return stitched.status();
   pieces = {};
-  const PatchMergeResult merged = merge_stitched_patches(*stitched);
+  PatchMergeResult merged = merge_stitched_patches(*stitched);
   out.patches = merged.patch_label.size();
   out.merged_patches = merged.merged_patches;
   out.merge_rounds = merged.rounds;
@@ -540,6 +555,15 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     if (merged.is_candidate[k]) corners.push_back(stitched->candidates[k].vertex);
   out.candidates = corners.size();
   out.peak_rss_after_merge = peak_rss();
+  // Passes C and D need each piece's merged patch and each merged patch's label; the rest of the
+  // stitch and the merge goes now.
+  std::vector<StitchedPatches::Star>().swap(stitched->star);
+  std::vector<StitchedPatches::Candidate>().swap(stitched->candidates);
+  std::vector<StitchedPatches::Adjacent>().swap(stitched->adjacency);
+  std::vector<StitchedPatches::Collapsed>().swap(stitched->collapsed);
+  std::vector<StitchedPatch>().swap(stitched->patches);
+  std::vector<std::pair<std::uint32_t, std::uint32_t>>().swap(merged.adjacency);
+  std::vector<std::uint8_t>().swap(merged.is_candidate);
   auto merged_patch_of_piece = [&](PieceId piece) -> std::uint32_t {
     const std::int64_t p = stitched->patch_of_piece(piece);
     return p < 0 ? kNone : merged.patch_of[p];
