@@ -2,6 +2,10 @@
 // vertices, chunks in parallel. See chunk_sampler.h.
 #include "stream/chunk_sampler.h"
 
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
+
 #include <algorithm>
 #include <atomic>
 #include <cassert>
@@ -86,9 +90,17 @@ format::Status for_each_chunk(const Partition& partition, std::uint32_t threads,
       }
     });
   });
+  workspaces.clear();
+  release_free_memory();
   for (const format::Status& e : errors)
     if (!e) return e;
   return format::Status();
+}
+
+void release_free_memory() {
+#ifdef __GLIBC__
+  ::malloc_trim(0);
+#endif
 }
 
 format::Result<std::vector<GaussSphere>> create_spheres(const std::vector<GaussSphereOptions>& options) {

@@ -80,6 +80,11 @@ format::Result<Partition> partition_for_chunks(const std::string& input_path, co
 // The process's peak RSS so far (getrusage), in bytes.
 std::uint64_t peak_rss();
 
+// Hands the allocator's free pages back to the system (glibc's malloc_trim; elsewhere nothing).
+// Between passes: what one pass's threads freed is not counted again under the next's
+// allocations. for_each_chunk calls it when its chunks are done.
+void release_free_memory();
+
 // The Gaussian spheres of `options` (kUsage for bad options).
 format::Result<std::vector<GaussSphere>> create_spheres(const std::vector<GaussSphereOptions>& options);
 

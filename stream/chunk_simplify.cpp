@@ -545,7 +545,8 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   start = std::chrono::steady_clock::now();
   auto stitched = stitch_pieces(pieces, **joins, options.partition.memory_bytes);
   if (!stitched) return stitched.status();
-  pieces = {};
+  std::vector<ChunkPieces>().swap(pieces);
+  release_free_memory();
   PatchMergeResult merged = merge_stitched_patches(*stitched);
   out.patches = merged.patch_label.size();
   out.merged_patches = merged.merged_patches;
@@ -564,6 +565,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   std::vector<StitchedPatch>().swap(stitched->patches);
   std::vector<std::pair<std::uint32_t, std::uint32_t>>().swap(merged.adjacency);
   std::vector<std::uint8_t>().swap(merged.is_candidate);
+  release_free_memory();
   auto merged_patch_of_piece = [&](PieceId piece) -> std::uint32_t {
     const std::int64_t p = stitched->patch_of_piece(piece);
     return p < 0 ? kNone : merged.patch_of[p];
