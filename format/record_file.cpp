@@ -19,6 +19,10 @@ constexpr char kMagic[8] = {'G', 'M', 'R', 'E', 'C', 'O', 'R', 'D'};
 constexpr char kSeekMagic[8] = {'G', 'M', 'R', 'S', 'E', 'E', 'K', '1'};
 constexpr std::size_t kHeaderBytes = 32;
 constexpr std::size_t kFrameHeaderBytes = 8;
+// Frame offsets a writer keeps; a file with more frames has them read back from its frame
+// headers when the seek table is written (hundreds of writers open at once, each with many
+// small frames, would otherwise hold 8 bytes per frame each until the end).
+constexpr std::size_t kOffsetsInMemory = 256;
 constexpr std::size_t kFooterBytes = 24;
 
 template <class T>
@@ -161,7 +165,7 @@ Status RecordWriter::write_frame(std::span<const std::byte> plain) {
   }
   put<std::uint32_t>(compressed.data(), static_cast<std::uint32_t>(size));
   put<std::uint32_t>(compressed.data() + 4, static_cast<std::uint32_t>(plain.size()));
-  frame_offsets_.push_back(file_bytes_);
+  if (frames_++ < kOffsetsInMemory) frame_offsets_.push_back(file_bytes_);
   GM_RETURN_IF_ERROR(reopen());
   GM_RETURN_IF_ERROR(write_raw(compressed.data(), kFrameHeaderBytes + size));
   if (!keep_open_) GM_RETURN_IF_ERROR(close_file());
@@ -200,15 +204,48 @@ Status RecordWriter::append(std::span<const std::byte> bytes) {
 Status RecordWriter::finish() {
   if (finished_) return {};
   GM_RETURN_IF_ERROR(flush_frame());
-  std::vector<std::byte> table(frame_offsets_.size() * 8 + kFooterBytes);
-  for (std::size_t i = 0; i < frame_offsets_.size(); ++i) put<std::uint64_t>(table.data() + 8 * i, frame_offsets_[i]);
-  std::byte* footer = table.data() + frame_offsets_.size() * 8;
+  if (frames_ > 0xFFFFFFFFu) return Status::error(Code::kResources, path_, "more than 2^32 - 1 frames");
+  GM_RETURN_IF_ERROR(reopen());
+  // The seek table, a block at a time: the kept offsets, then the rest found by walking the
+  // frame headers from the last kept one.
+  std::vector<std::byte> block;
+  block.reserve(8 * kOffsetsInMemory);
+  for (std::uint64_t offset : frame_offsets_) {
+    block.resize(block.size() + 8);
+    put<std::uint64_t>(block.data() + block.size() - 8, offset);
+  }
+  if (frames_ > frame_offsets_.size()) {
+    const int in = ::open(path_.c_str(), O_RDONLY | O_CLOEXEC);
+    if (in < 0) return Status::error(Code::kOutput, path_, "cannot read back frame headers: " + errno_text());
+    std::uint64_t at = frame_offsets_.back();
+    for (std::uint64_t k = frame_offsets_.size(); k < frames_; ++k) {
+      std::byte header[kFrameHeaderBytes];
+      if (!pread_all(in, header, sizeof header, at)) {
+        ::close(in);
+        failed_ = true;
+        return Status::error(Code::kOutput, path_, "cannot read back frame headers: " + errno_text());
+      }
+      at += kFrameHeaderBytes + get<std::uint32_t>(header);
+      block.resize(block.size() + 8);
+      put<std::uint64_t>(block.data() + block.size() - 8, at);
+      if (block.size() >= 8 * kOffsetsInMemory) {
+        Status st = write_raw(block.data(), block.size());
+        if (!st.is_ok()) {
+          ::close(in);
+          return st;
+        }
+        block.clear();
+      }
+    }
+    ::close(in);
+  }
+  std::byte footer[kFooterBytes] = {};
   put<std::uint64_t>(footer, records_);
-  put<std::uint32_t>(footer + 8, static_cast<std::uint32_t>(frame_offsets_.size()));
+  put<std::uint32_t>(footer + 8, static_cast<std::uint32_t>(frames_));
   put<std::uint32_t>(footer + 12, 0);
   std::memcpy(footer + 16, kSeekMagic, sizeof kSeekMagic);
-  GM_RETURN_IF_ERROR(reopen());
-  GM_RETURN_IF_ERROR(write_raw(table.data(), table.size()));
+  block.insert(block.end(), footer, footer + kFooterBytes);
+  GM_RETURN_IF_ERROR(write_raw(block.data(), block.size()));
   GM_RETURN_IF_ERROR(close_file());
   finished_ = true;
   std::vector<std::byte>().swap(pending_);

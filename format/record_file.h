@@ -88,7 +88,10 @@ class RecordWriter {
   RecordCompressor* shared_ = nullptr;
   bool keep_open_ = true;
   std::vector<std::byte> pending_, compressed_;
+  // Offsets of the first frames; beyond kOffsetsInMemory frames finish() finds them again from
+  // the frames' own headers, so a writer's memory does not grow with its file.
   std::vector<std::uint64_t> frame_offsets_;
+  std::uint64_t frames_ = 0;
   std::uint64_t records_ = 0, file_bytes_ = 0;
   bool finished_ = false, failed_ = false;
 };

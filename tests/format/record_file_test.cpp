@@ -62,7 +62,7 @@ TEST(RecordFile, RoundTripAcrossManyFrames) {
   ASSERT_TRUE(write_items(dir.file("r.bin"), items, 4096).is_ok());
   auto reader = RecordReader::open(dir.file("r.bin"), 42, sizeof(Item));
   ASSERT_TRUE(reader.is_ok());
-  EXPECT_GT((*reader)->frame_count(), 100u);
+  EXPECT_GT((*reader)->frame_count(), 256u);  // past the offsets a writer keeps: the rest are read back
   EXPECT_EQ((*reader)->records(), items.size());
   auto back = read_items(dir.file("r.bin"));
   ASSERT_TRUE(back.is_ok()) << back.status().to_string();
