@@ -174,33 +174,6 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
     std::uint32_t label;
   };
   std::vector<Piece> pieces;
-  {
-    std::size_t total = 0;
-    for (const ChunkPieces& c : chunks) total += c.pieces.size();
-    if (total >= 0xFFFFFFFFu) return format::Status::error(format::Code::kResources, "stitch", "more than 2^32 - 1 patch pieces");
-    pieces.reserve(total);
-  }
-  for (ChunkPieces& c : chunks) {
-    if (c.pieces.empty()) continue;
-    const auto chunk = static_cast<std::uint32_t>(c.pieces[0].piece >> 32);
-    if (!out.chunk_first.empty() && out.chunk_first.back().first >= chunk) return damaged("chunks' pieces out of order");
-    out.chunk_first.emplace_back(chunk, static_cast<std::uint32_t>(pieces.size()));
-    for (std::size_t k = 0; k < c.pieces.size(); ++k) {
-      const PieceRecord& r = c.pieces[k];
-      if (r.piece != (PieceId{chunk} << 32 | k)) return damaged("a chunk's piece ids are not its indices");
-      pieces.push_back({r.min_face, r.faces, r.label});
-    }
-    std::vector<PieceRecord>().swap(c.pieces);
-  }
-  const std::size_t np = pieces.size();
-  out.piece_patch.resize(np);  // sized now: piece_index() reads it
-  auto dense = [&](PieceId id) { return out.piece_index(id); };
-  std::vector<std::uint32_t> parent(np);
-  std::iota(parent.begin(), parent.end(), 0u);
-  auto find = [&](std::uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  };
   // Feature edges between pieces, (a, b, edges) with a < b; summed up now and then so that
   // what is held grows with the piece pairs, not the edges.
   struct Shared {
@@ -226,14 +199,48 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
     shared.push_back({std::min(a, b), std::max(a, b), edges});
     if (shared.size() >= 2 * compacted + (1u << 20)) compact();
   };
-  for (ChunkPieces& c : chunks) {
-    for (const PieceAdjacencyRecord& r : c.adjacency) {
-      const std::int64_t a = dense(r.a), b = dense(r.b);
-      if (a < 0 || b < 0) return damaged("an adjacency record names an unknown piece");
-      add_shared(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b), r.edges);
+  // Pieces and their feature edges inside a chunk; what pass B spilled comes back from the
+  // files, a chunk at a time. Adjacency records name pieces of their own chunk.
+  std::vector<PieceAdjacencyRecord> spilled_adjacency;
+  for (std::size_t k = 0; k < chunks.size(); ++k) {
+    ChunkPieces& c = chunks[k];
+    spilled_adjacency.clear();
+    if (c.pieces.empty()) GM_RETURN_IF_ERROR(joins.read_pieces(static_cast<std::uint32_t>(k), c.pieces, spilled_adjacency));
+    if (c.pieces.empty()) {
+      if (!c.adjacency.empty() || !spilled_adjacency.empty()) return damaged("an adjacency record names an unknown piece");
+      continue;
     }
+    if (pieces.size() + c.pieces.size() >= 0xFFFFFFFFu)
+      return format::Status::error(format::Code::kResources, "stitch", "more than 2^32 - 1 patch pieces");
+    const auto chunk = static_cast<std::uint32_t>(c.pieces[0].piece >> 32);
+    if (!out.chunk_first.empty() && out.chunk_first.back().first >= chunk) return damaged("chunks' pieces out of order");
+    out.chunk_first.emplace_back(chunk, static_cast<std::uint32_t>(pieces.size()));
+    const std::size_t first = pieces.size();
+    for (std::size_t i = 0; i < c.pieces.size(); ++i) {
+      const PieceRecord& r = c.pieces[i];
+      if (r.piece != (PieceId{chunk} << 32 | i)) return damaged("a chunk's piece ids are not its indices");
+      pieces.push_back({r.min_face, r.faces, r.label});
+    }
+    for (const auto* list : {&c.adjacency, &spilled_adjacency}) {
+      for (const PieceAdjacencyRecord& r : *list) {
+        const std::uint64_t a = r.a & 0xFFFFFFFFu, b = r.b & 0xFFFFFFFFu;
+        if (r.a >> 32 != chunk || r.b >> 32 != chunk || a >= c.pieces.size() || b >= c.pieces.size())
+          return damaged("an adjacency record names an unknown piece");
+        add_shared(static_cast<std::uint32_t>(first + a), static_cast<std::uint32_t>(first + b), r.edges);
+      }
+    }
+    std::vector<PieceRecord>().swap(c.pieces);
     std::vector<PieceAdjacencyRecord>().swap(c.adjacency);
   }
+  const std::size_t np = pieces.size();
+  out.piece_patch.resize(np);  // sized now: piece_index() reads it
+  auto dense = [&](PieceId id) { return out.piece_index(id); };
+  std::vector<std::uint32_t> parent(np);
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto find = [&](std::uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
   // Border edges: both sides of every edge, joined on the unordered face pair a bucket at a
   // time.
   GM_RETURN_IF_ERROR(joins.join_border_edges(

@@ -76,6 +76,8 @@ format::Result<std::unique_ptr<PieceJoinFiles>> PieceJoinFiles::create(const std
   files->chunks_ = chunks;
   files->answered_.assign(chunks, 0);
   files->star_entries_.assign(chunks, 0);
+  files->piece_entries_.assign(chunks, 0);
+  files->adjacency_entries_.assign(chunks, 0);
   auto compressor = format::RecordCompressor::create(1);
   if (!compressor) return compressor.status();
   files->compressor_ = std::move(*compressor);
@@ -101,7 +103,64 @@ std::string PieceJoinFiles::answer_path(std::uint32_t chunk) const {
 
 namespace {
 std::string star_path(const std::string& dir, std::uint32_t chunk) { return dir + "/stars-" + std::to_string(chunk) + ".rec"; }
+std::string pieces_path(const std::string& dir, std::uint32_t chunk) { return dir + "/pieces-" + std::to_string(chunk) + ".rec"; }
+std::string adjacency_path(const std::string& dir, std::uint32_t chunk) {
+  return dir + "/piece-adjacency-" + std::to_string(chunk) + ".rec";
+}
+
+// Writes n records of `bytes` each, made by encode(k, at), to a new record file; returns its size.
+template <class Encode>
+format::Result<std::uint64_t> write_records(const std::string& path, std::uint32_t kind, std::uint32_t bytes, std::size_t n,
+                                            Encode&& encode) {
+  auto writer = format::RecordWriter::create(path, kind, bytes);
+  if (!writer) return writer.status();
+  std::vector<std::byte> buffer(n * bytes);
+  for (std::size_t k = 0; k < n; ++k) encode(k, buffer.data() + k * bytes);
+  GM_RETURN_IF_ERROR((*writer)->append(buffer));
+  GM_RETURN_IF_ERROR((*writer)->finish());
+  return (*writer)->bytes_written();
+}
+
+// Reads a record file that must hold exactly `expect` records, calling decode(at) for each.
+template <class Decode>
+Status read_records(const std::string& path, std::uint32_t kind, std::uint32_t bytes, std::uint64_t expect, Decode&& decode) {
+  if (expect == 0) return {};
+  auto reader = format::RecordReader::open(path, kind, bytes);
+  if (!reader) return reader.status();
+  if ((*reader)->records() != expect) return damaged(path + ": holds another number of records than were written");
+  std::uint64_t seen = 0;
+  for (;;) {
+    auto frame = (*reader)->next();
+    if (!frame) return frame.status();
+    if (frame->empty()) break;
+    for (std::size_t k = 0; k + bytes <= frame->size(); k += bytes, ++seen) decode(frame->data() + k);
+  }
+  if (seen != expect) return damaged(path + ": holds another number of records than were written");
+  return {};
+}
 }  // namespace
+
+Status PieceJoinFiles::read_pieces(std::uint32_t chunk, std::vector<PieceRecord>& pieces,
+                                   std::vector<PieceAdjacencyRecord>& adjacency) const {
+  pieces.clear();
+  adjacency.clear();
+  if (chunk >= chunks_) return damaged("pieces of chunk " + std::to_string(chunk) + ", which does not exist");
+  pieces.reserve(piece_entries_[chunk]);
+  GM_RETURN_IF_ERROR(read_records(pieces_path(dir_, chunk), kPieceRecordKind, kPieceRecordBytes, piece_entries_[chunk],
+                                  [&](const std::byte* at) {
+                                    PieceRecord r;
+                                    r.piece = get_u64(at);
+                                    r.min_face = get_u64(at + 8);
+                                    r.faces = get_u64(at + 16);
+                                    std::memcpy(&r.label, at + 24, 4);
+                                    pieces.push_back(r);
+                                  }));
+  adjacency.reserve(adjacency_entries_[chunk]);
+  return read_records(adjacency_path(dir_, chunk), kPieceAdjacencyRecordKind, kPieceAdjacencyRecordBytes,
+                      adjacency_entries_[chunk], [&](const std::byte* at) {
+                        adjacency.push_back({get_u64(at), get_u64(at + 8), get_u64(at + 16)});
+                      });
+}
 
 Status PieceJoinFiles::read_stars(std::uint32_t chunk, std::vector<StarEntry>& out) const {
   out.clear();
@@ -181,6 +240,35 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
     bytes_written_ += (*writer)->bytes_written();
   }
   std::vector<StarEntry>().swap(pieces.star);
+  if (!pieces.pieces.empty()) {
+    auto bytes = write_records(pieces_path(dir_, chunk), kPieceRecordKind, kPieceRecordBytes, pieces.pieces.size(),
+                               [&](std::size_t k, std::byte* at) {
+                                 const PieceRecord& r = pieces.pieces[k];
+                                 put_u64(at, r.piece);
+                                 put_u64(at + 8, r.min_face);
+                                 put_u64(at + 16, r.faces);
+                                 std::memcpy(at + 24, &r.label, 4);
+                               });
+    if (!bytes) return bytes.status();
+    std::lock_guard lock(mutex_);
+    piece_entries_[chunk] = pieces.pieces.size();
+    bytes_written_ += *bytes;
+  }
+  if (!pieces.adjacency.empty()) {
+    auto bytes = write_records(adjacency_path(dir_, chunk), kPieceAdjacencyRecordKind, kPieceAdjacencyRecordBytes,
+                               pieces.adjacency.size(), [&](std::size_t k, std::byte* at) {
+                                 const PieceAdjacencyRecord& r = pieces.adjacency[k];
+                                 put_u64(at, r.a);
+                                 put_u64(at + 8, r.b);
+                                 put_u64(at + 16, r.edges);
+                               });
+    if (!bytes) return bytes.status();
+    std::lock_guard lock(mutex_);
+    adjacency_entries_[chunk] = pieces.adjacency.size();
+    bytes_written_ += *bytes;
+  }
+  std::vector<PieceRecord>().swap(pieces.pieces);
+  std::vector<PieceAdjacencyRecord>().swap(pieces.adjacency);
   // Border edges grouped by bucket (a counting sort), then appended under the lock.
   const std::size_t nb = bucket_paths_.size();
   std::vector<std::size_t> start(nb + 1, 0);

@@ -34,6 +34,12 @@ inline constexpr std::uint32_t kFaceAnswerRecordBytes = 16;
 // break), u32 owner of face, u32 owner of next (bits 0..30) | entering edge is a break (bit 31).
 inline constexpr std::uint32_t kStarRecordKind = 0x54534D47u;
 inline constexpr std::uint32_t kStarRecordBytes = 24;
+// A chunk's pieces ("GMPC": u64 piece id, u64 lowest face, u64 faces, u32 label) and its
+// manifold feature edges between two of its pieces ("GMPA": u64 piece a, u64 piece b, u64 edges).
+inline constexpr std::uint32_t kPieceRecordKind = 0x43504D47u;
+inline constexpr std::uint32_t kPieceRecordBytes = 28;
+inline constexpr std::uint32_t kPieceAdjacencyRecordKind = 0x41504D47u;
+inline constexpr std::uint32_t kPieceAdjacencyRecordBytes = 24;
 // More buckets than this are never made (each holds a descriptor and a pending frame).
 inline constexpr std::size_t kMaxBorderBuckets = 256;
 
@@ -58,8 +64,8 @@ class PieceJoinFiles {
 
   // Moves one chunk's border edges to the buckets, its face answers (border_faces, strictly
   // ascending face — as find_chunk_pieces emits them) to the chunk's answer file and its
-  // candidates' star entries to its star file (read back by read_stars), and clears the three
-  // vectors. Thread-safe for distinct chunks; once per chunk. Errors: kOutput (disk full),
+  // candidates' star entries to its star file (read back by read_stars), its pieces and piece
+  // adjacency to two more files (read_pieces), and clears those vectors. Thread-safe for distinct chunks; once per chunk. Errors: kOutput (disk full),
   // kProcessing when the answers are not ascending.
   format::Status spill(std::uint32_t chunk, ChunkPieces& pieces);
   // Closes the bucket files; required before join_border_edges. Chunks that never called spill
@@ -85,6 +91,9 @@ class PieceJoinFiles {
   // The star entries spill() took from chunk (none if it was not spilled). Errors: a damaged
   // file, or one holding another count of entries than was written (kBadInput).
   format::Status read_stars(std::uint32_t chunk, std::vector<StarEntry>& out) const;
+  // The pieces and piece adjacency spill() took from chunk. Errors as read_stars.
+  format::Status read_pieces(std::uint32_t chunk, std::vector<PieceRecord>& pieces,
+                             std::vector<PieceAdjacencyRecord>& adjacency) const;
   std::uint64_t border_records() const { return border_records_; }
   std::uint64_t answer_records() const { return answer_records_; }
   std::uint64_t bytes_written() const { return bytes_written_; }  // compressed, every file
@@ -104,6 +113,7 @@ class PieceJoinFiles {
   std::vector<std::unique_ptr<format::RecordWriter>> writers_;
   std::vector<std::uint8_t> answered_;  // per chunk: its answer file is written
   std::vector<std::uint64_t> star_entries_;  // per chunk: entries in its star file
+  std::vector<std::uint64_t> piece_entries_, adjacency_entries_;  // per chunk: spilled pieces, adjacency
   std::mutex mutex_;
   std::uint64_t border_records_ = 0, answer_records_ = 0, bytes_written_ = 0;
   bool finished_ = false;

@@ -300,5 +300,36 @@ TEST(PieceJoins, StarsComeBackAsSpilledAndDamageIsBadInput) {
   EXPECT_EQ((*joins)->read_stars(1, got).code(), Code::kBadInput) << "missing";
 }
 
+TEST(PieceJoins, PiecesAndTheirAdjacencyComeBackAsSpilled) {
+  testing::ScratchDir dir;
+  ChunkPieces chunk;
+  chunk.pieces = {{PieceId{1} << 32, 7, 120, 1ull << 35}, {PieceId{1} << 32 | 1, 0xFFFFFFFFu, 3, 9}};
+  chunk.adjacency = {{PieceId{1} << 32, PieceId{1} << 32 | 1, 4}};
+  auto joins = PieceJoinFiles::create(dir.path().string(), 2, 1);
+  ASSERT_TRUE(joins.is_ok());
+  ASSERT_TRUE((*joins)->spill(1, chunk).is_ok());
+  EXPECT_TRUE(chunk.pieces.empty());
+  EXPECT_TRUE(chunk.adjacency.empty());
+  ASSERT_TRUE((*joins)->finish().is_ok());
+  std::vector<PieceRecord> pieces;
+  std::vector<PieceAdjacencyRecord> adjacency;
+  ASSERT_TRUE((*joins)->read_pieces(0, pieces, adjacency).is_ok());
+  EXPECT_TRUE(pieces.empty() && adjacency.empty());
+  ASSERT_TRUE((*joins)->read_pieces(1, pieces, adjacency).is_ok());
+  ASSERT_EQ(pieces.size(), 2u);
+  EXPECT_EQ(pieces[0].piece, PieceId{1} << 32);
+  EXPECT_EQ(pieces[0].label, 7u);
+  EXPECT_EQ(pieces[0].faces, 120u);
+  EXPECT_EQ(pieces[0].min_face, 1ull << 35);
+  EXPECT_EQ(pieces[1].label, 0xFFFFFFFFu);
+  ASSERT_EQ(adjacency.size(), 1u);
+  EXPECT_EQ(adjacency[0].b, PieceId{1} << 32 | 1);
+  EXPECT_EQ(adjacency[0].edges, 4u);
+  const std::string path = dir.file("pieces-1.rec");
+  const std::string bytes = testing::read_file(path);
+  testing::write_file(path, bytes.substr(0, bytes.size() - 1));
+  EXPECT_EQ((*joins)->read_pieces(1, pieces, adjacency).code(), Code::kBadInput) << "truncated";
+}
+
 }  // namespace
 }  // namespace gaussmesh::stream
