@@ -92,9 +92,17 @@ class GaussSphere {
   // double rounding) goes to a deterministic neighbour: the lowest base face, then the
   // lower row/column and the "up" cell.
   std::uint32_t locate(const Vec3d& n) const;
+  // The same answer as locate() without the fine lookup table (for tests and benchmarks).
+  std::uint32_t locate_without_table(const Vec3d& n) const;
+  // Cells per side of each cube face in the fine lookup table of locate() (0: no table), and
+  // how many of its cells it answers (one triangle, or two across one edge; the others fall
+  // back to the full computation).
+  std::uint32_t locate_table_cells() const { return fine_cells_; }
+  std::size_t locate_table_hits() const;
 
  private:
   GaussSphere() = default;
+  void build_locate_table();
 
   GaussSphereOptions options_;
   std::uint32_t frequency_ = 1;
@@ -107,6 +115,19 @@ class GaussSphere {
   // Cube map of candidate base faces for locate(): per cell, ids in increasing order.
   std::vector<std::uint16_t> cube_offsets_;
   std::vector<std::uint8_t> cube_faces_;
+  // Fine lookup table of locate() (build_locate_table): the cube of the canonical frame, each
+  // face split into fine_cells_² gnomonic cells (axis, sign, i, j). A cell either lies in one
+  // Gaussian triangle (plus == minus), or is cut by one edge of G into a part in `plus` (the
+  // inner side of plane `plane`) and a part in `minus`, all with a margin of 1e-9 from the
+  // other edges; or it is a fallback cell (plus == kNoFine: the full computation runs).
+  static constexpr std::uint16_t kNoFine = 0xFFFF;
+  struct FineCell {
+    std::uint16_t plus = kNoFine, minus = kNoFine, plane = 0, unused = 0;
+  };
+  std::uint32_t fine_cells_ = 0;
+  double fine_half_ = 0;  // fine_cells_ / 2
+  std::vector<FineCell> fine_;
+  std::vector<Vec3d> edge_planes_;  // canonical frame, unit, at 3 t + i: inner side of edge i of t
   // G.
   std::vector<Vec3d> vertices_;
   std::vector<std::array<std::uint32_t, 3>> triangle_vertices_;
