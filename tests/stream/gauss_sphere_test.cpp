@@ -138,7 +138,9 @@ TEST(GaussSphere, LocateTableAgreesWithTheFullComputation) {
   for (const BaseCase& bc : kBases) {
     for (std::uint32_t f : {1u, 3u, 8u, 16u, 32u}) {
       const GaussSphere g = make(bc.base, f, 11);
-      if (f <= 16) EXPECT_GT(g.locate_table_cells(), 0u);
+      if (f <= 16) {
+        EXPECT_GT(g.locate_table_cells(), 0u);
+      }
       auto check = [&](const Vec3d& n) {
         EXPECT_EQ(g.locate(n), g.locate_without_table(n))
             << "seed " << seed << " base " << gauss_base_name(bc.base) << " f " << f << " n " << n.x << " " << n.y
