@@ -14,6 +14,8 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
 
 #include "stream/exact_predicates.h"
 #include "stream/patch_filters.h"
@@ -26,6 +28,22 @@ using format::Vec3f;
 constexpr double kDegenerateRatio = 1e-7;  // |cross| <= this × sum of squared edge lengths
 constexpr double kHemisphereMargin = 1e-3;  // polygon vertices and g must have n·c above this
 
+// orientation_sign with its static filter inlined (the same bound: stream/exact_predicates.cpp);
+// the calls the filter cannot decide go to orientation_sign. Exact, so the same signs.
+inline int orient(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  const double m1 = b.y * c.z - b.z * c.y, m2 = b.z * c.x - b.x * c.z, m3 = b.x * c.y - b.y * c.x;
+  const double det = a.x * m1 + a.y * m2 + a.z * m3;
+  const double perm = std::abs(a.x) * (std::abs(b.y * c.z) + std::abs(b.z * c.y)) +
+                      std::abs(a.y) * (std::abs(b.z * c.x) + std::abs(b.x * c.z)) +
+                      std::abs(a.z) * (std::abs(b.x * c.y) + std::abs(b.y * c.x));
+  constexpr double kBound = 8 * 0x1.0p-53;
+  if (perm > 1e-150 && perm < 1e150) {
+    if (det > kBound * perm) return 1;
+    if (det < -kBound * perm) return -1;
+  }
+  return orientation_sign(a, b, c);
+}
+
 // Winding number, around unit-ish direction g, of the closed spherical polygon poly (great arcs
 // between consecutive normals, the last joined to the first). Precondition: every poly[i] and g
 // lie in the open hemisphere around some direction c. Central projection onto the plane tangent
@@ -37,16 +55,16 @@ int winding_number(const std::vector<Vec3d>& poly, const Vec3d& g) {
   const Vec3d d = ax <= ay && ax <= az ? Vec3d{1, 0, 0} : (ay <= az ? Vec3d{0, 1, 0} : Vec3d{0, 0, 1});
   const std::size_t k = poly.size();
   int w = 0;
-  bool above_first = orientation_sign(poly[0], g, d) > 0;
+  bool above_first = orient(poly[0], g, d) > 0;
   bool above_a = above_first;
   for (std::size_t i = 0; i < k; ++i) {
     const Vec3d& a = poly[i];
     const Vec3d& b = poly[(i + 1) % k];
-    const bool above_b = i + 1 == k ? above_first : orientation_sign(b, g, d) > 0;
+    const bool above_b = i + 1 == k ? above_first : orient(b, g, d) > 0;
     if (!above_a && above_b) {
-      if (orientation_sign(a, b, g) > 0) ++w;
+      if (orient(a, b, g) > 0) ++w;
     } else if (above_a && !above_b) {
-      if (orientation_sign(a, b, g) < 0) --w;
+      if (orient(a, b, g) < 0) --w;
     }
     above_a = above_b;
   }
@@ -213,13 +231,17 @@ void for_faces(std::size_t n, const Body& body) {
 }
 
 std::uint8_t feature_bits(const std::uint32_t* nb, const std::uint32_t* labels, std::size_t f) {
+  // Without branches (labels differ across about half the edges of a noisy mesh): a break edge
+  // reads the face's own label and sets its bit anyway.
   const std::uint32_t l = labels[f];
-  std::uint8_t bits = 0;
-  for (int i = 0; i < 3; ++i) {
+  unsigned bits = 0;
+  for (unsigned i = 0; i < 3; ++i) {
     const std::uint32_t g = nb[3 * f + i];
-    if (g == MeshAdjacency::kNoFace || labels[g] != l) bits |= static_cast<std::uint8_t>(1u << i);
+    const bool is_break = g == MeshAdjacency::kNoFace;
+    const std::size_t h = is_break ? f : g;
+    bits |= static_cast<unsigned>(is_break | (labels[h] != l)) << i;
   }
-  return bits;
+  return static_cast<std::uint8_t>(bits);
 }
 
 }  // namespace
@@ -393,18 +415,20 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
   const auto* tris = in.mesh.triangles.data();
   const std::uint32_t* corners = adjacency.vertex_corners.data();
   const std::uint8_t* flags = adjacency.slot_flags.data();
-  const std::uint32_t* nb = adjacency.edge_neighbor.data();
   const std::uint32_t sb = adjacency.star_begin(v), se = adjacency.star_end(v);
   if (sb == se) return;
   labels.load(sb, se, s);
-  // Fast path: feature edges and whether the star carries more than one label.
+  // Fast path: feature edges and whether the star carries more than one label. Each slot
+  // counts its outgoing edge; the incoming edges add the break edges among them, one per open
+  // fan (the last slot of an open fan is the only slot whose incoming edge is a break:
+  // MeshAdjacency), read from the slot flags instead of the faces' edge neighbours.
   std::uint32_t feature_count = 0;
   const std::uint32_t first_label = labels.label(sb, corners[sb] / 3, s);
   bool several_labels = false;
   for (std::uint32_t k = sb; k < se; ++k) {
     const std::uint32_t c = corners[k], f = c / 3, i = c % 3;
     feature_count += labels.feature_bit(k, f, i, s);
-    feature_count += nb[3 * f + (i + 2) % 3] == MeshAdjacency::kNoFace;
+    feature_count += (flags[k] & (MeshAdjacency::kFanStart | MeshAdjacency::kFanClosed)) == MeshAdjacency::kFanStart;
     several_labels |= labels.label(k, f, s) != first_label;
   }
   const bool is_candidate = feature_count >= 3;
@@ -544,12 +568,20 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
   if (r.is_candidate || r.is_exact_sample) out.push_back(r);
 }
 
+// True when oneTBB would run one thread here (an arena of one, or a global limit of one).
+bool single_thread() {
+  return tbb::this_task_arena::max_concurrency() <= 1 ||
+         tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism) <= 1;
+}
+
 // Evaluates the vertices get(0) .. get(n - 1) (increasing) and appends their records in that
 // order: blocks in parallel, each into its own list, concatenated in block order.
 template <typename VertexAt, typename Labels>
 void evaluate_many(const VertexInputs& in, const Labels& labels, std::size_t n, const VertexAt& get,
                    std::vector<VertexRecord>& out) {
-  if (n <= kVertexBlock) {
+  // One block, or one thread: straight into out (the same records in the same order as the
+  // blocks below, without their lists and the copy).
+  if (n <= kVertexBlock || single_thread()) {
     Scratch s;
     for (std::size_t k = 0; k < n; ++k) evaluate_vertex(in, labels, get(k), s, out);
     return;
