@@ -309,6 +309,19 @@ format::Result<GaussSphere> GaussSphere::create(const GaussSphereOptions& option
     const double a = std::acos(std::clamp(g.cap_cos_[t], -1.0, 1.0));
     g.cap_angle_[t] = {a, std::cos(a), std::sin(a)};
   }
+  // Vertex clearance: a point c outside the open star of Gaussian vertex v is at least as far
+  // from v as v's link (the edges opposite v in its triangles), hence at least the smallest
+  // angle from a corner of a triangle to the great circle of its opposite edge.
+  double height = std::numbers::pi / 2;
+  for (std::size_t t = 0; t < nt; ++t) {
+    const auto& tv = g.triangle_vertices_[t];
+    for (int i = 0; i < 3; ++i) {
+      const Vec3d n = normalized(cross(g.vertices_[tv[(i + 1) % 3]], g.vertices_[tv[(i + 2) % 3]]));
+      height = std::min(height, std::asin(std::min(1.0, std::abs(dot(n, g.vertices_[tv[i]])))));
+    }
+  }
+  g.clearance_ = std::max(0.0, height - 1e-6);
+  g.clearance_cos_ = std::cos(g.clearance_);
   g.build_locate_table();
   return g;
 }

@@ -84,6 +84,12 @@ class GaussSphere {
   double triangle_cap_angle_cos(std::uint32_t t) const { return cap_angle_[t].cos; }
   double triangle_cap_angle_sin(std::uint32_t t) const { return cap_angle_[t].sin; }
 
+  // A lower bound (radians, with a margin of 1e-6) on the angle from any point of a Gaussian
+  // triangle t to any Gaussian vertex that is not a corner of t, and its cosine: a cap around a
+  // point of t narrower than this holds no Gaussian vertex but t's corners.
+  double vertex_clearance() const { return clearance_; }
+  double vertex_clearance_cos() const { return clearance_cos_; }
+
   // The Gaussian triangle holding direction n (any length > 0; the zero vector yields some
   // valid id). O(1): rotate by Rᵀ, pick the base face whose cone holds it (the face plane the
   // ray leaves the base polyhedron through), centrally project onto that flat face, read the
@@ -140,6 +146,7 @@ class GaussSphere {
     double angle, cos, sin;
   };
   std::vector<CapAngle> cap_angle_;
+  double clearance_ = 0, clearance_cos_ = 1;
 };
 
 }  // namespace gaussmesh::stream

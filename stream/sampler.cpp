@@ -71,7 +71,8 @@ int winding_number(const std::vector<Vec3d>& poly, const Vec3d& g) {
   return w;
 }
 
-// Characteristic from a winding number and the side of the neighbours (sum of (p_w - p_v)·g).
+// Characteristic from a winding number and the side of the neighbours (sum of (p_w - p_v)·g),
+// which only a positive winding reads.
 Characteristic classify(int winding, double neighbour_side) {
   if (winding == 0) return Characteristic::kNone;
   if (winding < 0) return Characteristic::kSaddle;
@@ -132,6 +133,14 @@ struct Scratch {
   IdSet visited_set, gauss_set;         // membership of the two lists above
   std::vector<std::uint32_t> star_labels;  // MergeLabels: the labels of the current star
   std::uint32_t star_begin = 0;
+  // The current star's faces and labels by slot (read once, by the fast path).
+  std::vector<std::uint32_t> star_face, star_label;
+  void fit_star(std::uint32_t degree) {
+    if (star_face.size() < degree) {
+      star_face.resize(degree);
+      star_label.resize(degree);
+    }
+  }
 };
 
 // acos(clamp(x, -1, 1)) <= t, decided with cosines where the answer is clear by a margin of
@@ -422,14 +431,21 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
   // counts its outgoing edge; the incoming edges add the break edges among them, one per open
   // fan (the last slot of an open fan is the only slot whose incoming edge is a break:
   // MeshAdjacency), read from the slot flags instead of the faces' edge neighbours.
+  // The star's faces and labels go to the scratch arrays (slot k at k - sb) for the steps below.
   std::uint32_t feature_count = 0;
   const std::uint32_t first_label = labels.label(sb, corners[sb] / 3, s);
   bool several_labels = false;
+  s.fit_star(se - sb);
+  std::uint32_t* star_face = s.star_face.data() - sb;
+  std::uint32_t* star_label = s.star_label.data() - sb;
   for (std::uint32_t k = sb; k < se; ++k) {
     const std::uint32_t c = corners[k], f = c / 3, i = c % 3;
+    const std::uint32_t l = labels.label(k, f, s);
+    star_face[k] = f;
+    star_label[k] = l;
     feature_count += labels.feature_bit(k, f, i, s);
     feature_count += (flags[k] & (MeshAdjacency::kFanStart | MeshAdjacency::kFanClosed)) == MeshAdjacency::kFanStart;
-    several_labels |= labels.label(k, f, s) != first_label;
+    several_labels |= l != first_label;
   }
   const bool is_candidate = feature_count >= 3;
   const bool test_exact = in.run_exact_test && several_labels;
@@ -452,7 +468,7 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
   // Distinct labels of the whole star.
   s.distinct.clear();
   for (std::uint32_t k = sb; k < se; ++k) {
-    const std::uint32_t l = labels.label(k, corners[k] / 3, s);
+    const std::uint32_t l = star_label[k];
     if (std::find(s.distinct.begin(), s.distinct.end(), l) == s.distinct.end()) s.distinct.push_back(l);
   }
   const bool has_unlabelled = std::find(s.distinct.begin(), s.distinct.end(), kNoLabel) != s.distinct.end();
@@ -464,14 +480,14 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
     for (std::uint32_t k = sb; k < se && all_trees;) {
       std::uint32_t fan_end = k + 1;
       while (fan_end < se && !(flags[fan_end] & MeshAdjacency::kFanStart)) ++fan_end;
-      s.labels.clear();
-      for (std::uint32_t j = k; j < fan_end; ++j) s.labels.push_back(labels.label(j, corners[j] / 3, s));
-      const std::size_t m = s.labels.size();
+      const std::uint32_t* fan = star_label + k;
+      const std::size_t m = fan_end - k;
       for (std::size_t j = 0; j < m && all_trees; ++j) {
-        const std::uint32_t a = s.labels[j], b = s.labels[(j + 1) % m];
+        const std::uint32_t a = fan[j], b = fan[j + 1 == m ? 0 : j + 1];
         if (a != b && !gauss.are_edge_adjacent(a, b)) all_trees = false;
       }
       if (all_trees) {
+        s.labels.assign(fan, fan + m);
         std::sort(s.labels.begin(), s.labels.end());
         s.labels.erase(std::unique(s.labels.begin(), s.labels.end()), s.labels.end());
         // A set of triangles whose adjacency graph has |L| - 1 edges and is connected; with
@@ -525,7 +541,7 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
     while (fan_end < se && !(flags[fan_end] & MeshAdjacency::kFanStart)) ++fan_end;
     s.poly.clear();
     for (std::uint32_t j = k; j < fan_end; ++j) {
-      const std::uint32_t f = corners[j] / 3;
+      const std::uint32_t f = star_face[j];
       if (!degenerate[f]) s.poly.push_back(to_d(normal[f]));
     }
     k = fan_end;
@@ -536,9 +552,24 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
       exact_fallback = true;
       continue;
     }
-    if (r.gauss_vertex != kNoGaussVertex && dot(vg, c) > kHemisphereMargin) winding_vg += winding_number(s.poly, vg);
+    // The polygon lies in the cap {x : x·c >= cos_theta} (convex: cos_theta > 0), so it does not
+    // wind around a direction outside the cap; by 1e-9 that is certain despite rounding, and
+    // the exact winding would be 0.
+    if (r.gauss_vertex != kNoGaussVertex) {
+      const double gc = dot(vg, c);
+      if (gc > kHemisphereMargin && gc >= cos_theta - 1e-9) winding_vg += winding_number(s.poly, vg);
+    }
     if (test_exact) {
-      gauss_vertices_in_cap(gauss, c, cos_theta, s);
+      // A cap narrower than G's vertex clearance holds no Gaussian vertex but the corners of the
+      // triangle that holds c: test those (in the hemisphere around c). A vertex the cap search
+      // would skip winds 0, so the windings found are the same.
+      if (cos_theta > gauss.vertex_clearance_cos()) {
+        s.gauss.clear();
+        for (std::uint32_t g : gauss.triangle_vertices(gauss.locate(c)))
+          if (dot(gauss.vertex(g), c) > kHemisphereMargin) s.gauss.push_back(g);
+      } else {
+        gauss_vertices_in_cap(gauss, c, cos_theta, s);
+      }
       for (std::uint32_t g : s.gauss) {
         const int w = winding_number(s.poly, gauss.vertex(g));
         if (w == 0) continue;
@@ -552,7 +583,7 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
   }
   if (r.gauss_vertex != kNoGaussVertex) {
     r.winding = static_cast<std::int8_t>(std::clamp(winding_vg, -127, 127));
-    r.characteristic = classify(winding_vg, neighbour_side(vg));
+    r.characteristic = winding_vg > 0 ? classify(winding_vg, neighbour_side(vg)) : classify(winding_vg, 0);
   }
   if (test_exact) {
     // A fan whose normals do not fit in an open hemisphere has no exact verdict: it is a
@@ -562,7 +593,8 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
     if (exact_g != kNoGaussVertex) {
       r.exact_gauss_vertex = exact_g;
       r.exact_winding = static_cast<std::int8_t>(std::clamp(exact_first, -127, 127));
-      r.exact_characteristic = classify(exact_first, neighbour_side(gauss.vertex(exact_g)));
+      r.exact_characteristic =
+          exact_first > 0 ? classify(exact_first, neighbour_side(gauss.vertex(exact_g))) : classify(exact_first, 0);
     }
   }
   if (r.is_candidate || r.is_exact_sample) out.push_back(r);
