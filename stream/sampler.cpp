@@ -126,7 +126,6 @@ class IdSet {
 
 struct Scratch {
   std::vector<std::uint32_t> labels;    // fan-ordered labels of the current fan
-  std::vector<std::uint32_t> distinct;  // distinct labels of the vertex
   std::vector<Vec3d> poly;
   std::vector<std::uint32_t> visited;   // Gaussian triangles of the cap search, in visit order
   std::vector<std::uint32_t> gauss;     // Gaussian vertices to test
@@ -465,13 +464,10 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
     return side;
   };
 
-  // Distinct labels of the whole star.
-  s.distinct.clear();
-  for (std::uint32_t k = sb; k < se; ++k) {
-    const std::uint32_t l = star_label[k];
-    if (std::find(s.distinct.begin(), s.distinct.end(), l) == s.distinct.end()) s.distinct.push_back(l);
-  }
-  const bool has_unlabelled = std::find(s.distinct.begin(), s.distinct.end(), kNoLabel) != s.distinct.end();
+  // Whether the star has an unlabelled face (distinct labels are not needed: the tree filter
+  // takes each fan's, the represented vertex and the cover mask do not change with repeats).
+  bool has_unlabelled = false;
+  for (std::uint32_t k = sb; k < se; ++k) has_unlabelled |= star_label[k] == kNoLabel;
 
   if (is_candidate) {
     // Non-sample filter, fan by fan: consecutive labels equal or edge-adjacent, and the fan's
@@ -502,22 +498,26 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
     r.is_tree = all_trees;
 
     // Represented Gaussian vertex: the one corner every label is incident on.
+    // Bit j of `on_all`: corner j of the first label's triangle is a corner of every label's.
     if (!has_unlabelled) {
-      std::uint32_t found = kNoGaussVertex, count = 0;
-      for (std::uint32_t g : gauss.triangle_vertices(s.distinct[0])) {
-        bool on_all = true;
-        for (std::uint32_t l : s.distinct) on_all = on_all && gauss.triangle_has_vertex(l, g);
-        if (on_all) {
-          found = g;
-          ++count;
-        }
+      const auto& first = gauss.triangle_vertices(star_label[sb]);
+      unsigned on_all = 7;
+      for (std::uint32_t k = sb + 1; k < se; ++k) {
+        const auto& tv = gauss.triangle_vertices(star_label[k]);
+        unsigned here = 0;
+        for (unsigned j = 0; j < 3; ++j)
+          here |= static_cast<unsigned>((first[j] == tv[0]) | (first[j] == tv[1]) | (first[j] == tv[2])) << j;
+        on_all &= here;
       }
-      if (count == 1) {
+      if (on_all == 1 || on_all == 2 || on_all == 4) {
+        const std::uint32_t found = first[on_all == 1 ? 0 : (on_all == 2 ? 1 : 2)];
         r.gauss_vertex = found;
         const auto around = gauss.vertex_triangles(found);
-        for (std::uint32_t l : s.distinct)
-          for (std::size_t k = 0; k < around.size() && k < 8; ++k)
-            if (around[k] == l) r.cover_mask |= static_cast<std::uint8_t>(1u << k);
+        const std::size_t n = std::min<std::size_t>(around.size(), 8);
+        unsigned mask = 0;
+        for (std::uint32_t k = sb; k < se; ++k)
+          for (std::size_t j = 0; j < n; ++j) mask |= static_cast<unsigned>(around[j] == star_label[k]) << j;
+        r.cover_mask = static_cast<std::uint8_t>(mask);
       }
     }
   }
