@@ -50,17 +50,39 @@ inline int orient(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
 // at c maps the arcs to segments and keeps every orientation sign, so this is the plane
 // crossing-number rule (upward crossing with g on the left: +1, downward with g on the right:
 // -1) with "up" measured by the exact sign of det[p, g, d] for a fixed d not parallel to g.
+// sign det[p, g, d] > 0 for d the unit vector of `axis`: the axis component of p × g, a
+// difference of two products (rounding of each product and of the difference: at most
+// 2u (1 + u) of their absolute sum; the filter allows 4u), else orientation_sign. Exact.
+inline bool is_above(const Vec3d& p, const Vec3d& g, int axis, const Vec3d& d) {
+  double x, y;
+  if (axis == 0) {
+    x = p.y * g.z, y = p.z * g.y;
+  } else if (axis == 1) {
+    x = p.z * g.x, y = p.x * g.z;
+  } else {
+    x = p.x * g.y, y = p.y * g.x;
+  }
+  const double det = x - y, perm = std::abs(x) + std::abs(y);
+  constexpr double kBound = 4 * 0x1.0p-53;
+  if (perm > 1e-150 && perm < 1e150) {
+    if (det > kBound * perm) return true;
+    if (det < -kBound * perm) return false;
+  }
+  return orientation_sign(p, g, d) > 0;
+}
+
 int winding_number(const std::vector<Vec3d>& poly, const Vec3d& g) {
   const double ax = std::abs(g.x), ay = std::abs(g.y), az = std::abs(g.z);
-  const Vec3d d = ax <= ay && ax <= az ? Vec3d{1, 0, 0} : (ay <= az ? Vec3d{0, 1, 0} : Vec3d{0, 0, 1});
+  const int axis = ax <= ay && ax <= az ? 0 : (ay <= az ? 1 : 2);
+  const Vec3d d = axis == 0 ? Vec3d{1, 0, 0} : (axis == 1 ? Vec3d{0, 1, 0} : Vec3d{0, 0, 1});
   const std::size_t k = poly.size();
   int w = 0;
-  bool above_first = orient(poly[0], g, d) > 0;
+  bool above_first = is_above(poly[0], g, axis, d);
   bool above_a = above_first;
   for (std::size_t i = 0; i < k; ++i) {
     const Vec3d& a = poly[i];
     const Vec3d& b = poly[(i + 1) % k];
-    const bool above_b = i + 1 == k ? above_first : orient(b, g, d) > 0;
+    const bool above_b = i + 1 == k ? above_first : is_above(b, g, axis, d);
     if (!above_a && above_b) {
       if (orient(a, b, g) > 0) ++w;
     } else if (above_a && !above_b) {
