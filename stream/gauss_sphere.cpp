@@ -352,17 +352,11 @@ void GaussSphere::build_locate_table() {
   edge_planes_.clear();
   if (n == 0) return;
   constexpr double kMargin = 1e-9;
-  const auto& r = rotation_;
-  // Unit inner normals of each triangle's three edge planes, canonical frame (Rᵀ × world).
+  // Unit inner normals of each triangle's three edge planes.
   edge_planes_.resize(3 * nt);
   for (std::size_t t = 0; t < nt; ++t) {
     const auto& tv = triangle_vertices_[t];
-    for (int i = 0; i < 3; ++i) {
-      const Vec3d p = normalized(cross(vertices_[tv[i]], vertices_[tv[(i + 1) % 3]]));
-      edge_planes_[3 * t + i] = {r[0][0] * p.x + r[1][0] * p.y + r[2][0] * p.z,
-                                 r[0][1] * p.x + r[1][1] * p.y + r[2][1] * p.z,
-                                 r[0][2] * p.x + r[1][2] * p.y + r[2][2] * p.z};
-    }
+    for (int i = 0; i < 3; ++i) edge_planes_[3 * t + i] = normalized(cross(vertices_[tv[i]], vertices_[tv[(i + 1) % 3]]));
   }
   fine_.assign(static_cast<std::size_t>(6) * n * n, FineCell{});
   std::vector<std::uint32_t> corner_label((n + 1) * (n + 1));
@@ -382,10 +376,8 @@ void GaussSphere::build_locate_table() {
       for (std::uint32_t i = 0; i <= n; ++i)
         for (std::uint32_t j = 0; j <= n; ++j) {
           const Vec3d c = cube_direction(axis, sign, -1 + i * step, -1 + j * step);
-          const Vec3d w{r[0][0] * c.x + r[0][1] * c.y + r[0][2] * c.z, r[1][0] * c.x + r[1][1] * c.y + r[1][2] * c.z,
-                        r[2][0] * c.x + r[2][1] * c.y + r[2][2] * c.z};
           corner_dir[i * (n + 1) + j] = c;
-          corner_label[i * (n + 1) + j] = locate_without_table(w);
+          corner_label[i * (n + 1) + j] = locate_without_table(c);
         }
       for (std::uint32_t i = 0; i < n; ++i)
         for (std::uint32_t j = 0; j < n; ++j) {
@@ -427,11 +419,9 @@ std::size_t GaussSphere::locate_table_hits() const {
 
 std::uint32_t GaussSphere::locate(const Vec3d& n) const {
   if (fine_cells_ > 0) {
-    // m = Rᵀ n; the cube face of its largest coordinate (on a tie either face holds m), the
-    // gnomonic cell of the other two.
-    const auto& r = rotation_;
-    const Vec3d m{r[0][0] * n.x + r[1][0] * n.y + r[2][0] * n.z, r[0][1] * n.x + r[1][1] * n.y + r[2][1] * n.z,
-                  r[0][2] * n.x + r[1][2] * n.y + r[2][2] * n.z};
+    // The cube face of n's largest coordinate (on a tie either face holds n), the gnomonic cell
+    // of the other two (the table's cube is axis-aligned in G's rotated frame: no rotation).
+    const Vec3d& m = n;
     const double ax = std::abs(m.x), ay = std::abs(m.y), az = std::abs(m.z);
     double major, c0, c1, c2;
     int axis;

@@ -121,7 +121,7 @@ class GaussSphere {
   // Cube map of candidate base faces for locate(): per cell, ids in increasing order.
   std::vector<std::uint16_t> cube_offsets_;
   std::vector<std::uint8_t> cube_faces_;
-  // Fine lookup table of locate() (build_locate_table): the cube of the canonical frame, each
+  // Fine lookup table of locate() (build_locate_table): the axis-aligned cube, each
   // face split into fine_cells_² gnomonic cells (axis, sign, i, j). A cell either lies in one
   // Gaussian triangle (plus == minus), or is cut by one edge of G into a part in `plus` (the
   // inner side of plane `plane`) and a part in `minus`, all with a margin of 1e-9 from the
@@ -133,7 +133,7 @@ class GaussSphere {
   std::uint32_t fine_cells_ = 0;
   double fine_half_ = 0;  // fine_cells_ / 2
   std::vector<FineCell> fine_;
-  std::vector<Vec3d> edge_planes_;  // canonical frame, unit, at 3 t + i: inner side of edge i of t
+  std::vector<Vec3d> edge_planes_;  // unit, at 3 t + i: inner side of edge i of t
   // G.
   std::vector<Vec3d> vertices_;
   std::vector<std::array<std::uint32_t, 3>> triangle_vertices_;
