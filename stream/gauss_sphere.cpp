@@ -309,10 +309,148 @@ format::Result<GaussSphere> GaussSphere::create(const GaussSphereOptions& option
     const double a = std::acos(std::clamp(g.cap_cos_[t], -1.0, 1.0));
     g.cap_angle_[t] = {a, std::cos(a), std::sin(a)};
   }
+  // Vertex clearance: a point c outside the open star of Gaussian vertex v is at least as far
+  // from v as v's link (the edges opposite v in its triangles), hence at least the smallest
+  // angle from a corner of a triangle to the great circle of its opposite edge.
+  double height = std::numbers::pi / 2;
+  for (std::size_t t = 0; t < nt; ++t) {
+    const auto& tv = g.triangle_vertices_[t];
+    for (int i = 0; i < 3; ++i) {
+      const Vec3d n = normalized(cross(g.vertices_[tv[(i + 1) % 3]], g.vertices_[tv[(i + 2) % 3]]));
+      height = std::min(height, std::asin(std::min(1.0, std::abs(dot(n, g.vertices_[tv[i]])))));
+    }
+  }
+  g.clearance_ = std::max(0.0, height - 1e-6);
+  g.clearance_cos_ = std::cos(g.clearance_);
+  g.build_locate_table();
   return g;
 }
 
+// The fine table of locate(). A cell of the cube is a convex spherical quadrilateral (gnomonic
+// grid lines are great circles), so every direction in it is a non-negative combination of its
+// four corners, and a half-space through the origin that holds each corner with a margin of
+// 1e-9 (unit plane normal · unit direction) holds all of the cell with that margin. A Gaussian
+// triangle is the cone over three such half-spaces (its edge planes). So:
+// - a cell whose corners all lie in triangle t, by the margin, lies in t: it answers t;
+// - a cell whose corners lie, by the margin, in the two other half-spaces of t1 and of t2, two
+//   triangles across edge e (plane P), has its part with P·m > 0 in t1 and the rest in t2: it
+//   answers t1 or t2 by the sign of P·m when |P·m| exceeds a margin (else the full computation).
+// Directions answered so are farther from every cell boundary of G than the rounding of
+// locate_without_table() or of the table's own cell index (about 1e-15), so both agree. Corners
+// are located with locate_without_table(); a cell whose corners span other triangles, or miss
+// the margins, is a fallback cell.
+void GaussSphere::build_locate_table() {
+  // 16 cells per cube face side and per unit of f (G's edges ≈ 1.1 / f rad for icosa, cells ≈
+  // 0.75-1.6 / (8 N) rad), capped at 128 (6 N² × 8 bytes = 768 KiB); none above f = 32 (16-bit
+  // ids), where most cells would meet a vertex of G.
+  const std::uint32_t f = frequency_;
+  const std::size_t nt = triangle_vertices_.size();
+  const std::uint32_t n = f <= 32 && 3 * nt < kNoFine ? std::min<std::uint32_t>(128, std::max<std::uint32_t>(16, 16 * f)) : 0;
+  fine_cells_ = n;
+  fine_half_ = 0.5 * n;
+  fine_.clear();
+  edge_planes_.clear();
+  if (n == 0) return;
+  constexpr double kMargin = 1e-9;
+  // Unit inner normals of each triangle's three edge planes.
+  edge_planes_.resize(3 * nt);
+  for (std::size_t t = 0; t < nt; ++t) {
+    const auto& tv = triangle_vertices_[t];
+    for (int i = 0; i < 3; ++i) edge_planes_[3 * t + i] = normalized(cross(vertices_[tv[i]], vertices_[tv[(i + 1) % 3]]));
+  }
+  fine_.assign(static_cast<std::size_t>(6) * n * n, FineCell{});
+  std::vector<std::uint32_t> corner_label((n + 1) * (n + 1));
+  std::vector<Vec3d> corner_dir((n + 1) * (n + 1));
+  // True when every corner of the cell is on the inner side of the edge planes of t, except
+  // edge `skip` (3: none), by the margin.
+  auto corners_inside = [&](const Vec3d* const* corners, std::uint32_t t, int skip) {
+    for (int k = 0; k < 4; ++k)
+      for (int e = 0; e < 3; ++e)
+        if (e != skip && !(dot(edge_planes_[3 * t + e], *corners[k]) > kMargin)) return false;
+    return true;
+  };
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = 0; side < 2; ++side) {
+      const int sign = side == 0 ? 1 : -1;
+      const double step = 2.0 / n;
+      for (std::uint32_t i = 0; i <= n; ++i)
+        for (std::uint32_t j = 0; j <= n; ++j) {
+          const Vec3d c = cube_direction(axis, sign, -1 + i * step, -1 + j * step);
+          corner_dir[i * (n + 1) + j] = c;
+          corner_label[i * (n + 1) + j] = locate_without_table(c);
+        }
+      for (std::uint32_t i = 0; i < n; ++i)
+        for (std::uint32_t j = 0; j < n; ++j) {
+          const std::uint32_t at[4] = {i * (n + 1) + j, (i + 1) * (n + 1) + j, i * (n + 1) + j + 1,
+                                       (i + 1) * (n + 1) + j + 1};
+          const Vec3d* corners[4] = {&corner_dir[at[0]], &corner_dir[at[1]], &corner_dir[at[2]], &corner_dir[at[3]]};
+          const std::uint32_t t1 = corner_label[at[0]];
+          std::uint32_t t2 = t1;
+          bool two = true;
+          for (std::uint32_t a : at) {
+            const std::uint32_t t = corner_label[a];
+            if (t == t1) continue;
+            if (t2 == t1) t2 = t;
+            else if (t != t2) two = false;
+          }
+          FineCell& cell = fine_[(static_cast<std::size_t>(axis * 2 + side) * n + i) * n + j];
+          if (!two) continue;
+          if (t2 == t1) {
+            if (corners_inside(corners, t1, 3)) cell = {static_cast<std::uint16_t>(t1), static_cast<std::uint16_t>(t1),
+                                                        static_cast<std::uint16_t>(3 * t1), 0};
+            continue;
+          }
+          int e1 = -1, e2 = -1;
+          for (int e = 0; e < 3; ++e) {
+            if (triangle_neighbors_[t1][e] == t2) e1 = e;
+            if (triangle_neighbors_[t2][e] == t1) e2 = e;
+          }
+          if (e1 < 0 || e2 < 0) continue;
+          if (corners_inside(corners, t1, e1) && corners_inside(corners, t2, e2))
+            cell = {static_cast<std::uint16_t>(t1), static_cast<std::uint16_t>(t2), static_cast<std::uint16_t>(3 * t1 + e1), 0};
+        }
+    }
+}
+
+std::size_t GaussSphere::locate_table_hits() const {
+  return static_cast<std::size_t>(
+      std::count_if(fine_.begin(), fine_.end(), [](const FineCell& c) { return c.plus != kNoFine; }));
+}
+
 std::uint32_t GaussSphere::locate(const Vec3d& n) const {
+  if (fine_cells_ > 0) {
+    // The cube face of n's largest coordinate (on a tie either face holds n), the gnomonic cell
+    // of the other two (the table's cube is axis-aligned in G's rotated frame: no rotation).
+    const Vec3d& m = n;
+    const double ax = std::abs(m.x), ay = std::abs(m.y), az = std::abs(m.z);
+    double major, c0, c1, c2;
+    int axis;
+    if (ax >= ay && ax >= az) {
+      axis = 0, major = ax, c0 = m.x, c1 = m.y, c2 = m.z;
+    } else if (ay >= az) {
+      axis = 1, major = ay, c0 = m.y, c1 = m.z, c2 = m.x;
+    } else {
+      axis = 2, major = az, c0 = m.z, c1 = m.x, c2 = m.y;
+    }
+    if (major > 0 && major <= 1e300) {
+      const double inv = 1.0 / major;
+      const int cells = static_cast<int>(fine_cells_);
+      const int i = std::clamp(static_cast<int>((c1 * inv + 1) * fine_half_), 0, cells - 1);
+      const int j = std::clamp(static_cast<int>((c2 * inv + 1) * fine_half_), 0, cells - 1);
+      const FineCell cell =
+          fine_[(static_cast<std::size_t>(axis * 2 + (c0 > 0 ? 0 : 1)) * fine_cells_ + i) * fine_cells_ + j];
+      if (cell.plus != kNoFine) {
+        // |m| <= sqrt(3) major: a side margin of 1e-9 major is one of > 5e-10 in angle.
+        const double d = dot(m, edge_planes_[cell.plane]);
+        const bool decided = (cell.plus == cell.minus) | (std::abs(d) > 1e-9 * major);
+        if (decided) return d > 0 ? cell.plus : cell.minus;
+      }
+    }
+  }
+  return locate_without_table(n);
+}
+
+std::uint32_t GaussSphere::locate_without_table(const Vec3d& n) const {
   // m = Rᵀ n.
   const auto& r = rotation_;
   const Vec3d m{r[0][0] * n.x + r[1][0] * n.y + r[2][0] * n.z, r[0][1] * n.x + r[1][1] * n.y + r[2][1] * n.z,

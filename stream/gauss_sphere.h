@@ -84,6 +84,12 @@ class GaussSphere {
   double triangle_cap_angle_cos(std::uint32_t t) const { return cap_angle_[t].cos; }
   double triangle_cap_angle_sin(std::uint32_t t) const { return cap_angle_[t].sin; }
 
+  // A lower bound (radians, with a margin of 1e-6) on the angle from any point of a Gaussian
+  // triangle t to any Gaussian vertex that is not a corner of t, and its cosine: a cap around a
+  // point of t narrower than this holds no Gaussian vertex but t's corners.
+  double vertex_clearance() const { return clearance_; }
+  double vertex_clearance_cos() const { return clearance_cos_; }
+
   // The Gaussian triangle holding direction n (any length > 0; the zero vector yields some
   // valid id). O(1): rotate by Rᵀ, pick the base face whose cone holds it (the face plane the
   // ray leaves the base polyhedron through), centrally project onto that flat face, read the
@@ -92,9 +98,17 @@ class GaussSphere {
   // double rounding) goes to a deterministic neighbour: the lowest base face, then the
   // lower row/column and the "up" cell.
   std::uint32_t locate(const Vec3d& n) const;
+  // The same answer as locate() without the fine lookup table (for tests and benchmarks).
+  std::uint32_t locate_without_table(const Vec3d& n) const;
+  // Cells per side of each cube face in the fine lookup table of locate() (0: no table), and
+  // how many of its cells it answers (one triangle, or two across one edge; the others fall
+  // back to the full computation).
+  std::uint32_t locate_table_cells() const { return fine_cells_; }
+  std::size_t locate_table_hits() const;
 
  private:
   GaussSphere() = default;
+  void build_locate_table();
 
   GaussSphereOptions options_;
   std::uint32_t frequency_ = 1;
@@ -107,6 +121,19 @@ class GaussSphere {
   // Cube map of candidate base faces for locate(): per cell, ids in increasing order.
   std::vector<std::uint16_t> cube_offsets_;
   std::vector<std::uint8_t> cube_faces_;
+  // Fine lookup table of locate() (build_locate_table): the axis-aligned cube, each
+  // face split into fine_cells_² gnomonic cells (axis, sign, i, j). A cell either lies in one
+  // Gaussian triangle (plus == minus), or is cut by one edge of G into a part in `plus` (the
+  // inner side of plane `plane`) and a part in `minus`, all with a margin of 1e-9 from the
+  // other edges; or it is a fallback cell (plus == kNoFine: the full computation runs).
+  static constexpr std::uint16_t kNoFine = 0xFFFF;
+  struct FineCell {
+    std::uint16_t plus = kNoFine, minus = kNoFine, plane = 0, unused = 0;
+  };
+  std::uint32_t fine_cells_ = 0;
+  double fine_half_ = 0;  // fine_cells_ / 2
+  std::vector<FineCell> fine_;
+  std::vector<Vec3d> edge_planes_;  // unit, at 3 t + i: inner side of edge i of t
   // G.
   std::vector<Vec3d> vertices_;
   std::vector<std::array<std::uint32_t, 3>> triangle_vertices_;
@@ -119,6 +146,7 @@ class GaussSphere {
     double angle, cos, sin;
   };
   std::vector<CapAngle> cap_angle_;
+  double clearance_ = 0, clearance_cos_ = 1;
 };
 
 }  // namespace gaussmesh::stream

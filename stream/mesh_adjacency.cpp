@@ -20,11 +20,17 @@ using format::Triangle;
 
 bool is_collapsed(const Triangle& t) { return t.v[0] == t.v[1] || t.v[1] == t.v[2] || t.v[0] == t.v[2]; }
 
-// Per-thread scratch for one star: the corners' other two vertices.
+// Per-thread scratch for one star: the corners' other two vertices. Arrays only grow (sized
+// by fit()), and are used through raw pointers: no per-star size bookkeeping.
 struct StarScratch {
-  std::vector<std::uint32_t> corner, next, prev, partner, next_slot, ordered;
-  std::vector<std::uint8_t> flags, used, manifold_out;
+  std::vector<std::uint32_t> corner, next, prev, partner, next_slot;
+  std::vector<std::uint8_t> used;
   std::vector<std::uint32_t> by_next, by_prev;  // slot indices sorted by next / prev (large stars)
+  void fit(std::uint32_t degree) {
+    if (corner.size() >= degree) return;
+    for (auto* v : {&corner, &next, &prev, &partner, &next_slot}) v->resize(degree);
+    used.resize(degree);
+  }
 };
 
 // Matches the star of one vertex and writes its fans. Returns its directed break edges.
@@ -37,50 +43,52 @@ std::size_t build_star(const Triangle* tris, std::uint32_t begin, std::uint32_t 
                        std::uint8_t* slot_flags, std::uint32_t* edge_neighbor, StarScratch& s) {
   const std::uint32_t degree = end - begin;
   constexpr std::uint32_t kNone = MeshAdjacency::kNoFace;
-  s.corner.assign(corners + begin, corners + end);
-  s.next.resize(degree);
-  s.prev.resize(degree);
+  s.fit(degree);
+  std::uint32_t* corner = s.corner.data();
+  std::uint32_t* next = s.next.data();
+  std::uint32_t* prev = s.prev.data();
+  std::uint32_t* partner = s.partner.data();
+  std::uint32_t* next_slot = s.next_slot.data();
   for (std::uint32_t r = 0; r < degree; ++r) {
-    const std::uint32_t c = s.corner[r];
+    const std::uint32_t c = corners[begin + r];
+    corner[r] = c;
     const Triangle& t = tris[c / 3];
     const std::uint32_t i = c % 3;
-    s.next[r] = t.v[i == 2 ? 0 : i + 1];
-    s.prev[r] = t.v[i == 0 ? 2 : i - 1];
+    next[r] = t.v[i == 2 ? 0 : i + 1];
+    prev[r] = t.v[i == 0 ? 2 : i - 1];
   }
   // For each slot: the slot across its outgoing edge (partner) and the slot that continues the
   // fan across its incoming edge (next_slot), kNone when that edge is a break.
-  s.partner.assign(degree, kNone);
-  s.next_slot.assign(degree, kNone);
   std::size_t breaks = 0;
   if (degree <= 24) {
     for (std::uint32_t r = 0; r < degree; ++r) {
-      const std::uint32_t a = s.next[r], p = s.prev[r];
+      const std::uint32_t a = next[r], p = prev[r];
       std::uint32_t out = 0, in = 0, in_slot = kNone, p_in = 0, p_out = 0, p_slot = kNone;
       for (std::uint32_t d = 0; d < degree; ++d) {
-        out += s.next[d] == a;
-        if (s.prev[d] == a) {
+        out += next[d] == a;
+        if (prev[d] == a) {
           ++in;
           in_slot = d;
         }
-        p_in += s.prev[d] == p;
-        if (s.next[d] == p) {
+        p_in += prev[d] == p;
+        if (next[d] == p) {
           ++p_out;
           p_slot = d;
         }
       }
-      if (out == 1 && in == 1) s.partner[r] = in_slot;
-      else ++breaks;
-      if (p_in == 1 && p_out == 1) s.next_slot[r] = p_slot;
+      partner[r] = out == 1 && in == 1 ? in_slot : kNone;
+      breaks += partner[r] == kNone;
+      next_slot[r] = p_in == 1 && p_out == 1 ? p_slot : kNone;
     }
   } else {
     // Large stars (fan apexes): sorted slot lists instead of the quadratic scan.
     s.by_next.resize(degree);
     s.by_prev.resize(degree);
     for (std::uint32_t r = 0; r < degree; ++r) s.by_next[r] = s.by_prev[r] = r;
-    std::sort(s.by_next.begin(), s.by_next.end(), [&](std::uint32_t x, std::uint32_t y) { return s.next[x] < s.next[y]; });
-    std::sort(s.by_prev.begin(), s.by_prev.end(), [&](std::uint32_t x, std::uint32_t y) { return s.prev[x] < s.prev[y]; });
-    auto count_slots = [&](const std::vector<std::uint32_t>& sorted, const std::vector<std::uint32_t>& key,
-                           std::uint32_t a, std::uint32_t& one) {
+    std::sort(s.by_next.begin(), s.by_next.end(), [&](std::uint32_t x, std::uint32_t y) { return next[x] < next[y]; });
+    std::sort(s.by_prev.begin(), s.by_prev.end(), [&](std::uint32_t x, std::uint32_t y) { return prev[x] < prev[y]; });
+    auto count_slots = [&](const std::vector<std::uint32_t>& sorted, const std::uint32_t* key, std::uint32_t a,
+                           std::uint32_t& one) {
       auto lo = std::lower_bound(sorted.begin(), sorted.end(), a, [&](std::uint32_t slot, std::uint32_t k) { return key[slot] < k; });
       auto hi = std::upper_bound(lo, sorted.end(), a, [&](std::uint32_t k, std::uint32_t slot) { return k < key[slot]; });
       if (hi - lo == 1) one = *lo;
@@ -88,41 +96,40 @@ std::size_t build_star(const Triangle* tris, std::uint32_t begin, std::uint32_t 
     };
     for (std::uint32_t r = 0; r < degree; ++r) {
       std::uint32_t in_slot = kNone, p_slot = kNone, ignore = kNone;
-      const std::uint32_t out = count_slots(s.by_next, s.next, s.next[r], ignore);
-      const std::uint32_t in = count_slots(s.by_prev, s.prev, s.next[r], in_slot);
-      if (out == 1 && in == 1) s.partner[r] = in_slot;
-      else ++breaks;
-      const std::uint32_t p_in = count_slots(s.by_prev, s.prev, s.prev[r], ignore);
-      const std::uint32_t p_out = count_slots(s.by_next, s.next, s.prev[r], p_slot);
-      if (p_in == 1 && p_out == 1) s.next_slot[r] = p_slot;
+      const std::uint32_t out = count_slots(s.by_next, next, next[r], ignore);
+      const std::uint32_t in = count_slots(s.by_prev, prev, next[r], in_slot);
+      partner[r] = out == 1 && in == 1 ? in_slot : kNone;
+      breaks += partner[r] == kNone;
+      const std::uint32_t p_in = count_slots(s.by_prev, prev, prev[r], ignore);
+      const std::uint32_t p_out = count_slots(s.by_next, next, prev[r], p_slot);
+      next_slot[r] = p_in == 1 && p_out == 1 ? p_slot : kNone;
     }
   }
   for (std::uint32_t r = 0; r < degree; ++r)
-    edge_neighbor[s.corner[r]] = s.partner[r] == kNone ? kNone : s.corner[s.partner[r]] / 3;
+    edge_neighbor[corner[r]] = partner[r] == kNone ? kNone : corner[partner[r]] / 3;
 
   // Fans: walk counter-clockwise from each open end (a slot whose outgoing edge is a break),
-  // then the remaining cycles, each from its lowest slot.
-  s.ordered.clear();
-  s.flags.clear();
-  s.used.assign(degree, 0);
+  // then the remaining cycles, each from its lowest slot. Written straight into the star.
+  std::uint8_t* used = s.used.data();
+  std::fill(used, used + degree, std::uint8_t{0});
+  std::uint32_t written = begin;
   auto walk = [&](std::uint32_t r, bool closed) {
-    s.flags.push_back(static_cast<std::uint8_t>(MeshAdjacency::kFanStart | (closed ? MeshAdjacency::kFanClosed : 0)));
+    std::uint8_t flag = static_cast<std::uint8_t>(MeshAdjacency::kFanStart | (closed ? MeshAdjacency::kFanClosed : 0));
     const std::uint32_t start = r;
     while (true) {
-      s.used[r] = 1;
-      s.ordered.push_back(s.corner[r]);
-      const std::uint32_t nr = s.next_slot[r];
-      if (nr == kNone || nr == start || s.used[nr]) break;
-      s.flags.push_back(0);
+      used[r] = 1;
+      slot_flags[written] = flag;
+      corners[written++] = corner[r];
+      flag = 0;
+      const std::uint32_t nr = next_slot[r];
+      if (nr == kNone || nr == start || used[nr]) break;
       r = nr;
     }
   };
   for (std::uint32_t r = 0; r < degree; ++r)
-    if (s.partner[r] == kNone) walk(r, false);
+    if (partner[r] == kNone) walk(r, false);
   for (std::uint32_t r = 0; r < degree; ++r)
-    if (!s.used[r]) walk(r, true);
-  std::copy(s.ordered.begin(), s.ordered.end(), corners + begin);
-  std::copy(s.flags.begin(), s.flags.end(), slot_flags + begin);
+    if (!used[r]) walk(r, true);
   return breaks;
 }
 

@@ -23,7 +23,10 @@ namespace gaussmesh::stream {
 // - The faces around a vertex are split by break edges into *fans*, each ordered
 //   counter-clockwise (next face = the one across edge (prev, v)). A vertex with one closed fan
 //   is interior, with one open fan is on a boundary, with several fans is non-manifold: the
-//   sampler handles each fan on its own.
+//   sampler handles each fan on its own. In an open fan the first slot's outgoing edge and the
+//   last slot's incoming edge are breaks, and no other edge of the fan is: a vertex has as many
+//   break edges leaving it, and as many arriving, as it has open fans (the sampler counts them
+//   from slot_flags).
 struct MeshAdjacency {
   static constexpr std::uint32_t kNoFace = 0xFFFFFFFFu;
   static constexpr std::uint8_t kFanStart = 1;   // this slot starts a fan

@@ -14,6 +14,8 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
 
 #include "stream/exact_predicates.h"
 #include "stream/patch_filters.h"
@@ -26,34 +28,73 @@ using format::Vec3f;
 constexpr double kDegenerateRatio = 1e-7;  // |cross| <= this × sum of squared edge lengths
 constexpr double kHemisphereMargin = 1e-3;  // polygon vertices and g must have n·c above this
 
+// orientation_sign with its static filter inlined (the same bound: stream/exact_predicates.cpp);
+// the calls the filter cannot decide go to orientation_sign. Exact, so the same signs.
+inline int orient(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  const double m1 = b.y * c.z - b.z * c.y, m2 = b.z * c.x - b.x * c.z, m3 = b.x * c.y - b.y * c.x;
+  const double det = a.x * m1 + a.y * m2 + a.z * m3;
+  const double perm = std::abs(a.x) * (std::abs(b.y * c.z) + std::abs(b.z * c.y)) +
+                      std::abs(a.y) * (std::abs(b.z * c.x) + std::abs(b.x * c.z)) +
+                      std::abs(a.z) * (std::abs(b.x * c.y) + std::abs(b.y * c.x));
+  constexpr double kBound = 8 * 0x1.0p-53;
+  if (perm > 1e-150 && perm < 1e150) {
+    if (det > kBound * perm) return 1;
+    if (det < -kBound * perm) return -1;
+  }
+  return orientation_sign(a, b, c);
+}
+
 // Winding number, around unit-ish direction g, of the closed spherical polygon poly (great arcs
 // between consecutive normals, the last joined to the first). Precondition: every poly[i] and g
 // lie in the open hemisphere around some direction c. Central projection onto the plane tangent
 // at c maps the arcs to segments and keeps every orientation sign, so this is the plane
 // crossing-number rule (upward crossing with g on the left: +1, downward with g on the right:
 // -1) with "up" measured by the exact sign of det[p, g, d] for a fixed d not parallel to g.
+// sign det[p, g, d] > 0 for d the unit vector of `axis`: the axis component of p × g, a
+// difference of two products (rounding of each product and of the difference: at most
+// 2u (1 + u) of their absolute sum; the filter allows 4u), else orientation_sign. Exact.
+inline bool is_above(const Vec3d& p, const Vec3d& g, int axis, const Vec3d& d) {
+  double x, y;
+  if (axis == 0) {
+    x = p.y * g.z, y = p.z * g.y;
+  } else if (axis == 1) {
+    x = p.z * g.x, y = p.x * g.z;
+  } else {
+    x = p.x * g.y, y = p.y * g.x;
+  }
+  const double det = x - y, perm = std::abs(x) + std::abs(y);
+  constexpr double kBound = 4 * 0x1.0p-53;
+  if (perm > 1e-150 && perm < 1e150) {
+    if (det > kBound * perm) return true;
+    if (det < -kBound * perm) return false;
+  }
+  return orientation_sign(p, g, d) > 0;
+}
+
 int winding_number(const std::vector<Vec3d>& poly, const Vec3d& g) {
   const double ax = std::abs(g.x), ay = std::abs(g.y), az = std::abs(g.z);
-  const Vec3d d = ax <= ay && ax <= az ? Vec3d{1, 0, 0} : (ay <= az ? Vec3d{0, 1, 0} : Vec3d{0, 0, 1});
+  const int axis = ax <= ay && ax <= az ? 0 : (ay <= az ? 1 : 2);
+  const Vec3d d = axis == 0 ? Vec3d{1, 0, 0} : (axis == 1 ? Vec3d{0, 1, 0} : Vec3d{0, 0, 1});
   const std::size_t k = poly.size();
   int w = 0;
-  bool above_first = orientation_sign(poly[0], g, d) > 0;
+  bool above_first = is_above(poly[0], g, axis, d);
   bool above_a = above_first;
   for (std::size_t i = 0; i < k; ++i) {
     const Vec3d& a = poly[i];
     const Vec3d& b = poly[(i + 1) % k];
-    const bool above_b = i + 1 == k ? above_first : orientation_sign(b, g, d) > 0;
+    const bool above_b = i + 1 == k ? above_first : is_above(b, g, axis, d);
     if (!above_a && above_b) {
-      if (orientation_sign(a, b, g) > 0) ++w;
+      if (orient(a, b, g) > 0) ++w;
     } else if (above_a && !above_b) {
-      if (orientation_sign(a, b, g) < 0) --w;
+      if (orient(a, b, g) < 0) --w;
     }
     above_a = above_b;
   }
   return w;
 }
 
-// Characteristic from a winding number and the side of the neighbours (sum of (p_w - p_v)·g).
+// Characteristic from a winding number and the side of the neighbours (sum of (p_w - p_v)·g),
+// which only a positive winding reads.
 Characteristic classify(int winding, double neighbour_side) {
   if (winding == 0) return Characteristic::kNone;
   if (winding < 0) return Characteristic::kSaddle;
@@ -107,13 +148,20 @@ class IdSet {
 
 struct Scratch {
   std::vector<std::uint32_t> labels;    // fan-ordered labels of the current fan
-  std::vector<std::uint32_t> distinct;  // distinct labels of the vertex
   std::vector<Vec3d> poly;
   std::vector<std::uint32_t> visited;   // Gaussian triangles of the cap search, in visit order
   std::vector<std::uint32_t> gauss;     // Gaussian vertices to test
   IdSet visited_set, gauss_set;         // membership of the two lists above
   std::vector<std::uint32_t> star_labels;  // MergeLabels: the labels of the current star
   std::uint32_t star_begin = 0;
+  // The current star's faces and labels by slot (read once, by the fast path).
+  std::vector<std::uint32_t> star_face, star_label;
+  void fit_star(std::uint32_t degree) {
+    if (star_face.size() < degree) {
+      star_face.resize(degree);
+      star_label.resize(degree);
+    }
+  }
 };
 
 // acos(clamp(x, -1, 1)) <= t, decided with cosines where the answer is clear by a margin of
@@ -213,13 +261,17 @@ void for_faces(std::size_t n, const Body& body) {
 }
 
 std::uint8_t feature_bits(const std::uint32_t* nb, const std::uint32_t* labels, std::size_t f) {
+  // Without branches (labels differ across about half the edges of a noisy mesh): a break edge
+  // reads the face's own label and sets its bit anyway.
   const std::uint32_t l = labels[f];
-  std::uint8_t bits = 0;
-  for (int i = 0; i < 3; ++i) {
+  unsigned bits = 0;
+  for (unsigned i = 0; i < 3; ++i) {
     const std::uint32_t g = nb[3 * f + i];
-    if (g == MeshAdjacency::kNoFace || labels[g] != l) bits |= static_cast<std::uint8_t>(1u << i);
+    const bool is_break = g == MeshAdjacency::kNoFace;
+    const std::size_t h = is_break ? f : g;
+    bits |= static_cast<unsigned>(is_break | (labels[h] != l)) << i;
   }
-  return bits;
+  return static_cast<std::uint8_t>(bits);
 }
 
 }  // namespace
@@ -393,19 +445,28 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
   const auto* tris = in.mesh.triangles.data();
   const std::uint32_t* corners = adjacency.vertex_corners.data();
   const std::uint8_t* flags = adjacency.slot_flags.data();
-  const std::uint32_t* nb = adjacency.edge_neighbor.data();
   const std::uint32_t sb = adjacency.star_begin(v), se = adjacency.star_end(v);
   if (sb == se) return;
   labels.load(sb, se, s);
-  // Fast path: feature edges and whether the star carries more than one label.
+  // Fast path: feature edges and whether the star carries more than one label. Each slot
+  // counts its outgoing edge; the incoming edges add the break edges among them, one per open
+  // fan (the last slot of an open fan is the only slot whose incoming edge is a break:
+  // MeshAdjacency), read from the slot flags instead of the faces' edge neighbours.
+  // The star's faces and labels go to the scratch arrays (slot k at k - sb) for the steps below.
   std::uint32_t feature_count = 0;
   const std::uint32_t first_label = labels.label(sb, corners[sb] / 3, s);
   bool several_labels = false;
+  s.fit_star(se - sb);
+  std::uint32_t* star_face = s.star_face.data() - sb;
+  std::uint32_t* star_label = s.star_label.data() - sb;
   for (std::uint32_t k = sb; k < se; ++k) {
     const std::uint32_t c = corners[k], f = c / 3, i = c % 3;
+    const std::uint32_t l = labels.label(k, f, s);
+    star_face[k] = f;
+    star_label[k] = l;
     feature_count += labels.feature_bit(k, f, i, s);
-    feature_count += nb[3 * f + (i + 2) % 3] == MeshAdjacency::kNoFace;
-    several_labels |= labels.label(k, f, s) != first_label;
+    feature_count += (flags[k] & (MeshAdjacency::kFanStart | MeshAdjacency::kFanClosed)) == MeshAdjacency::kFanStart;
+    several_labels |= l != first_label;
   }
   const bool is_candidate = feature_count >= 3;
   const bool test_exact = in.run_exact_test && several_labels;
@@ -425,13 +486,10 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
     return side;
   };
 
-  // Distinct labels of the whole star.
-  s.distinct.clear();
-  for (std::uint32_t k = sb; k < se; ++k) {
-    const std::uint32_t l = labels.label(k, corners[k] / 3, s);
-    if (std::find(s.distinct.begin(), s.distinct.end(), l) == s.distinct.end()) s.distinct.push_back(l);
-  }
-  const bool has_unlabelled = std::find(s.distinct.begin(), s.distinct.end(), kNoLabel) != s.distinct.end();
+  // Whether the star has an unlabelled face (distinct labels are not needed: the tree filter
+  // takes each fan's, the represented vertex and the cover mask do not change with repeats).
+  bool has_unlabelled = false;
+  for (std::uint32_t k = sb; k < se; ++k) has_unlabelled |= star_label[k] == kNoLabel;
 
   if (is_candidate) {
     // Non-sample filter, fan by fan: consecutive labels equal or edge-adjacent, and the fan's
@@ -440,14 +498,14 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
     for (std::uint32_t k = sb; k < se && all_trees;) {
       std::uint32_t fan_end = k + 1;
       while (fan_end < se && !(flags[fan_end] & MeshAdjacency::kFanStart)) ++fan_end;
-      s.labels.clear();
-      for (std::uint32_t j = k; j < fan_end; ++j) s.labels.push_back(labels.label(j, corners[j] / 3, s));
-      const std::size_t m = s.labels.size();
+      const std::uint32_t* fan = star_label + k;
+      const std::size_t m = fan_end - k;
       for (std::size_t j = 0; j < m && all_trees; ++j) {
-        const std::uint32_t a = s.labels[j], b = s.labels[(j + 1) % m];
+        const std::uint32_t a = fan[j], b = fan[j + 1 == m ? 0 : j + 1];
         if (a != b && !gauss.are_edge_adjacent(a, b)) all_trees = false;
       }
       if (all_trees) {
+        s.labels.assign(fan, fan + m);
         std::sort(s.labels.begin(), s.labels.end());
         s.labels.erase(std::unique(s.labels.begin(), s.labels.end()), s.labels.end());
         // A set of triangles whose adjacency graph has |L| - 1 edges and is connected; with
@@ -462,22 +520,26 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
     r.is_tree = all_trees;
 
     // Represented Gaussian vertex: the one corner every label is incident on.
+    // Bit j of `on_all`: corner j of the first label's triangle is a corner of every label's.
     if (!has_unlabelled) {
-      std::uint32_t found = kNoGaussVertex, count = 0;
-      for (std::uint32_t g : gauss.triangle_vertices(s.distinct[0])) {
-        bool on_all = true;
-        for (std::uint32_t l : s.distinct) on_all = on_all && gauss.triangle_has_vertex(l, g);
-        if (on_all) {
-          found = g;
-          ++count;
-        }
+      const auto& first = gauss.triangle_vertices(star_label[sb]);
+      unsigned on_all = 7;
+      for (std::uint32_t k = sb + 1; k < se; ++k) {
+        const auto& tv = gauss.triangle_vertices(star_label[k]);
+        unsigned here = 0;
+        for (unsigned j = 0; j < 3; ++j)
+          here |= static_cast<unsigned>((first[j] == tv[0]) | (first[j] == tv[1]) | (first[j] == tv[2])) << j;
+        on_all &= here;
       }
-      if (count == 1) {
+      if (on_all == 1 || on_all == 2 || on_all == 4) {
+        const std::uint32_t found = first[on_all == 1 ? 0 : (on_all == 2 ? 1 : 2)];
         r.gauss_vertex = found;
         const auto around = gauss.vertex_triangles(found);
-        for (std::uint32_t l : s.distinct)
-          for (std::size_t k = 0; k < around.size() && k < 8; ++k)
-            if (around[k] == l) r.cover_mask |= static_cast<std::uint8_t>(1u << k);
+        const std::size_t n = std::min<std::size_t>(around.size(), 8);
+        unsigned mask = 0;
+        for (std::uint32_t k = sb; k < se; ++k)
+          for (std::size_t j = 0; j < n; ++j) mask |= static_cast<unsigned>(around[j] == star_label[k]) << j;
+        r.cover_mask = static_cast<std::uint8_t>(mask);
       }
     }
   }
@@ -501,7 +563,7 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
     while (fan_end < se && !(flags[fan_end] & MeshAdjacency::kFanStart)) ++fan_end;
     s.poly.clear();
     for (std::uint32_t j = k; j < fan_end; ++j) {
-      const std::uint32_t f = corners[j] / 3;
+      const std::uint32_t f = star_face[j];
       if (!degenerate[f]) s.poly.push_back(to_d(normal[f]));
     }
     k = fan_end;
@@ -512,9 +574,24 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
       exact_fallback = true;
       continue;
     }
-    if (r.gauss_vertex != kNoGaussVertex && dot(vg, c) > kHemisphereMargin) winding_vg += winding_number(s.poly, vg);
+    // The polygon lies in the cap {x : x·c >= cos_theta} (convex: cos_theta > 0), so it does not
+    // wind around a direction outside the cap; by 1e-9 that is certain despite rounding, and
+    // the exact winding would be 0.
+    if (r.gauss_vertex != kNoGaussVertex) {
+      const double gc = dot(vg, c);
+      if (gc > kHemisphereMargin && gc >= cos_theta - 1e-9) winding_vg += winding_number(s.poly, vg);
+    }
     if (test_exact) {
-      gauss_vertices_in_cap(gauss, c, cos_theta, s);
+      // A cap narrower than G's vertex clearance holds no Gaussian vertex but the corners of the
+      // triangle that holds c: test those (in the hemisphere around c). A vertex the cap search
+      // would skip winds 0, so the windings found are the same.
+      if (cos_theta > gauss.vertex_clearance_cos()) {
+        s.gauss.clear();
+        for (std::uint32_t g : gauss.triangle_vertices(gauss.locate(c)))
+          if (dot(gauss.vertex(g), c) > kHemisphereMargin) s.gauss.push_back(g);
+      } else {
+        gauss_vertices_in_cap(gauss, c, cos_theta, s);
+      }
       for (std::uint32_t g : s.gauss) {
         const int w = winding_number(s.poly, gauss.vertex(g));
         if (w == 0) continue;
@@ -528,7 +605,7 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
   }
   if (r.gauss_vertex != kNoGaussVertex) {
     r.winding = static_cast<std::int8_t>(std::clamp(winding_vg, -127, 127));
-    r.characteristic = classify(winding_vg, neighbour_side(vg));
+    r.characteristic = winding_vg > 0 ? classify(winding_vg, neighbour_side(vg)) : classify(winding_vg, 0);
   }
   if (test_exact) {
     // A fan whose normals do not fit in an open hemisphere has no exact verdict: it is a
@@ -538,10 +615,17 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
     if (exact_g != kNoGaussVertex) {
       r.exact_gauss_vertex = exact_g;
       r.exact_winding = static_cast<std::int8_t>(std::clamp(exact_first, -127, 127));
-      r.exact_characteristic = classify(exact_first, neighbour_side(gauss.vertex(exact_g)));
+      r.exact_characteristic =
+          exact_first > 0 ? classify(exact_first, neighbour_side(gauss.vertex(exact_g))) : classify(exact_first, 0);
     }
   }
   if (r.is_candidate || r.is_exact_sample) out.push_back(r);
+}
+
+// True when oneTBB would run one thread here (an arena of one, or a global limit of one).
+bool single_thread() {
+  return tbb::this_task_arena::max_concurrency() <= 1 ||
+         tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism) <= 1;
 }
 
 // Evaluates the vertices get(0) .. get(n - 1) (increasing) and appends their records in that
@@ -549,7 +633,9 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
 template <typename VertexAt, typename Labels>
 void evaluate_many(const VertexInputs& in, const Labels& labels, std::size_t n, const VertexAt& get,
                    std::vector<VertexRecord>& out) {
-  if (n <= kVertexBlock) {
+  // One block, or one thread: straight into out (the same records in the same order as the
+  // blocks below, without their lists and the copy).
+  if (n <= kVertexBlock || single_thread()) {
     Scratch s;
     for (std::size_t k = 0; k < n; ++k) evaluate_vertex(in, labels, get(k), s, out);
     return;

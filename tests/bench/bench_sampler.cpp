@@ -4,7 +4,10 @@
 // second of wall time. Each step runs twice: "cold" into new arrays (first touch of fresh
 // pages, ~10-15 µs per 4 KiB here) and "warm" into the same, reused arrays (what a chunk loop
 // with one workspace per thread pays).
+// The summary lines give triangles per second of CPU time too (the figure to compare on a
+// shared machine). STEPS_ONLY = 1 skips the whole-pass runs of sample_mesh.
 // Usage: bench_sampler [TRIANGLES (default 20000000) | MESH_FILE] [FREQUENCY (default 8)] [THREADS (default 1)]
+//                      [STEPS_ONLY (default 0)]
 #include <sys/resource.h>
 
 #include <chrono>
@@ -64,12 +67,14 @@ struct Timer {
   double cpu = cpu_seconds();
   std::size_t n = 0;
   // Prints the step since the last lap; returns its wall seconds.
+  double last_cpu = 0;  // CPU seconds of the last lap
   double lap(const char* step) {
     const auto now = Clock::now();
     const double c = cpu_seconds();
     const double s = std::chrono::duration<double>(now - wall).count();
     std::printf("%-34s %8.3f s wall %8.3f s cpu %8.1f Mtri/s\n", step, s, c - cpu, double(n) / s / 1e6);
     wall = now;
+    last_cpu = c - cpu;
     cpu = c;
     return s;
   }
@@ -89,6 +94,7 @@ int main(int argc, char** argv) {
   const std::size_t triangles = argc > 1 && !from_file ? std::strtoull(argv[1], nullptr, 10) : 20000000;
   const std::uint32_t frequency = argc > 2 ? static_cast<std::uint32_t>(std::strtoul(argv[2], nullptr, 10)) : 8;
   const int threads = argc > 3 ? std::atoi(argv[3]) : 1;
+  const bool steps_only = argc > 4 && std::atoi(argv[4]) != 0;
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   Timer t;
   Mesh mesh;
@@ -121,31 +127,42 @@ int main(int argc, char** argv) {
   stream::Patches patches;
   std::vector<std::uint32_t> stack;
   double s_adj = 0, s_face = 0, s_vertex = 0, s_exact = 0;
+  double c_adj = 0, c_face = 0, c_vertex = 0, c_exact = 0;  // CPU seconds
   for (const char* pass : {"cold", "warm"}) {
     std::printf("-- %s (%s arrays)\n", pass, pass[0] == 'c' ? "new" : "reused");
     t.lap("(setup)");
     if (!build_mesh_adjacency(mesh.view(), adj).is_ok()) return 1;
     s_adj = t.lap("adjacency (stars, fans)");
+    c_adj = t.last_cpu;
     stream::compute_face_normals(mesh.view(), adj, 0, normals, area, smoothed);
     s_face = t.lap("face normals");
+    c_face = t.last_cpu;
     stream::compute_face_labels(normals, g, labels);
     s_face += t.lap("labels (locate)");
+    c_face += t.last_cpu;
     stream::compute_feature_edges(adj, labels, feature);
     s_face += t.lap("feature edges");
+    c_face += t.last_cpu;
     paper.clear();
     stream::evaluate_vertices(mesh.view(), adj, normals, labels, feature, g, false, 0, nv, paper);
     s_vertex = t.lap("vertices (paper decisions)");
+    c_vertex = t.last_cpu;
     exact.clear();
     stream::evaluate_vertices(mesh.view(), adj, normals, labels, feature, g, true, 0, nv, exact);
     s_exact = t.lap("vertices (+ exact test)");
+    c_exact = t.last_cpu;
     stream::find_patches(adj, labels, feature, patches, stack);
     t.lap("patches");
     std::printf("per-face + per-vertex steps: %.1f Mtri/s (adjacency excluded), %.1f Mtri/s (included); "
                 "with the exact test instead of paper decisions: %.1f / %.1f\n",
                 double(nf) / (s_face + s_vertex) / 1e6, double(nf) / (s_adj + s_face + s_vertex) / 1e6,
                 double(nf) / (s_face + s_exact) / 1e6, double(nf) / (s_adj + s_face + s_exact) / 1e6);
+    std::printf("  by CPU time: %.1f Mtri/s (adjacency excluded), %.1f Mtri/s (included); with the exact test: %.1f / %.1f\n",
+                double(nf) / (c_face + c_vertex) / 1e6, double(nf) / (c_adj + c_face + c_vertex) / 1e6,
+                double(nf) / (c_face + c_exact) / 1e6, double(nf) / (c_adj + c_face + c_exact) / 1e6);
   }
   std::printf("candidates %zu, exact records %zu, patches %zu\n", paper.size(), exact.size(), patches.patch_label.size());
+  if (steps_only) return 0;
   stream::SamplerOptions so;
   stream::SamplerWorkspace ws;
   stream::SamplingResult result;

@@ -127,6 +127,50 @@ TEST(GaussSphere, RandomDirectionsLocateToATriangleThatHoldsThem) {
   }
 }
 
+// locate() answers most directions from its fine table; it must give exactly what the full
+// computation gives, on random directions of any length and on directions on and within
+// 1e-16 .. 1e-6 of G's edges and vertices (where the table's cells fall back or split).
+TEST(GaussSphere, LocateTableAgreesWithTheFullComputation) {
+  const std::uint64_t seed = 20261123;
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal;
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (const BaseCase& bc : kBases) {
+    for (std::uint32_t f : {1u, 3u, 8u, 16u, 32u}) {
+      const GaussSphere g = make(bc.base, f, 11);
+      if (f <= 16) {
+        EXPECT_GT(g.locate_table_cells(), 0u);
+      }
+      auto check = [&](const Vec3d& n) {
+        EXPECT_EQ(g.locate(n), g.locate_without_table(n))
+            << "seed " << seed << " base " << gauss_base_name(bc.base) << " f " << f << " n " << n.x << " " << n.y
+            << " " << n.z;
+      };
+      for (int i = 0; i < 20000; ++i) {
+        const Vec3d n{normal(rng), normal(rng), normal(rng)};
+        check(n);
+        check(std::pow(10.0, 60 * unit(rng) - 30) * n);
+      }
+      for (std::uint32_t t = 0; t < g.triangle_count(); ++t) {
+        const auto& tv = g.triangle_vertices(t);
+        for (int e = 0; e < 3; ++e) {
+          const Vec3d& a = g.vertex(tv[e]);
+          const Vec3d& b = g.vertex(tv[(e + 1) % 3]);
+          check(a);
+          for (int k = 0; k < 4; ++k) {
+            const double s = unit(rng);
+            const Vec3d on = s * a + (1 - s) * b;
+            check(on);
+            const double eps = std::pow(10.0, -16 + 10 * unit(rng));
+            check(on + eps * Vec3d{normal(rng), normal(rng), normal(rng)});
+            check(a + eps * Vec3d{normal(rng), normal(rng), normal(rng)});
+          }
+        }
+      }
+    }
+  }
+}
+
 TEST(GaussSphere, RotationIsReproducibleFromTheSeedAndChangesTheVertices) {
   const GaussSphere a = make(GaussBase::kIcosahedron, 2, 5);
   const GaussSphere b = make(GaussBase::kIcosahedron, 2, 5);

@@ -84,6 +84,44 @@ TEST(MeshAdjacency, BoundaryNonManifoldAndBadIndices) {
   EXPECT_NE(bad.status().where().find("face 3"), std::string::npos);
 }
 
+// The sampler counts break edges from the fans (docs/sampling.md): in an open fan exactly the
+// first slot's outgoing edge and the last slot's incoming edge are breaks; in a closed fan none.
+// Random triangles over a few vertices give boundaries, non-manifold edges and vertices,
+// inconsistent orientations and collapsed faces.
+TEST(MeshAdjacency, OpenFansBeginAndEndAtTheBreakEdges) {
+  const std::uint64_t seed = 7;
+  std::uint64_t state = seed;
+  auto next = [&state](std::uint32_t n) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<std::uint32_t>((state >> 33) % n);
+  };
+  for (int round = 0; round < 200; ++round) {
+    Mesh m;
+    const std::uint32_t nv = 4 + next(12);
+    for (std::uint32_t v = 0; v < nv; ++v) m.positions.push_back({float(v), float(v * v % 7), float(v % 3)});
+    const std::uint32_t nf = 1 + next(40);
+    for (std::uint32_t f = 0; f < nf; ++f) m.triangles.push_back({{next(nv), next(nv), next(nv)}});
+    const MeshAdjacency adj = build_mesh_adjacency(m.view()).value();
+    for (std::uint32_t v = 0; v < nv; ++v) {
+      const std::uint32_t sb = adj.star_begin(v), se = adj.star_end(v);
+      for (std::uint32_t k = sb; k < se; ++k) {
+        const std::uint32_t c = adj.vertex_corners[k], f = c / 3, i = c % 3;
+        const std::uint8_t start_flags = [&] {
+          std::uint32_t j = k;
+          while (!(adj.slot_flags[j] & MeshAdjacency::kFanStart)) --j;
+          return adj.slot_flags[j];
+        }();
+        const bool open = !(start_flags & MeshAdjacency::kFanClosed);
+        const bool first = adj.slot_flags[k] & MeshAdjacency::kFanStart;
+        const bool last = k + 1 == se || (adj.slot_flags[k + 1] & MeshAdjacency::kFanStart);
+        EXPECT_EQ(adj.edge_neighbor[c] == MeshAdjacency::kNoFace, open && first) << "seed " << seed << " round " << round;
+        EXPECT_EQ(adj.edge_neighbor[3 * f + (i + 2) % 3] == MeshAdjacency::kNoFace, open && last)
+            << "seed " << seed << " round " << round;
+      }
+    }
+  }
+}
+
 TEST(Sampler, BoundaryEdgesAreFeatureEdges) {
   Mesh m;
   m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}};
