@@ -501,7 +501,9 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   auto joins = PieceJoinFiles::create(partition->dir, nc, border_bucket_count(expected_border, options.partition.memory_bytes));
   if (!joins) return joins.status();
   auto find_pieces = [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
-    find_chunk_pieces(*partition, chunk, ws.adjacency, ws.labels, ws.feature, pieces[c]);
+    std::vector<std::uint32_t> piece_index;
+    find_chunk_pieces(*partition, chunk, ws.adjacency, ws.labels, ws.feature, pieces[c], &piece_index);
+    GM_RETURN_IF_ERROR((*joins)->write_face_pieces(static_cast<std::uint32_t>(c), chunk, piece_index));
     return (*joins)->spill(static_cast<std::uint32_t>(c), pieces[c]);
   };
   GM_RETURN_IF_ERROR(for_each_chunk(*partition, options.threads, "sample", options,
@@ -571,18 +573,14 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     return p < 0 ? kNone : merged.patch_of[p];
   };
 
-  // A chunk's faces under the merged patches: labels again (sample_chunk), pieces again
-  // (deterministic), owned faces through their piece, the others through the owners' answer
-  // files (each read once per chunk); kNone where neither knows (faces far from every owned face).
+  // A chunk's faces under the merged patches, and its adjacency in ws: owned faces through the
+  // pieces pass A/B wrote for them, the others through the owners' answer files (each read once
+  // per chunk); kNone where neither knows (faces far from every owned face). No labelling again.
   auto merged_patches_of_chunk = [&](const ChunkMesh& chunk, ChunkSamplerWorkspace& ws,
                                      std::vector<std::uint32_t>& patch) -> format::Status {
-    std::vector<GlobalSample> unused;
-    ChunkSamplingStats stats;
-    GM_RETURN_IF_ERROR(sample_chunk(chunk, gauss, options.sampler, ws, unused, stats));
-    ChunkPieces scratch;
+    GM_RETURN_IF_ERROR(build_mesh_adjacency(chunk.view(), ws.adjacency));
     std::vector<std::uint32_t> piece_index;
-    find_chunk_pieces(*partition, chunk, ws.adjacency, ws.labels, ws.feature, scratch, &piece_index);
-    scratch = {};
+    GM_RETURN_IF_ERROR((*joins)->read_face_pieces(chunk.chunk, chunk, piece_index));
     std::vector<PieceId> face_piece;
     GM_RETURN_IF_ERROR(chunk_face_pieces(*partition, chunk, piece_index, **joins, face_piece));
     patch.resize(chunk.triangles.size());

@@ -2,9 +2,10 @@
 // Pass 0-1 partition the input (stream/chunk_partition.h); pass A samples every chunk for every
 // orientation (stream/chunk_sampler.h); pass B finds the patch pieces of the chosen orientation
 // and the stitch joins them and runs the untriangulatable merge on the patch graph
-// (stream/chunk_pieces.h); pass C gives every owned feature half-edge its successor around its
-// end vertex under the merged patches, with the degree and role of every owned feature vertex
-// (find_chunk_loops); the stitch chains the half-edges into patch loops and the polygon-first
+// (stream/chunk_pieces.h); pass C — from each chunk's adjacency and the pieces pass A/B wrote
+// for its owned faces, without labelling the chunk again — gives every owned feature half-edge
+// its successor around its end vertex under the merged patches, with the role of every owned
+// kept vertex (find_chunk_loops, in runs); the stitch chains the half-edges into patch loops and the polygon-first
 // mesher runs on them (stream/polygon_mesher.h, mesh_patch_loops). Every step sees records, not
 // the mesh, and the output equals the in-core simplify's, triangle for triangle.
 #pragma once

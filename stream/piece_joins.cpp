@@ -78,6 +78,7 @@ format::Result<std::unique_ptr<PieceJoinFiles>> PieceJoinFiles::create(const std
   files->star_entries_.assign(chunks, 0);
   files->piece_entries_.assign(chunks, 0);
   files->adjacency_entries_.assign(chunks, 0);
+  files->pieces_of_chunk_.assign(chunks, 0);
   auto compressor = format::RecordCompressor::create(1);
   if (!compressor) return compressor.status();
   files->compressor_ = std::move(*compressor);
@@ -139,6 +140,50 @@ Status read_records(const std::string& path, std::uint32_t kind, std::uint32_t b
   return {};
 }
 }  // namespace
+
+namespace {
+std::string face_pieces_path(const std::string& dir, std::uint32_t chunk) {
+  return dir + "/face-pieces-" + std::to_string(chunk) + ".rec";
+}
+}  // namespace
+
+Status PieceJoinFiles::write_face_pieces(std::uint32_t chunk, const ChunkMesh& mesh, const std::vector<std::uint32_t>& piece_index) {
+  if (chunk >= chunks_ || piece_index.size() != mesh.triangles.size())
+    return Status::error(Code::kProcessing, "stitch", "face pieces of chunk " + std::to_string(chunk) + " do not fit");
+  std::vector<std::uint32_t> owned;
+  std::uint32_t pieces = 0;
+  for (std::size_t f = 0; f < piece_index.size(); ++f) {
+    if (!mesh.owned_face[f]) continue;
+    owned.push_back(piece_index[f]);
+    pieces = std::max(pieces, piece_index[f] + 1);
+  }
+  auto bytes = write_records(face_pieces_path(dir_, chunk), kFacePieceRecordKind, kFacePieceRecordBytes, owned.size(),
+                             [&](std::size_t k, std::byte* at) { std::memcpy(at, &owned[k], 4); });
+  if (!bytes) return bytes.status();
+  std::lock_guard lock(mutex_);
+  pieces_of_chunk_[chunk] = pieces;
+  bytes_written_ += *bytes;
+  return {};
+}
+
+Status PieceJoinFiles::read_face_pieces(std::uint32_t chunk, const ChunkMesh& mesh, std::vector<std::uint32_t>& piece_index) const {
+  if (chunk >= chunks_) return damaged("face pieces of chunk " + std::to_string(chunk) + ", which does not exist");
+  std::uint64_t owned = 0;
+  for (std::uint8_t o : mesh.owned_face) owned += o;
+  piece_index.assign(mesh.triangles.size(), 0xFFFFFFFFu);
+  std::size_t f = 0;
+  bool bad_index = false;
+  GM_RETURN_IF_ERROR(read_records(face_pieces_path(dir_, chunk), kFacePieceRecordKind, kFacePieceRecordBytes, owned,
+                                  [&](const std::byte* at) {
+                                    while (f < mesh.owned_face.size() && !mesh.owned_face[f]) ++f;
+                                    std::uint32_t index;
+                                    std::memcpy(&index, at, 4);
+                                    if (index >= pieces_of_chunk_[chunk]) bad_index = true;
+                                    if (f < piece_index.size()) piece_index[f++] = index;
+                                  }));
+  if (bad_index) return damaged(face_pieces_path(dir_, chunk) + ": a face names a piece the chunk does not have");
+  return {};
+}
 
 Status PieceJoinFiles::read_pieces(std::uint32_t chunk, std::vector<PieceRecord>& pieces,
                                    std::vector<PieceAdjacencyRecord>& adjacency) const {

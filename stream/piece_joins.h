@@ -40,6 +40,10 @@ inline constexpr std::uint32_t kPieceRecordKind = 0x43504D47u;
 inline constexpr std::uint32_t kPieceRecordBytes = 28;
 inline constexpr std::uint32_t kPieceAdjacencyRecordKind = 0x41504D47u;
 inline constexpr std::uint32_t kPieceAdjacencyRecordBytes = 24;
+// The piece of each owned face of a chunk, in the chunk's face order ("GMFP": u32 index of the
+// piece in its chunk): passes C and D read it instead of labelling the chunk again.
+inline constexpr std::uint32_t kFacePieceRecordKind = 0x50464D47u;
+inline constexpr std::uint32_t kFacePieceRecordBytes = 4;
 // More buckets than this are never made (each holds a descriptor and a pending frame).
 inline constexpr std::size_t kMaxBorderBuckets = 256;
 
@@ -91,6 +95,13 @@ class PieceJoinFiles {
   // The star entries spill() took from chunk (none if it was not spilled). Errors: a damaged
   // file, or one holding another count of entries than was written (kBadInput).
   format::Status read_stars(std::uint32_t chunk, std::vector<StarEntry>& out) const;
+  // piece_index (find_chunk_pieces: per local face, its piece's index in the chunk, or all ones
+  // for faces the chunk does not own) to the chunk's face-piece file: only the owned faces'.
+  // Thread-safe for distinct chunks. Errors: kOutput.
+  format::Status write_face_pieces(std::uint32_t chunk, const ChunkMesh& mesh, const std::vector<std::uint32_t>& piece_index);
+  // Reads it back into piece_index for the same chunk mesh. Errors: a damaged file, one that
+  // disagrees with the mesh's owned faces, an index beyond the chunk's pieces (kBadInput).
+  format::Status read_face_pieces(std::uint32_t chunk, const ChunkMesh& mesh, std::vector<std::uint32_t>& piece_index) const;
   // The pieces and piece adjacency spill() took from chunk. Errors as read_stars.
   format::Status read_pieces(std::uint32_t chunk, std::vector<PieceRecord>& pieces,
                              std::vector<PieceAdjacencyRecord>& adjacency) const;
@@ -114,6 +125,7 @@ class PieceJoinFiles {
   std::vector<std::uint8_t> answered_;  // per chunk: its answer file is written
   std::vector<std::uint64_t> star_entries_;  // per chunk: entries in its star file
   std::vector<std::uint64_t> piece_entries_, adjacency_entries_;  // per chunk: spilled pieces, adjacency
+  std::vector<std::uint64_t> pieces_of_chunk_;  // per chunk: its pieces (bound of its face pieces)
   std::mutex mutex_;
   std::uint64_t border_records_ = 0, answer_records_ = 0, bytes_written_ = 0;
   bool finished_ = false;

@@ -331,5 +331,27 @@ TEST(PieceJoins, PiecesAndTheirAdjacencyComeBackAsSpilled) {
   EXPECT_EQ((*joins)->read_pieces(1, pieces, adjacency).code(), Code::kBadInput) << "truncated";
 }
 
+TEST(PieceJoins, FacePiecesComeBackForTheOwnedFaces) {
+  testing::ScratchDir dir;
+  ChunkMesh mesh;
+  mesh.chunk = 0;
+  mesh.triangles.resize(4);
+  mesh.owned_face = {1, 0, 1, 1};
+  auto joins = PieceJoinFiles::create(dir.path().string(), 1, 1);
+  ASSERT_TRUE(joins.is_ok());
+  ASSERT_TRUE((*joins)->write_face_pieces(0, mesh, {2, 0xFFFFFFFFu, 0, 1}).is_ok());
+  std::vector<std::uint32_t> back;
+  ASSERT_TRUE((*joins)->read_face_pieces(0, mesh, back).is_ok());
+  EXPECT_EQ(back, (std::vector<std::uint32_t>{2, 0xFFFFFFFFu, 0, 1}));
+  ChunkMesh other = mesh;
+  other.owned_face = {1, 1, 1, 1};  // a mesh that owns another number of faces than the file holds
+  EXPECT_EQ((*joins)->read_face_pieces(0, other, back).code(), Code::kBadInput);
+  EXPECT_EQ((*joins)->read_face_pieces(1, mesh, back).code(), Code::kBadInput) << "no such chunk";
+  const std::string path = dir.file("face-pieces-0.rec");
+  const std::string bytes = testing::read_file(path);
+  testing::write_file(path, bytes.substr(0, bytes.size() - 2));
+  EXPECT_EQ((*joins)->read_face_pieces(0, mesh, back).code(), Code::kBadInput) << "truncated";
+}
+
 }  // namespace
 }  // namespace gaussmesh::stream
