@@ -5,8 +5,8 @@
 // (stream/chunk_pieces.h); pass C — from each chunk's adjacency and the pieces pass A/B wrote
 // for its owned faces, without labelling the chunk again — gives every owned feature half-edge
 // its successor around its end vertex under the merged patches, with the role of every owned
-// kept vertex (find_chunk_loops, in runs); the stitch chains the half-edges into patch loops and the polygon-first
-// mesher runs on them (stream/polygon_mesher.h, mesh_patch_loops). Every step sees records, not
+// kept vertex (find_chunk_loops, in runs); the stitch chains the runs into patch loops and the
+// polygon-first mesher runs on them (stream/polygon_mesher.h, mesh_patch_loops). Every step sees records, not
 // the mesh, and the output equals the in-core simplify's, triangle for triangle.
 #pragma once
 
