@@ -128,6 +128,17 @@ format::Result<Partition> partition_for_chunks(const std::string& input_path, co
   return partition_mesh(input_path, read, o);
 }
 
+format::Status check_out_of_core_options(const char* command, const SamplerOptions& sampler,
+                                         const std::vector<GaussSphereOptions>& spheres, std::uint32_t threads) {
+  if (sampler.sample_test != SampleTest::kExact) {
+    return format::Status::error(format::Code::kUsage, command,
+                                 "out of core (--memory) runs the exact sample test only: the paper test's "
+                                 "noisy-sample filter needs candidate chains across chunks, which are not stitched yet");
+  }
+  if (spheres.empty() || threads == 0) return format::Status::error(format::Code::kUsage, command, "no orientation, or 0 threads");
+  return format::Status();
+}
+
 std::uint64_t pass_two_chunk_faces(std::uint64_t memory_bytes, std::uint32_t threads) {
   constexpr std::uint64_t kReserve = std::uint64_t{20} << 20, kBytesPerFace = 256;
   const std::uint64_t budget = memory_bytes > 2 * kReserve ? memory_bytes - kReserve : memory_bytes / 2;
@@ -136,14 +147,7 @@ std::uint64_t pass_two_chunk_faces(std::uint64_t memory_bytes, std::uint32_t thr
 
 format::Result<OutOfCoreSampling> sample_out_of_core(const std::string& input_path, const format::ReadOptions& read,
                                                      const OutOfCoreSamplingOptions& options) {
-  if (options.sampler.sample_test != SampleTest::kExact) {
-    return format::Status::error(format::Code::kUsage, "sample",
-                                 "out of core (--memory) runs the exact sample test only: the paper test's "
-                                 "patch-level filters need the cross-chunk stitch, which is not built yet");
-  }
-  if (options.spheres.empty() || options.threads == 0) {
-    return format::Status::error(format::Code::kUsage, "sample", "no orientation, or 0 threads");
-  }
+  GM_RETURN_IF_ERROR(check_out_of_core_options("sample", options.sampler, options.spheres, options.threads));
   auto spheres = create_spheres(options.spheres);
   if (!spheres) return spheres.status();
   auto partition = partition_for_chunks(input_path, read, options.partition, options.sampler, options.threads);

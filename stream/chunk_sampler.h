@@ -77,6 +77,12 @@ format::Result<Partition> partition_for_chunks(const std::string& input_path, co
                                                const PartitionOptions& options, const SamplerOptions& sampler,
                                                std::uint32_t threads);
 
+// kUsage when an out-of-core run (`command` names it in the message) cannot take these options:
+// the paper sample test (its noisy-sample filter needs candidate chains across chunks, which are
+// not stitched), no orientation, or 0 threads.
+format::Status check_out_of_core_options(const char* command, const SamplerOptions& sampler,
+                                         const std::vector<GaussSphereOptions>& spheres, std::uint32_t threads);
+
 // The process's peak RSS so far (getrusage), in bytes.
 std::uint64_t peak_rss();
 

@@ -466,14 +466,7 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
 
 format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_path, const format::ReadOptions& read,
                                                        const OutOfCoreSimplifyOptions& options) {
-  if (options.sampler.sample_test != SampleTest::kExact) {
-    return format::Status::error(format::Code::kUsage, "simplify",
-                                 "out of core (--memory) runs the exact sample test only: the paper test's "
-                                 "noisy-sample filter needs candidate chains across chunks, which are not stitched yet");
-  }
-  if (options.spheres.empty() || options.threads == 0) {
-    return format::Status::error(format::Code::kUsage, "simplify", "no orientation, or 0 threads");
-  }
+  GM_RETURN_IF_ERROR(check_out_of_core_options("simplify", options.sampler, options.spheres, options.threads));
   auto created = create_spheres(options.spheres);
   if (!created) return created.status();
   std::vector<GaussSphere>& spheres = *created;

@@ -39,4 +39,23 @@ inline format::Vec3f unit_f(const Vec3d& v) {
 // rest). Non-finite inputs are a precondition violation.
 int orientation_sign(const Vec3d& a, const Vec3d& b, const Vec3d& c);
 
+// orientation_sign's static filter, inline for hot loops: +1 or -1 when doubles decide the sign,
+// 0 when they cannot (then ask orientation_sign). det = a · (b × c) in doubles differs from the
+// exact value by at most 3 u (1 + u)^2 · perm, with perm the same expression over absolute values
+// (u = 2^-53: each product, difference and sum rounds once). Outside 8 u · perm the sign is
+// certain; inside, or with tiny (possibly underflowing) or non-finite terms, it is not.
+inline int orientation_sign_filter(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  const double m1 = b.y * c.z - b.z * c.y, m2 = b.z * c.x - b.x * c.z, m3 = b.x * c.y - b.y * c.x;
+  const double det = a.x * m1 + a.y * m2 + a.z * m3;
+  const double perm = std::abs(a.x) * (std::abs(b.y * c.z) + std::abs(b.z * c.y)) +
+                      std::abs(a.y) * (std::abs(b.z * c.x) + std::abs(b.x * c.z)) +
+                      std::abs(a.z) * (std::abs(b.x * c.y) + std::abs(b.y * c.x));
+  constexpr double kBound = 8 * 0x1.0p-53;
+  if (perm > 1e-150 && perm < 1e150) {
+    if (det > kBound * perm) return 1;
+    if (det < -kBound * perm) return -1;
+  }
+  return 0;
+}
+
 }  // namespace gaussmesh::stream

@@ -28,19 +28,10 @@ using format::Vec3f;
 constexpr double kDegenerateRatio = 1e-7;  // |cross| <= this × sum of squared edge lengths
 constexpr double kHemisphereMargin = 1e-3;  // polygon vertices and g must have n·c above this
 
-// orientation_sign with its static filter inlined (the same bound: stream/exact_predicates.cpp);
-// the calls the filter cannot decide go to orientation_sign. Exact, so the same signs.
+// orientation_sign with its static filter inlined (stream/exact_predicates.h); the calls the
+// filter cannot decide go to orientation_sign. Exact, so the same signs.
 inline int orient(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
-  const double m1 = b.y * c.z - b.z * c.y, m2 = b.z * c.x - b.x * c.z, m3 = b.x * c.y - b.y * c.x;
-  const double det = a.x * m1 + a.y * m2 + a.z * m3;
-  const double perm = std::abs(a.x) * (std::abs(b.y * c.z) + std::abs(b.z * c.y)) +
-                      std::abs(a.y) * (std::abs(b.z * c.x) + std::abs(b.x * c.z)) +
-                      std::abs(a.z) * (std::abs(b.x * c.y) + std::abs(b.y * c.x));
-  constexpr double kBound = 8 * 0x1.0p-53;
-  if (perm > 1e-150 && perm < 1e150) {
-    if (det > kBound * perm) return 1;
-    if (det < -kBound * perm) return -1;
-  }
+  if (const int sign = orientation_sign_filter(a, b, c)) return sign;
   return orientation_sign(a, b, c);
 }
 
