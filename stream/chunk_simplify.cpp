@@ -491,7 +491,8 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   std::uint64_t expected_border = 0;
   for (const ChunkInfo& info : partition->chunks)
     expected_border += (info.faces - std::min(info.faces, info.owned_faces)) / std::max<std::uint32_t>(options.partition.rings, 1);
-  auto joins = PieceJoinFiles::create(partition->dir, nc, border_bucket_count(expected_border, options.partition.memory_bytes));
+  auto joins = PieceJoinFiles::create(partition->dir, nc, border_bucket_count(expected_border, options.partition.memory_bytes),
+                                      options.partition.memory_bytes);
   if (!joins) return joins.status();
   auto find_pieces = [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
     std::vector<std::uint32_t> piece_index;

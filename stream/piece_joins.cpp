@@ -11,7 +11,9 @@ namespace {
 using format::Code;
 using format::Status;
 
-constexpr std::size_t kBucketFrameBytes = std::size_t{32} << 10;  // pending per bucket writer
+// Pending bytes per bucket writer: at most this, at least the smaller (all buckets' pending frames
+// share 1/16 of the budget).
+constexpr std::size_t kBucketFrameBytes = std::size_t{32} << 10, kMinBucketFrameBytes = std::size_t{4} << 10;
 constexpr std::size_t kAnswerFrameBytes = std::size_t{256} << 10;
 
 Status damaged(const std::string& what) { return Status::error(Code::kBadInput, "stitch", what); }
@@ -67,7 +69,7 @@ std::size_t border_bucket_count(std::uint64_t expected_records, std::uint64_t me
 }
 
 format::Result<std::unique_ptr<PieceJoinFiles>> PieceJoinFiles::create(const std::string& dir, std::size_t chunks,
-                                                                       std::size_t buckets) {
+                                                                       std::size_t buckets, std::uint64_t memory_bytes) {
   if (buckets == 0 || buckets > kMaxBorderBuckets) {
     return Status::error(Code::kUsage, "stitch", "border-edge bucket count " + std::to_string(buckets) + " out of range");
   }
@@ -84,6 +86,9 @@ format::Result<std::unique_ptr<PieceJoinFiles>> PieceJoinFiles::create(const std
   files->compressor_ = std::move(*compressor);
   format::RecordWriterOptions options;
   options.frame_bytes = kBucketFrameBytes;
+  if (memory_bytes > 0)
+    options.frame_bytes = static_cast<std::size_t>(
+        std::clamp<std::uint64_t>(memory_bytes / 16 / buckets, kMinBucketFrameBytes, kBucketFrameBytes));
   options.shared = files->compressor_.get();
   for (std::size_t b = 0; b < buckets; ++b) {
     files->bucket_paths_.push_back(dir + "/border-" + std::to_string(b) + ".rec");

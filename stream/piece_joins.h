@@ -60,8 +60,10 @@ class PieceJoinFiles {
   // Creates `buckets` (1..kMaxBorderBuckets) empty bucket files under dir; answer files are
   // made by write_answers. Errors: kOutput when a file cannot be created; kUsage for a bucket
   // count out of range.
+  // memory_bytes (0: no limit) bounds the bucket writers' pending frames together to 1/16 of it:
+  // each frame holds 4-32 KiB.
   static format::Result<std::unique_ptr<PieceJoinFiles>> create(const std::string& dir, std::size_t chunks,
-                                                                std::size_t buckets);
+                                                                std::size_t buckets, std::uint64_t memory_bytes = 0);
   ~PieceJoinFiles();
   PieceJoinFiles(const PieceJoinFiles&) = delete;
   PieceJoinFiles& operator=(const PieceJoinFiles&) = delete;
