@@ -154,12 +154,7 @@ format::Result<OutOfCoreSampling> sample_out_of_core(const std::string& input_pa
   if (!partition) return partition.status();
 
   OutOfCoreSampling out;
-  out.vertices = partition->vertices;
-  out.faces = partition->faces;
-  out.chunks = partition->chunks.size();
-  out.seconds_ingest = partition->seconds_ingest;
-  out.seconds_partition = partition->seconds_partition;
-  out.peak_rss_after_partition = peak_rss();
+  record_partition(*partition, out);
   const auto start = std::chrono::steady_clock::now();
 
   // Per chunk and orientation: the chunk's samples and counts (output-sized).

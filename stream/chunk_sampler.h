@@ -86,6 +86,18 @@ format::Status check_out_of_core_options(const char* command, const SamplerOptio
 // The process's peak RSS so far (getrusage), in bytes.
 std::uint64_t peak_rss();
 
+// Copies what passes 0-1 measured into an out-of-core result (OutOfCoreSampling or
+// OutOfCoreSimplify: input counts, chunks, seconds) and notes the peak RSS after them.
+template <class Result>
+void record_partition(const Partition& partition, Result& out) {
+  out.vertices = partition.vertices;
+  out.faces = partition.faces;
+  out.chunks = partition.chunks.size();
+  out.seconds_ingest = partition.seconds_ingest;
+  out.seconds_partition = partition.seconds_partition;
+  out.peak_rss_after_partition = peak_rss();
+}
+
 // Hands the allocator's free pages back to the system (glibc's malloc_trim; elsewhere nothing).
 // Between passes: what one pass's threads freed is not counted again under the next's
 // allocations. for_each_chunk calls it when its chunks are done.

@@ -473,12 +473,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   auto partition = partition_for_chunks(input_path, read, options.partition, options.sampler, options.threads);
   if (!partition) return partition.status();
   OutOfCoreSimplify out;
-  out.vertices = partition->vertices;
-  out.faces = partition->faces;
-  out.chunks = partition->chunks.size();
-  out.seconds_ingest = partition->seconds_ingest;
-  out.seconds_partition = partition->seconds_partition;
-  out.peak_rss_after_partition = peak_rss();
+  record_partition(*partition, out);
   const std::size_t nc = partition->chunks.size(), no = spheres.size();
 
   // Pass A: samples of every orientation (and, with one orientation, the pieces too). Each

@@ -819,12 +819,13 @@ std::vector<std::uint8_t> faces_the_mesher_skips(std::span<const format::Triangl
       skip[f] = 1;
       continue;
     }
+    const std::array<std::uint32_t, 3> key = sorted(f);
     bool suspect = false;
     for (int i = 0; i < 3 && !suspect; ++i) {
       const std::uint32_t g = adjacency.edge_neighbor[3 * std::size_t{f} + i];
-      suspect = g == MeshAdjacency::kNoFace || sorted(g) == sorted(f);
+      suspect = g == MeshAdjacency::kNoFace || sorted(g) == key;
     }
-    if (suspect) keys.emplace_back(sorted(f), f);
+    if (suspect) keys.emplace_back(key, f);
   }
   std::sort(keys.begin(), keys.end());
   bool repeat = false;
