@@ -311,16 +311,37 @@ class PolygonMesher {
   }
 
   // Chains between stops, canonical (the same whichever patch's loop they are read from), and
-  // the guard rules over them.
+  // the guard rules over them. A chain is a stretch of a loop read in place (copies of every
+  // chain held the loops twice over: 18 MB at 100M input triangles).
   void choose_guards() {
     auto is_stop = [&](std::uint32_t v) { return keep_[v] != Keep::kNo || (!corners_given_ && degree_[v] != 2); };
     struct Chain {
-      std::vector<std::uint32_t> path;  // stop, inner..., stop; canonical direction
+      std::uint32_t loop, start, edges;  // loop's vertices start, start + 1, ... (cyclic): edges + 1 of them
+      bool reversed;                     // read backwards from start + edges: the canonical direction
+    };
+    // Vertex i (0 .. edges) of c in its canonical direction.
+    auto at = [&](const Chain& c, std::uint32_t i) {
+      const auto& v = loops_[c.loop].vertices;
+      return v[(c.start + (c.reversed ? c.edges - i : i)) % v.size()];
+    };
+    auto same_path = [&](const Chain& x, const Chain& y) {
+      if (x.edges != y.edges) return false;
+      for (std::uint32_t i = 0; i <= x.edges; ++i)
+        if (at(x, i) != at(y, i)) return false;
+      return true;
+    };
+    auto path_less = [&](const Chain& x, const Chain& y) {
+      for (std::uint32_t i = 0; i <= std::min(x.edges, y.edges); ++i) {
+        const std::uint32_t a = at(x, i), b = at(y, i);
+        if (a != b) return a < b;
+      }
+      return x.edges < y.edges;
     };
     std::vector<Chain> chains;
     std::vector<std::uint32_t> closed_loop_min;  // lowest id of each loop without a stop
     std::vector<std::uint32_t> guards;
-    for (const Loop& loop : loops_) {
+    for (std::uint32_t l = 0; l < loops_.size(); ++l) {
+      const Loop& loop = loops_[l];
       const std::size_t n = loop.vertices.size();
       std::size_t first = n;
       for (std::size_t k = 0; k < n; ++k) {
@@ -337,53 +358,51 @@ class PolygonMesher {
         const std::ptrdiff_t step = next < prev ? 1 : -1;
         closed_loop_min.push_back(loop.vertices[low]);
         for (std::size_t j = 0; j < std::min<std::size_t>(n, 3); ++j) {
-          const std::ptrdiff_t at = (low + step * static_cast<std::ptrdiff_t>(j * n / 3)) % static_cast<std::ptrdiff_t>(n);
-          guards.push_back(loop.vertices[(at + static_cast<std::ptrdiff_t>(n)) % static_cast<std::ptrdiff_t>(n)]);
+          const std::ptrdiff_t where = (low + step * static_cast<std::ptrdiff_t>(j * n / 3)) % static_cast<std::ptrdiff_t>(n);
+          guards.push_back(loop.vertices[(where + static_cast<std::ptrdiff_t>(n)) % static_cast<std::ptrdiff_t>(n)]);
         }
         continue;
       }
       for (std::size_t k = first, seen = 0; seen < n;) {
-        Chain c;
-        c.path.push_back(loop.vertices[k]);
+        Chain c{l, static_cast<std::uint32_t>(k), 0, false};
         do {
           k = (k + 1) % n;
           ++seen;
-          c.path.push_back(loop.vertices[k]);
+          ++c.edges;
         } while (!is_stop(loop.vertices[k]));
-        const std::uint32_t a = c.path.front(), b = c.path.back();
-        if (a > b || (a == b && c.path.size() > 3 && c.path[1] > c.path[c.path.size() - 2]))
-          std::reverse(c.path.begin(), c.path.end());
-        chains.push_back(std::move(c));
+        const std::uint32_t a = at(c, 0), b = at(c, c.edges);
+        if (a > b || (a == b && c.edges > 2 && at(c, 1) > at(c, c.edges - 1))) c.reversed = true;
+        chains.push_back(c);
       }
     }
     // By end points, then path: chains joining the same two stops are neighbours.
-    std::sort(chains.begin(), chains.end(), [](const Chain& x, const Chain& y) {
-      const auto kx = std::pair(x.path.front(), x.path.back()), ky = std::pair(y.path.front(), y.path.back());
-      return kx != ky ? kx < ky : x.path < y.path;
+    std::sort(chains.begin(), chains.end(), [&](const Chain& x, const Chain& y) {
+      const auto kx = std::pair(at(x, 0), at(x, x.edges)), ky = std::pair(at(y, 0), at(y, y.edges));
+      return kx != ky ? kx < ky : path_less(x, y);
     });
-    chains.erase(std::unique(chains.begin(), chains.end(), [](const Chain& x, const Chain& y) { return x.path == y.path; }),
-                 chains.end());
+    chains.erase(std::unique(chains.begin(), chains.end(), same_path), chains.end());
     std::sort(closed_loop_min.begin(), closed_loop_min.end());
     result_.mesh.graph.closed_loops =
         std::unique(closed_loop_min.begin(), closed_loop_min.end()) - closed_loop_min.begin();
     result_.mesh.graph.chains = chains.size();
     for (std::size_t i = 0; i < chains.size();) {
-      const auto& path = chains[i].path;
+      const Chain& first = chains[i];
+      const std::uint32_t front = at(first, 0), back = at(first, first.edges);
       std::size_t j = i + 1;
-      while (j < chains.size() && chains[j].path.front() == path.front() && chains[j].path.back() == path.back()) ++j;
+      while (j < chains.size() && at(chains[j], 0) == front && at(chains[j], chains[j].edges) == back) ++j;
       for (std::size_t k = i; k < j; ++k) {
-        const auto& q = chains[k].path;
-        const std::size_t m = q.size() - 1;  // edges
-        if (q.front() == q.back()) {
+        const Chain& q = chains[k];
+        const std::uint32_t m = q.edges;
+        if (front == back) {
           // A loop through one corner: two more vertices make it a triangle.
           if (m >= 3) {
-            guards.push_back(q[m / 3]);
-            guards.push_back(q[2 * m / 3]);
+            guards.push_back(at(q, m / 3));
+            guards.push_back(at(q, 2 * m / 3));
           } else if (m == 2) {
-            guards.push_back(q[1]);
+            guards.push_back(at(q, 1));
           }
         } else if (j - i > 1 && m >= 2) {
-          guards.push_back(q[m / 2]);  // one of several chains joining the same two corners
+          guards.push_back(at(q, m / 2));  // one of several chains joining the same two corners
         }
       }
       i = j;
