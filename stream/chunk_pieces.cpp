@@ -195,9 +195,13 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
     shared.resize(w);
     compacted = w;
   };
+  // Unsummed entries beyond twice the summed ones: 1/64 of the budget (a fixed 2^20 entries was
+  // 16 MB, 32 MB of capacity after doubling: half a 64 MiB budget at 100M triangles).
+  const std::size_t slack = std::max<std::uint64_t>(memory_bytes / 64 / sizeof(Shared), 4096);
   auto add_shared = [&](std::uint32_t a, std::uint32_t b, std::uint64_t edges) {
+    if (shared.size() == shared.capacity() && shared.size() >= 2 * compacted + slack) compact();
+    if (shared.size() == shared.capacity()) shared.reserve(std::max(2 * compacted + slack, shared.size() + slack));
     shared.push_back({std::min(a, b), std::max(a, b), edges});
-    if (shared.size() >= 2 * compacted + (1u << 20)) compact();
   };
   // Pieces and their feature edges inside a chunk; what pass B spilled comes back from the
   // files, a chunk at a time. Adjacency records name pieces of their own chunk.
@@ -371,16 +375,21 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
   return out;
 }
 
-PatchMergeResult merge_stitched_patches(const StitchedPatches& stitched) {
+PatchGraphInput stitched_merge_input(const StitchedPatches& stitched) {
   PatchGraphInput input;
+  input.patch_label.reserve(stitched.patches.size());
+  input.patch_size.reserve(stitched.patches.size());
   for (const StitchedPatch& p : stitched.patches) {
     input.patch_label.push_back(p.label);
     input.patch_size.push_back(static_cast<std::uint32_t>(std::min<std::uint64_t>(p.faces, 0xFFFFFFFFu)));
   }
-  std::vector<PatchPair> pairs;
-  for (const auto& a : stitched.adjacency)
-    pairs.push_back({a.p, a.q, static_cast<std::uint32_t>(std::min<std::uint64_t>(a.edges, 0xFFFFFFFFu))});
-  patch_neighbors_from_pairs(pairs, input);
+  {
+    std::vector<PatchPair> pairs;
+    pairs.reserve(stitched.adjacency.size());
+    for (const auto& a : stitched.adjacency)
+      pairs.push_back({a.p, a.q, static_cast<std::uint32_t>(std::min<std::uint64_t>(a.edges, 0xFFFFFFFFu))});
+    patch_neighbors_from_pairs(pairs, input);
+  }
   // Each candidate counts for the distinct patches of its star and of the collapsed faces
   // holding it.
   std::vector<std::pair<std::uint32_t, std::uint32_t>> collapsed;  // (vertex, patch)
@@ -400,6 +409,10 @@ PatchMergeResult merge_stitched_patches(const StitchedPatches& stitched) {
     input.candidate_patches.insert(input.candidate_patches.end(), list.begin(), list.end());
     input.candidate_offsets.push_back(static_cast<std::uint32_t>(input.candidate_patches.size()));
   }
+  return input;
+}
+
+PatchMergeResult merge_stitched_patches(const StitchedPatches& stitched, PatchGraphInput input) {
   // Exact test: a candidate's record after a merge differs only in its candidacy, recounted
   // from its star with the current labels (evaluate_vertex's count).
   auto reevaluate = [&](PatchMergeGraph& graph, std::span<const std::uint32_t> touched,
@@ -417,8 +430,14 @@ PatchMergeResult merge_stitched_patches(const StitchedPatches& stitched) {
   };
   PatchMergeGraph graph;
   PatchMergeResult result;
-  merge_untriangulatable_patches(input, reevaluate, graph, result);
+  graph.reset_taking_neighbors(input);
+  graph.merge(reevaluate);
+  graph.finish(result);
   return result;
+}
+
+PatchMergeResult merge_stitched_patches(const StitchedPatches& stitched) {
+  return merge_stitched_patches(stitched, stitched_merge_input(stitched));
 }
 
 }  // namespace gaussmesh::stream

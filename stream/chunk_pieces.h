@@ -184,5 +184,11 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
 // the in-core run's final face_patch numbers them; is_candidate is parallel to
 // stitched.candidates.
 PatchMergeResult merge_stitched_patches(const StitchedPatches& stitched);
+// The same in two steps, so that a caller can free what the merge no longer reads in between:
+// the merge's input (patches, adjacency, candidates' patch lists) is built from stitched's
+// patches, adjacency, collapsed faces, candidates and star; the merge itself reads only the
+// candidates and star (to re-evaluate candidates).
+PatchGraphInput stitched_merge_input(const StitchedPatches& stitched);
+PatchMergeResult merge_stitched_patches(const StitchedPatches& stitched, PatchGraphInput input);
 
 }  // namespace gaussmesh::stream

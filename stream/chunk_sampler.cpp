@@ -10,9 +10,12 @@
 #include <atomic>
 #include <cassert>
 #include <chrono>
+#include <cinttypes>
+#include <cstdio>
 #include <mutex>
 
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
@@ -65,12 +68,14 @@ format::Status sample_chunk(const ChunkMesh& chunk, const GaussSphere& gauss, co
 }
 
 format::Status for_each_chunk(const Partition& partition, std::uint32_t threads, const ChunkBody& body,
-                              const std::function<void(std::size_t, std::size_t)>& progress) {
+                              const std::function<void(std::size_t, std::size_t)>& progress,
+                              std::uint64_t memory_bytes) {
   const std::size_t nc = partition.chunks.size();
   std::vector<format::Status> errors(nc);
   std::atomic<bool> failed{false};
   std::atomic<std::size_t> done{0};
-  std::mutex progress_mutex;
+  std::mutex progress_mutex, release_mutex;
+  std::uint64_t released_at = 0;  // resident bytes after the last release (under release_mutex)
   tbb::enumerable_thread_specific<ChunkSamplerWorkspace> workspaces;
   tbb::task_arena arena(static_cast<int>(std::max<std::uint32_t>(threads, 1)));
   arena.execute([&] {
@@ -84,6 +89,14 @@ format::Status for_each_chunk(const Partition& partition, std::uint32_t threads,
         return;
       }
       const std::size_t n = ++done;
+      if (memory_bytes > 0) {
+        std::unique_lock lock(release_mutex, std::try_to_lock);
+        const std::uint64_t rss = lock ? current_rss() : 0;
+        if (rss > memory_bytes / 8 * 7 && rss > released_at + memory_bytes / 8) {
+          release_free_memory();
+          released_at = current_rss();
+        }
+      }
       if (progress) {
         std::lock_guard<std::mutex> lock(progress_mutex);
         progress(n, nc);
@@ -111,6 +124,15 @@ format::Result<std::vector<GaussSphere>> create_spheres(const std::vector<GaussS
     spheres.push_back(std::move(g).value());
   }
   return spheres;
+}
+
+std::uint64_t current_rss() {
+  std::uint64_t pages = 0, resident = 0;
+  if (std::FILE* f = std::fopen("/proc/self/statm", "re")) {
+    if (std::fscanf(f, "%" SCNu64 " %" SCNu64, &pages, &resident) != 2) resident = 0;
+    std::fclose(f);
+  }
+  return resident * static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
 }
 
 std::uint64_t peak_rss() {
@@ -170,7 +192,8 @@ format::Result<OutOfCoreSampling> sample_out_of_core(const std::string& input_pa
       },
       [&](std::size_t done, std::size_t total) {
         if (options.progress) options.progress(done, total, partition->faces);
-      }));
+      },
+      options.partition.memory_bytes));
   out.bytes_spilled = partition->bytes_spilled;
   partition->remove_temp();
 

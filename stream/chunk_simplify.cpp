@@ -8,6 +8,8 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <iterator>
 #include <map>
@@ -33,9 +35,12 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 // Loads every chunk and calls body (stream/chunk_sampler.h for_each_chunk), reporting `pass`.
 format::Status for_each_chunk(const Partition& partition, std::uint32_t threads, const char* pass,
                               const OutOfCoreSimplifyOptions& options, const ChunkBody& body) {
-  return stream::for_each_chunk(partition, threads, body, [&](std::size_t done, std::size_t total) {
-    if (options.progress) options.progress(pass, done, total, partition.faces);
-  });
+  return stream::for_each_chunk(
+      partition, threads, body,
+      [&](std::size_t done, std::size_t total) {
+        if (options.progress) options.progress(pass, done, total, partition.faces);
+      },
+      options.partition.memory_bytes);
 }
 
 }  // namespace
@@ -362,39 +367,70 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
   // the run files before the loops exist, summed up now and then (each vertex is on two loops).
   std::vector<std::uint32_t>& global = g.global;
   {
+    // Capacity grows by hand to twice the distinct ids plus 1 MiB of entries (doubling it
+    // overshot: 24 MB for 1.3M distinct ids at 100M triangles).
+    constexpr std::size_t kSlack = std::size_t{1} << 18;
     std::size_t unique = 0;
     auto compact = [&] {
       std::sort(global.begin(), global.end());
       global.erase(std::unique(global.begin(), global.end()), global.end());
       unique = global.size();
     };
+    auto add = [&](std::uint32_t v) {
+      if (global.size() == global.capacity()) {
+        if (global.size() >= 2 * unique + kSlack) compact();
+        if (global.size() == global.capacity()) global.reserve(std::max(2 * unique + kSlack, global.size() + kSlack));
+      }
+      global.push_back(v);
+    };
     for (const ChunkLoopSummary& c : chunks) {
-      GM_RETURN_IF_ERROR(read_run_vertices(c, [&](std::size_t, std::uint32_t, const LoopVertexEntry& e) {
-        global.push_back(e.vertex);
-        if (global.size() >= 2 * unique + (std::size_t{1} << 20)) compact();
-      }));
-      for (const LoopVertexRecord& r : c.vertices) global.push_back(r.vertex);
+      GM_RETURN_IF_ERROR(read_run_vertices(c, [&](std::size_t, std::uint32_t, const LoopVertexEntry& e) { add(e.vertex); }));
+      for (const LoopVertexRecord& r : c.vertices) add(r.vertex);
     }
-    for (const auto& e : extra_vertices) global.push_back(e.first);
+    for (const auto& e : extra_vertices) add(e.first);
     compact();
     global.shrink_to_fit();
   }
+  release_free_memory();  // the gathering's spare capacity
   const std::size_t nv = global.size();
   auto dense = [&](std::uint32_t v) {
     return static_cast<std::uint32_t>(std::lower_bound(global.begin(), global.end(), v) - global.begin());
   };
-  // The loops, in dense ids; positions of the first range of ids on the way (all of them when
-  // they fit in one).
-  constexpr std::size_t kRange = (std::size_t{8} << 20) / sizeof(format::Vec3f);
-  std::vector<format::Vec3f> buffer(std::min(nv, kRange));
-  std::vector<std::uint8_t> filled(buffer.size(), 0);
-  std::size_t lo = 0;
-  auto put = [&](std::uint32_t v, const format::Vec3f& p) {
-    const std::size_t d = dense(v);
-    if (d < lo || d >= lo + buffer.size()) return;
-    buffer[d - lo] = p;
-    filled[d - lo] = 1;
-  };
+  // Positions in dense order, to a file, one range of dense ids at a time (the run files read
+  // once per range), before the loops exist: the range buffer and the loops are never held
+  // together.
+  const std::string path = dir + "/loop-positions.bin";
+  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+  if (fd < 0) return format::Status::error(format::Code::kOutput, path, std::strerror(errno));
+  auto source = std::make_shared<FilePositions>(fd, path, nv);
+  {
+    constexpr std::size_t kRange = (std::size_t{8} << 20) / sizeof(format::Vec3f);
+    std::vector<format::Vec3f> buffer;
+    std::vector<std::uint8_t> filled;
+    std::size_t lo = 0;
+    auto put = [&](std::uint32_t v, const format::Vec3f& p) {
+      const std::size_t d = dense(v);
+      if (d < lo || d >= lo + buffer.size()) return;
+      buffer[d - lo] = p;
+      filled[d - lo] = 1;
+    };
+    for (lo = 0; lo < nv; lo += kRange) {
+      const std::size_t n = std::min(nv - lo, kRange);
+      buffer.assign(n, {});
+      filled.assign(n, 0);
+      for (const ChunkLoopSummary& c : chunks) {
+        GM_RETURN_IF_ERROR(read_run_vertices(c, [&](std::size_t, std::uint32_t, const LoopVertexEntry& e) { put(e.vertex, e.position); }));
+        for (const LoopVertexRecord& r : c.vertices) put(r.vertex, r.position);
+      }
+      for (const auto& [v, p] : extra_vertices) put(v, p);
+      if (std::find(filled.begin(), filled.end(), 0) != filled.end()) return damaged("a loop vertex has no position");
+      const std::size_t bytes = buffer.size() * sizeof(format::Vec3f);
+      if (::pwrite(fd, buffer.data(), bytes, static_cast<off_t>(lo * sizeof(format::Vec3f))) != static_cast<ssize_t>(bytes))
+        return format::Status::error(format::Code::kOutput, path, "cannot write loop vertex positions: " + std::string(std::strerror(errno)));
+    }
+  }
+  release_free_memory();  // the range buffer
+  // The loops, in dense ids.
   g.loops.resize(infos.size());
   for (std::uint32_t l = 0; l < infos.size(); ++l) {
     g.loops[l].patch = infos[l].patch;
@@ -412,7 +448,6 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
     GM_RETURN_IF_ERROR(read_run_vertices(chunks[c], [&](std::size_t run, std::uint32_t i, const LoopVertexEntry& e) {
       const std::uint32_t k = chunk_run[c][run];
       g.loops[run_loop[k]].vertices[run_at[k] + i] = dense(e.vertex);
-      put(e.vertex, e.position);
     }));
   }
   for (std::uint32_t l = 0; l < infos.size(); ++l) {
@@ -436,28 +471,6 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
   has_record = {};
   for (auto& list : g.interior_samples) std::sort(list.begin(), list.end());
   g.graph.feature_edges = breaks + (halves - breaks) / 2;
-  // Positions in dense order, to a file: one range of dense ids at a time (the first filled
-  // above), the run files read again for each further range.
-  const std::string path = dir + "/loop-positions.bin";
-  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
-  if (fd < 0) return format::Status::error(format::Code::kOutput, path, std::strerror(errno));
-  auto source = std::make_shared<FilePositions>(fd, path, nv);
-  for (lo = 0; lo < nv; lo += kRange) {
-    const std::size_t n = std::min(nv - lo, kRange);
-    if (lo > 0) {
-      buffer.assign(n, {});
-      filled.assign(n, 0);
-      for (const ChunkLoopSummary& c : chunks)
-        GM_RETURN_IF_ERROR(read_run_vertices(c, [&](std::size_t, std::uint32_t, const LoopVertexEntry& e) { put(e.vertex, e.position); }));
-    }
-    for (const ChunkLoopSummary& c : chunks)
-      for (const LoopVertexRecord& r : c.vertices) put(r.vertex, r.position);
-    for (const auto& [v, p] : extra_vertices) put(v, p);
-    if (std::find(filled.begin(), filled.end(), 0) != filled.end()) return damaged("a loop vertex has no position");
-    const std::size_t bytes = buffer.size() * sizeof(format::Vec3f);
-    if (::pwrite(fd, buffer.data(), bytes, static_cast<off_t>(lo * sizeof(format::Vec3f))) != static_cast<ssize_t>(bytes))
-      return format::Status::error(format::Code::kOutput, path, "cannot write loop vertex positions: " + std::string(std::strerror(errno)));
-  }
   g.position_source = std::move(source);
   g.vertex_count = nv;
   if (stats) *stats = {nr, halves, nv};
@@ -538,7 +551,11 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   if (!stitched) return stitched.status();
   std::vector<ChunkPieces>().swap(pieces);
   release_free_memory();
-  PatchMergeResult merged = merge_stitched_patches(*stitched);
+  PatchGraphInput merge_input = stitched_merge_input(*stitched);
+  std::vector<StitchedPatches::Adjacent>().swap(stitched->adjacency);
+  std::vector<StitchedPatches::Collapsed>().swap(stitched->collapsed);
+  std::vector<StitchedPatch>().swap(stitched->patches);
+  PatchMergeResult merged = merge_stitched_patches(*stitched, std::move(merge_input));
   out.patches = merged.patch_label.size();
   out.merged_patches = merged.merged_patches;
   out.merge_rounds = merged.rounds;
@@ -551,9 +568,6 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   // stitch and the merge goes now.
   std::vector<StitchedPatches::Star>().swap(stitched->star);
   std::vector<StitchedPatches::Candidate>().swap(stitched->candidates);
-  std::vector<StitchedPatches::Adjacent>().swap(stitched->adjacency);
-  std::vector<StitchedPatches::Collapsed>().swap(stitched->collapsed);
-  std::vector<StitchedPatch>().swap(stitched->patches);
   std::vector<std::pair<std::uint32_t, std::uint32_t>>().swap(merged.adjacency);
   std::vector<std::uint8_t>().swap(merged.is_candidate);
   release_free_memory();
