@@ -3,6 +3,9 @@
 #include <cstdio>
 #include <exception>
 #include <new>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 
 #include <CLI/CLI.hpp>
 
@@ -27,6 +30,15 @@ int report_error(const format::Status& status) {
 int main(int argc, char** argv) {
   using namespace gaussmesh;
   format::install_signal_cleanup();
+#ifdef __GLIBC__
+  // One malloc arena for every thread. The chunk passes allocate and free each chunk's arrays
+  // on two threads; with an arena per thread the free pages of one were never reused by the
+  // other, and at 100M triangles under --memory 64M the passes after the partition peaked
+  // 3-9 MB above it (65-73 MB against 63.8 MB with one arena). Measured: no CPU cost at 1M
+  // (in core) or 10M (out of core) — the threads' small allocations go through glibc's
+  // per-thread caches, the large ones are a few per chunk.
+  ::mallopt(M_ARENA_MAX, 1);
+#endif
   CLI::App app{"gaussmesh: feature-sensitive simplification of meshes larger than memory"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "gaussmesh 0.1.0");
