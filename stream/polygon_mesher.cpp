@@ -8,7 +8,6 @@
 #include <cmath>
 #include <numbers>
 #include <string>
-#include <unordered_map>
 #include <unordered_set>
 #include <utility>
 #include <vector>
@@ -151,12 +150,13 @@ class PolygonMesher {
 
  private:
   std::uint32_t vertex(std::uint32_t f, int i) const { return tris_[f].v[i]; }
-  // A vertex's position: in memory, or fetched once from the source.
-  const format::Vec3f& pos(std::uint32_t v) {
+  // A vertex's position: in memory, or fetched once from the source. By value: the cache grows.
+  format::Vec3f pos(std::uint32_t v) {
     if (!source_) return positions_[v];
-    auto [it, inserted] = fetched_.try_emplace(v);
-    if (inserted) it->second = source_->position(v);
-    return it->second;
+    bool inserted = false;
+    const std::uint32_t slot = fetched_slot_.emplace(v, static_cast<std::uint32_t>(fetched_.size()), &inserted);
+    if (inserted) fetched_.push_back(source_->position(v));
+    return fetched_[slot];
   }
   std::uint32_t neighbor(std::uint32_t f, int i) const { return adj_.edge_neighbor[3 * std::size_t{f} + i]; }
   bool is_border(std::uint32_t f, int i) const {
@@ -448,40 +448,39 @@ class PolygonMesher {
     return !chosen.empty();
   }
 
-  std::vector<std::uint32_t> reduced(const Loop& loop) const {
-    std::vector<std::uint32_t> out;
-    for (std::uint32_t v : loop.vertices)
-      if (keep_[v] != Keep::kNo) out.push_back(v);
-    return out;
-  }
-
   // One round: every patch in id order, against the edges made so far. Fills out_ and lists
   // the patches that failed.
   void triangulate_all(std::vector<std::uint32_t>& failed, bool& retry) {
     out_tris_.clear();
     out_patch_.clear();
-    edges_.clear();
     result_.mesh.planar_patches = 0;
-    // Chain edges first: a reduced loop edge appears once per side (twice for a border, once
-    // for a break edge); more means two chains landed on one edge.
-    std::unordered_map<std::uint64_t, std::uint32_t> uses;
-    std::vector<std::vector<std::uint32_t>> reduced_loops(loops_.size());
+    // Reduced loops (kept vertices only), one flat list.
+    reduced_offset_.assign(loops_.size() + 1, 0);
+    reduced_vertices_.clear();
     for (std::size_t l = 0; l < loops_.size(); ++l) {
-      if (mode_[loops_[l].patch] == PatchMode::kOriginal) continue;
-      reduced_loops[l] = reduced(loops_[l]);
-      const auto& r = reduced_loops[l];
-      for (std::size_t k = 0; k < r.size(); ++k) ++uses[edge_key(r[k], r[(k + 1) % r.size()])];
+      if (mode_[loops_[l].patch] != PatchMode::kOriginal) {
+        for (std::uint32_t v : loops_[l].vertices)
+          if (keep_[v] != Keep::kNo) reduced_vertices_.push_back(v);
+      }
+      reduced_offset_[l + 1] = static_cast<std::uint32_t>(reduced_vertices_.size());
     }
-    for (const auto& [key, count] : uses) edges_.insert(key);
-    std::vector<std::uint8_t> failing(patch_count_, 0);
-    for (std::uint32_t p : broken_patch_) failing[p] = 1;
+    // Chain edges first: a reduced loop edge appears once per side (twice for a border, once
+    // for a break edge); more means two chains landed on one edge. edges_ holds every edge
+    // made so far, its value the number of reduced loop sides it is on.
+    edges_.reset(2 * reduced_vertices_.size());
     for (std::size_t l = 0; l < loops_.size(); ++l) {
-      const auto& r = reduced_loops[l];
+      const std::span<const std::uint32_t> r = reduced(l);
+      for (std::size_t k = 0; k < r.size(); ++k) ++edges_.emplace(edge_key(r[k], r[(k + 1) % r.size()]), 0);
+    }
+    failing_.assign(patch_count_, 0);
+    for (std::uint32_t p : broken_patch_) failing_[p] = 1;
+    for (std::size_t l = 0; l < loops_.size(); ++l) {
+      const std::span<const std::uint32_t> r = reduced(l);
       if (mode_[loops_[l].patch] == PatchMode::kOriginal) continue;
-      if (r.size() < 3) failing[loops_[l].patch] = 1;
+      if (r.size() < 3) failing_[loops_[l].patch] = 1;
       for (std::size_t k = 0; k < r.size(); ++k) {
         const std::uint32_t a = r[k], b = r[(k + 1) % r.size()];
-        if (a == b || uses[edge_key(a, b)] > 2) failing[loops_[l].patch] = 1;
+        if (a == b || *edges_.find(edge_key(a, b)) > 2) failing_[loops_[l].patch] = 1;
       }
     }
     // Patches that keep their input triangles go first: their edges are fixed.
@@ -505,12 +504,17 @@ class PolygonMesher {
       if (mode_[p] == PatchMode::kOriginal || mode_[p] == PatchMode::kCollapsed ||
           (from_mesh_ ? patch_offset_[p] == patch_offset_[p + 1] : !patch_has_faces_[p]))
         continue;
-      if (failing[p] || !triangulate_patch(p, reduced_loops)) {
+      if (failing_[p] || !triangulate_patch(p)) {
         failed.push_back(p);
       } else {
         ++result_.mesh.planar_patches;
       }
     }
+  }
+
+  // Loop l reduced to its kept vertices (this round's; empty for a patch keeping its faces).
+  std::span<const std::uint32_t> reduced(std::size_t l) const {
+    return std::span(reduced_vertices_).subspan(reduced_offset_[l], reduced_offset_[l + 1] - reduced_offset_[l]);
   }
 
   // A patch whose loops are simple in no plane: the collapse mesher on the patch's own faces,
@@ -562,7 +566,9 @@ class PolygonMesher {
     // new.
     std::unordered_set<std::uint64_t> own_loop_edges;
     for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l) {
-      const std::vector<std::uint32_t> r = reduced(loops_[l]);
+      std::vector<std::uint32_t> r;
+      for (std::uint32_t v : loops_[l].vertices)
+        if (keep_[v] != Keep::kNo) r.push_back(v);
       for (std::size_t k = 0; k < r.size(); ++k) own_loop_edges.insert(edge_key(r[k], r[(k + 1) % r.size()]));
     }
     std::vector<std::array<std::uint32_t, 3>> tris;
@@ -571,7 +577,7 @@ class PolygonMesher {
       for (int i = 0; i < 3; ++i) g[i] = vertices[meshed->birth[t.v[i]]];
       for (int i = 0; i < 3; ++i) {
         const std::uint64_t key = edge_key(g[i], g[(i + 1) % 3]);
-        if (!own_loop_edges.count(key) && edges_.count(key)) return Collapse::kFailed;
+        if (!own_loop_edges.count(key) && edges_.contains(key)) return Collapse::kFailed;
       }
       tris.push_back(g);
     }
@@ -605,73 +611,86 @@ class PolygonMesher {
   // Triangulates patch p in the plane of its Gaussian triangle; where that fails (a patch
   // that a merge gave its neighbour's label need not be a height field over that plane), in
   // the plane of its mean normal.
-  bool triangulate_patch(std::uint32_t p, const std::vector<std::vector<std::uint32_t>>& reduced_loops) {
+  bool triangulate_patch(std::uint32_t p) {
     PolygonPoint3 plane{0, 0, 0};
     if (p < plane_.size()) {
       const auto& n = plane_[p];
       plane = {double(n.x), double(n.y), double(n.z)};
     }
-    if (!(plane[0] == 0 && plane[1] == 0 && plane[2] == 0) && triangulate_patch(p, reduced_loops, plane)) return true;
-    if (triangulate_patch(p, reduced_loops, mean_normal(p))) {
+    if (!(plane[0] == 0 && plane[1] == 0 && plane[2] == 0) && triangulate_patch(p, plane)) return true;
+    if (triangulate_patch(p, mean_normal(p))) {
       ++result_.stats.mean_plane_patches;
       return true;
     }
     return false;
   }
 
-  bool triangulate_patch(std::uint32_t p, const std::vector<std::vector<std::uint32_t>>& reduced_loops,
-                         const PolygonPoint3& normal) {
+  // The local id of vertex v in the patch being triangulated (ids in order of first use).
+  std::uint32_t local_id(std::uint32_t v) {
+    // Small patches: a scan; from kScanLimit local vertices on, a hash table.
+    constexpr std::size_t kScanLimit = 32;
+    const std::size_t n = local_to_vertex_.size();
+    if (n < kScanLimit) {
+      for (std::size_t i = 0; i < n; ++i)
+        if (local_to_vertex_[i] == v) return static_cast<std::uint32_t>(i);
+    } else {
+      if (local_index_.size() != n) {
+        local_index_.reset(2 * n);
+        for (std::size_t i = 0; i < n; ++i) local_index_.emplace(local_to_vertex_[i], static_cast<std::uint32_t>(i));
+      }
+      if (const std::uint32_t* i = local_index_.find(v)) return *i;
+      local_index_.emplace(v, static_cast<std::uint32_t>(n));
+    }
+    const format::Vec3f q = pos(v);
+    local_to_vertex_.push_back(v);
+    local_points_.push_back({double(q.x), double(q.y), double(q.z)});
+    return static_cast<std::uint32_t>(n);
+  }
+
+  bool triangulate_patch(std::uint32_t p, const PolygonPoint3& normal) {
     const std::uint32_t lb = patch_loop_offset_[p], le = patch_loop_offset_[p + 1];
     if (lb == le) return false;  // a closed patch with no border: nothing to build it from
-    std::vector<std::uint32_t> local_to_vertex;
-    std::vector<PolygonPoint3> points;
-    auto local_id = [&](std::uint32_t v) {
-      for (std::size_t i = 0; i < local_to_vertex.size(); ++i)
-        if (local_to_vertex[i] == v) return static_cast<std::uint32_t>(i);
-      const auto& q = pos(v);
-      local_to_vertex.push_back(v);
-      points.push_back({double(q.x), double(q.y), double(q.z)});
-      return static_cast<std::uint32_t>(local_to_vertex.size() - 1);
-    };
     if (!(normal[0] != 0 || normal[1] != 0 || normal[2] != 0) || !std::isfinite(normal[0] + normal[1] + normal[2]))
       return false;
-    std::vector<std::vector<std::uint32_t>> local_loops;
-    std::vector<double> area;
+    local_to_vertex_.clear();
+    local_points_.clear();
+    local_index_.reset();
+    const std::size_t loop_count = le - lb;
+    if (local_loops_.size() < loop_count) local_loops_.resize(loop_count);
+    loop_area_.clear();
     for (std::uint32_t l = lb; l < le; ++l) {
-      std::vector<std::uint32_t> local;
+      std::vector<std::uint32_t>& local = local_loops_[l - lb];
+      local.clear();
       double newell[3] = {0, 0, 0};
-      const auto& r = reduced_loops[l];
+      const std::span<const std::uint32_t> r = reduced(l);
       for (std::size_t k = 0; k < r.size(); ++k) {
         local.push_back(local_id(r[k]));
-        const auto& a = pos(r[k]);
-        const auto& b = pos(r[(k + 1) % r.size()]);
+        const format::Vec3f a = pos(r[k]);
+        const format::Vec3f b = pos(r[(k + 1) % r.size()]);
         newell[0] += double(a.y) * b.z - double(a.z) * b.y;
         newell[1] += double(a.z) * b.x - double(a.x) * b.z;
         newell[2] += double(a.x) * b.y - double(a.y) * b.x;
       }
-      local_loops.push_back(std::move(local));
-      area.push_back(newell[0] * normal[0] + newell[1] * normal[1] + newell[2] * normal[2]);
+      loop_area_.push_back(newell[0] * normal[0] + newell[1] * normal[1] + newell[2] * normal[2]);
     }
-    const std::size_t outer = std::max_element(area.begin(), area.end()) - area.begin();
-    if (!(area[outer] > 0)) return false;
-    std::swap(local_loops[0], local_loops[outer]);
-    const std::size_t loop_points = points.size();
+    const std::size_t outer = std::max_element(loop_area_.begin(), loop_area_.end()) - loop_area_.begin();
+    if (!(loop_area_[outer] > 0)) return false;
+    std::swap(local_loops_[0], local_loops_[outer]);
+    const std::size_t loop_points = local_points_.size();
     for (std::uint32_t v : interior_of_patch_[p]) local_id(v);
-    if (points.size() != loop_points + interior_of_patch_[p].size()) return false;  // a sample on a loop twice
-    const std::vector<PolygonPoint2> plane = project_to_plane(points, normal, points[local_loops[0][0]]);
-    auto forbidden = [&](std::uint32_t u, std::uint32_t v) {
-      return edges_.count(edge_key(local_to_vertex[u], local_to_vertex[v])) != 0;
-    };
-    auto triangles = triangulate_polygon_2d(std::span(plane).first(loop_points), local_loops, forbidden);
-    if (!triangles) return false;
-    std::vector<PolygonTriangle> tri = std::move(triangles).value();
-    for (std::size_t i = loop_points; i < points.size(); ++i) {
-      if (!insert_point(plane, static_cast<std::uint32_t>(i), tri)) return false;
+    if (local_points_.size() != loop_points + interior_of_patch_[p].size()) return false;  // a sample on a loop twice
+    project_to_plane(local_points_, normal, local_points_[local_loops_[0][0]], plane_points_);
+    const std::span<const std::vector<std::uint32_t>> loops = std::span(local_loops_).first(loop_count);
+    if (!triangulate_polygon_2d(std::span(plane_points_).first(loop_points), loops, forbidden_, workspace_, tri_).is_ok())
+      return false;
+    for (std::size_t i = loop_points; i < local_points_.size(); ++i) {
+      if (!insert_point(plane_points_, static_cast<std::uint32_t>(i), tri_)) return false;
     }
-    for (const auto& t : tri) {
-      out_tris_.push_back({local_to_vertex[t[0]], local_to_vertex[t[1]], local_to_vertex[t[2]]});
+    for (const auto& t : tri_) {
+      const std::array<std::uint32_t, 3> g{local_to_vertex_[t[0]], local_to_vertex_[t[1]], local_to_vertex_[t[2]]};
+      out_tris_.push_back(g);
       out_patch_.push_back(p);
-      for (int i = 0; i < 3; ++i) edges_.insert(edge_key(local_to_vertex[t[i]], local_to_vertex[t[(i + 1) % 3]]));
+      for (int i = 0; i < 3; ++i) edges_.insert(edge_key(g[i], g[(i + 1) % 3]));
     }
     return true;
   }
@@ -716,8 +735,6 @@ class PolygonMesher {
     auto fail = [](const std::string& what) {
       return format::Status::error(format::Code::kProcessing, "polygon mesher", what);
     };
-    // Every directed edge at most once (orientation consistent, edges manifold), no repeated
-    // triangle.
     std::unordered_set<std::uint64_t> directed;
     directed.reserve(3 * out_tris_.size());
     std::vector<std::array<std::uint32_t, 3>> sorted;
@@ -774,7 +791,8 @@ class PolygonMesher {
   std::vector<std::uint8_t> skip_;
   std::span<const format::Vec3f> positions_;
   std::shared_ptr<VertexPositionSource> source_;          // out of core: positions on demand
-  std::unordered_map<std::uint32_t, format::Vec3f> fetched_;  // the positions read from source_
+  EdgeKeyMap fetched_slot_;            // vertex id -> index in fetched_
+  std::vector<format::Vec3f> fetched_;  // the positions read from source_
   std::size_t vertex_count_ = 0;
   bool corners_given_ = false;  // out of core without degrees: loop stops are the kept vertices
   std::span<const format::Vec3f> plane_;
@@ -797,7 +815,23 @@ class PolygonMesher {
   std::vector<std::vector<std::uint32_t>> interior_of_patch_;
   std::vector<PatchMode> mode_;
   std::vector<std::uint8_t> refinements_;
-  std::unordered_set<std::uint64_t> edges_;
+  // Every edge made so far this round (value: on how many reduced loop sides it lies).
+  EdgeKeyMap edges_;
+  std::vector<std::uint32_t> reduced_offset_, reduced_vertices_;  // per loop: its kept vertices
+  std::vector<std::uint8_t> failing_;
+  // Scratch of triangulate_patch, reused from patch to patch.
+  std::vector<std::uint32_t> local_to_vertex_;
+  EdgeKeyMap local_index_;
+  std::vector<PolygonPoint3> local_points_;
+  std::vector<std::vector<std::uint32_t>> local_loops_;
+  std::vector<double> loop_area_;
+  std::vector<PolygonPoint2> plane_points_;
+  std::vector<PolygonTriangle> tri_;
+  PolygonWorkspace workspace_;
+  // An edge may not be made twice: the forbidden test of every patch's triangulation.
+  const ForbiddenEdge forbidden_ = [this](std::uint32_t u, std::uint32_t v) {
+    return edges_.contains(edge_key(local_to_vertex_[u], local_to_vertex_[v]));
+  };
   std::vector<std::array<std::uint32_t, 3>> out_tris_;
   std::vector<std::uint32_t> out_patch_;
   PolygonMesherResult result_;
