@@ -724,6 +724,9 @@ PolygonWorkspace::PolygonWorkspace() : buffers_(std::make_unique<Buffers>()) {}
 PolygonWorkspace::~PolygonWorkspace() = default;
 
 int orientation_2d(const PolygonPoint2& a, const PolygonPoint2& b, const PolygonPoint2& c) {
+  // Two equal points are collinear with any third: exactly 0, which the filtered predicate
+  // would only reach through its exact (slow) stage.
+  if (same_point(a, b) || same_point(b, c) || same_point(a, c)) return 0;
   const CGAL::Orientation o = CGAL::orientation(CgalPoint(a[0], a[1]), CgalPoint(b[0], b[1]), CgalPoint(c[0], c[1]));
   return o == CGAL::LEFT_TURN ? 1 : (o == CGAL::RIGHT_TURN ? -1 : 0);
 }
