@@ -454,7 +454,15 @@ class PolygonMesher {
     out_tris_.clear();
     out_patch_.clear();
     result_.mesh.planar_patches = 0;
-    // Reduced loops (kept vertices only), one flat list.
+    // Reduced loops (kept vertices only), one flat list; last round's are kept for replay.
+    std::swap(reduced_offset_, last_reduced_offset_);
+    std::swap(reduced_vertices_, last_reduced_vertices_);
+    std::swap(records_, last_records_);
+    std::swap(queries_, last_queries_);
+    std::swap(patch_tris_, last_patch_tris_);
+    records_.assign(patch_count_, PatchRecord{});
+    queries_.clear();
+    patch_tris_.clear();
     reduced_offset_.assign(loops_.size() + 1, 0);
     reduced_vertices_.clear();
     for (std::size_t l = 0; l < loops_.size(); ++l) {
@@ -504,12 +512,70 @@ class PolygonMesher {
       if (mode_[p] == PatchMode::kOriginal || mode_[p] == PatchMode::kCollapsed ||
           (from_mesh_ ? patch_offset_[p] == patch_offset_[p + 1] : !patch_has_faces_[p]))
         continue;
-      if (failing_[p] || !triangulate_patch(p)) {
+      if (failing_[p] || !replay_or_triangulate_patch(p)) {
         failed.push_back(p);
       } else {
         ++result_.mesh.planar_patches;
       }
     }
+  }
+
+  // triangulate_patch(p), or its result from the last round when that is provably what it
+  // would give again. triangulate_patch is a deterministic function of the patch's reduced
+  // loops, its interior samples, positions and normals (all fixed but the loops) and of the
+  // answers its forbidden-edge test gets (edges_ does not change while a patch is
+  // triangulated). So when the loops are the same as last round and every edge it asked about
+  // then is still present or absent as it was, it would make the same calls, get the same
+  // answers and give the same triangles (or fail again): those are replayed. Later rounds
+  // differ from the first only around the few patches that were refined.
+  bool replay_or_triangulate_patch(std::uint32_t p) {
+    PatchRecord& record = records_[p];
+    if (can_replay(p)) {
+      const PatchRecord& last = last_records_[p];
+      record.query_begin = record.query_end = static_cast<std::uint32_t>(queries_.size());
+      queries_.insert(queries_.end(), last_queries_.begin() + last.query_begin, last_queries_.begin() + last.query_end);
+      record.query_end = static_cast<std::uint32_t>(queries_.size());
+      record.outcome = last.outcome;
+      record.tri_begin = static_cast<std::uint32_t>(patch_tris_.size());
+      for (std::uint32_t t = last.tri_begin; t < last.tri_end; ++t) emit(p, last_patch_tris_[t]);
+      record.tri_end = static_cast<std::uint32_t>(patch_tris_.size());
+      if (record.outcome == Outcome::kMeanPlane) ++result_.stats.mean_plane_patches;
+      return record.outcome != Outcome::kFailed;
+    }
+    record.query_begin = static_cast<std::uint32_t>(queries_.size());
+    record.tri_begin = static_cast<std::uint32_t>(patch_tris_.size());
+    const std::size_t mean_before = result_.stats.mean_plane_patches;
+    logging_ = true;
+    const bool ok = triangulate_patch(p);
+    logging_ = false;
+    record.query_end = static_cast<std::uint32_t>(queries_.size());
+    record.tri_end = static_cast<std::uint32_t>(patch_tris_.size());
+    record.outcome = !ok ? Outcome::kFailed
+                         : (result_.stats.mean_plane_patches != mean_before ? Outcome::kMeanPlane : Outcome::kPlane);
+    return ok;
+  }
+
+  bool can_replay(std::uint32_t p) const {
+    if (p >= last_records_.size() || last_records_[p].outcome == Outcome::kNone) return false;
+    for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l) {
+      const auto now = reduced(l);
+      const auto then = std::span(last_reduced_vertices_)
+                            .subspan(last_reduced_offset_[l], last_reduced_offset_[l + 1] - last_reduced_offset_[l]);
+      if (!std::equal(now.begin(), now.end(), then.begin(), then.end())) return false;
+    }
+    const PatchRecord& last = last_records_[p];
+    for (std::uint32_t q = last.query_begin; q < last.query_end; ++q) {
+      if (edges_.contains(last_queries_[q].key) != last_queries_[q].answer) return false;
+    }
+    return true;
+  }
+
+  // Adds a triangle of patch p to the output and its edges to edges_.
+  void emit(std::uint32_t p, const std::array<std::uint32_t, 3>& g) {
+    out_tris_.push_back(g);
+    out_patch_.push_back(p);
+    patch_tris_.push_back(g);
+    for (int i = 0; i < 3; ++i) edges_.insert(edge_key(g[i], g[(i + 1) % 3]));
   }
 
   // Loop l reduced to its kept vertices (this round's; empty for a patch keeping its faces).
@@ -686,12 +752,7 @@ class PolygonMesher {
     for (std::size_t i = loop_points; i < local_points_.size(); ++i) {
       if (!insert_point(plane_points_, static_cast<std::uint32_t>(i), tri_)) return false;
     }
-    for (const auto& t : tri_) {
-      const std::array<std::uint32_t, 3> g{local_to_vertex_[t[0]], local_to_vertex_[t[1]], local_to_vertex_[t[2]]};
-      out_tris_.push_back(g);
-      out_patch_.push_back(p);
-      for (int i = 0; i < 3; ++i) edges_.insert(edge_key(g[i], g[(i + 1) % 3]));
-    }
+    for (const auto& t : tri_) emit(p, {local_to_vertex_[t[0]], local_to_vertex_[t[1]], local_to_vertex_[t[2]]});
     return true;
   }
 
@@ -830,8 +891,27 @@ class PolygonMesher {
   PolygonWorkspace workspace_;
   // An edge may not be made twice: the forbidden test of every patch's triangulation.
   const ForbiddenEdge forbidden_ = [this](std::uint32_t u, std::uint32_t v) {
-    return edges_.contains(edge_key(local_to_vertex_[u], local_to_vertex_[v]));
+    const std::uint64_t key = edge_key(local_to_vertex_[u], local_to_vertex_[v]);
+    const bool answer = edges_.contains(key);
+    if (logging_) queries_.push_back({key, answer});
+    return answer;
   };
+  // What replay_or_triangulate_patch keeps of each patch's triangulation, this round and last.
+  enum class Outcome : std::uint8_t { kNone, kPlane, kMeanPlane, kFailed };
+  struct PatchRecord {
+    std::uint32_t query_begin = 0, query_end = 0;  // in queries_
+    std::uint32_t tri_begin = 0, tri_end = 0;      // in patch_tris_
+    Outcome outcome = Outcome::kNone;              // kNone: not triangulated this round
+  };
+  struct Query {
+    std::uint64_t key;
+    bool answer;
+  };
+  bool logging_ = false;
+  std::vector<PatchRecord> records_, last_records_;
+  std::vector<Query> queries_, last_queries_;
+  std::vector<std::array<std::uint32_t, 3>> patch_tris_, last_patch_tris_;
+  std::vector<std::uint32_t> last_reduced_offset_, last_reduced_vertices_;
   std::vector<std::array<std::uint32_t, 3>> out_tris_;
   std::vector<std::uint32_t> out_patch_;
   PolygonMesherResult result_;
