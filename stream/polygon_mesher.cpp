@@ -929,17 +929,25 @@ std::vector<std::uint8_t> faces_the_mesher_skips(std::span<const format::Triangl
     return key;
   };
   for (std::uint32_t f = 0; f < tris.size(); ++f) {
-    if (is_collapsed(tris[f])) {
+    const format::Triangle& t = tris[f];
+    if (is_collapsed(t)) {
       skip[f] = 1;
       continue;
     }
-    const std::array<std::uint32_t, 3> key = sorted(f);
+    // f's three vertices are distinct, so a neighbour is on the same vertex set exactly when it
+    // holds all three.
     bool suspect = false;
     for (int i = 0; i < 3 && !suspect; ++i) {
       const std::uint32_t g = adjacency.edge_neighbor[3 * std::size_t{f} + i];
-      suspect = g == MeshAdjacency::kNoFace || sorted(g) == key;
+      if (g == MeshAdjacency::kNoFace) {
+        suspect = true;
+        break;
+      }
+      const auto& u = tris[g].v;
+      auto holds = [&](std::uint32_t v) { return u[0] == v || u[1] == v || u[2] == v; };
+      suspect = holds(t.v[0]) && holds(t.v[1]) && holds(t.v[2]);
     }
-    if (suspect) keys.emplace_back(key, f);
+    if (suspect) keys.emplace_back(sorted(f), f);
   }
   std::sort(keys.begin(), keys.end());
   bool repeat = false;
