@@ -475,7 +475,7 @@ class PolygonMesher {
     // Chain edges first: a reduced loop edge appears once per side (twice for a border, once
     // for a break edge); more means two chains landed on one edge. edges_ holds every edge
     // made so far, its value the number of reduced loop sides it is on.
-    edges_.reset(2 * reduced_vertices_.size());
+    edges_.reset(reduced_vertices_.size());
     for (std::size_t l = 0; l < loops_.size(); ++l) {
       const std::span<const std::uint32_t> r = reduced(l);
       for (std::size_t k = 0; k < r.size(); ++k) ++edges_.emplace(edge_key(r[k], r[(k + 1) % r.size()]), 0);
@@ -796,18 +796,26 @@ class PolygonMesher {
     auto fail = [](const std::string& what) {
       return format::Status::error(format::Code::kProcessing, "polygon mesher", what);
     };
-    std::unordered_set<std::uint64_t> directed;
+    // Sorted keys find a repeat; only then is the first one (in triangle order) looked for.
+    std::vector<std::uint64_t> directed;
     directed.reserve(3 * out_tris_.size());
     std::vector<std::array<std::uint32_t, 3>> sorted;
     sorted.reserve(out_tris_.size());
     for (const auto& t : out_tris_) {
-      for (int i = 0; i < 3; ++i) {
-        if (!directed.insert(std::uint64_t{t[i]} << 32 | t[(i + 1) % 3]).second)
-          return fail("edge " + std::to_string(t[i]) + "-" + std::to_string(t[(i + 1) % 3]) + " used twice");
-      }
+      for (int i = 0; i < 3; ++i) directed.push_back(std::uint64_t{t[i]} << 32 | t[(i + 1) % 3]);
       auto key = t;
       std::sort(key.begin(), key.end());
       sorted.push_back(key);
+    }
+    std::sort(directed.begin(), directed.end());
+    if (std::adjacent_find(directed.begin(), directed.end()) != directed.end()) {
+      EdgeKeyMap seen;
+      for (const auto& t : out_tris_) {
+        for (int i = 0; i < 3; ++i) {
+          if (!seen.insert(std::uint64_t{t[i]} << 32 | t[(i + 1) % 3]))
+            return fail("edge " + std::to_string(t[i]) + "-" + std::to_string(t[(i + 1) % 3]) + " used twice");
+        }
+      }
     }
     std::sort(sorted.begin(), sorted.end());
     if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()) return fail("a triangle made twice");
@@ -819,6 +827,9 @@ class PolygonMesher {
     used.erase(std::unique(used.begin(), used.end()), used.end());
     Mesh mesh;
     std::vector<VertexRole> roles;
+    mesh.positions.reserve(used.size());
+    roles.reserve(used.size());
+    mesh.triangles.reserve(out_tris_.size());
     for (std::uint32_t v : used) {
       mesh.positions.push_back(pos(v));
       roles.push_back(keep_[v] == Keep::kSample   ? VertexRole::kSample
