@@ -491,6 +491,7 @@ class PolygonMesher {
         if (a == b || *edges_.find(edge_key(a, b)) > 2) failing_[loops_[l].patch] = 1;
       }
     }
+    if (source_) prefetch_positions();
     // Patches that keep their input triangles go first: their edges are fixed.
     for (std::uint32_t p = 0; p < patch_count_; ++p) {
       if (mode_[p] != PatchMode::kOriginal || !has_faces(p)) continue;
@@ -576,6 +577,30 @@ class PolygonMesher {
     out_patch_.push_back(p);
     patch_tris_.push_back(g);
     for (int i = 0; i < 3; ++i) edges_.insert(edge_key(g[i], g[(i + 1) % 3]));
+  }
+
+  // Out of core: reads, in one batch in ascending id order, the positions this round's planar
+  // triangulations will ask for that are not cached yet (the loop vertices and interior
+  // samples of every patch that reaches triangulate_patch). The cache ends up holding the same
+  // values as when they were read one by one.
+  void prefetch_positions() {
+    prefetch_ids_.clear();
+    for (std::uint32_t p = 0; p < patch_count_; ++p) {
+      if (mode_[p] == PatchMode::kOriginal || mode_[p] == PatchMode::kCollapsed || failing_[p] || !patch_has_faces_[p])
+        continue;
+      for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l)
+        for (std::uint32_t v : reduced(l))
+          if (!fetched_slot_.contains(v)) prefetch_ids_.push_back(v);
+      for (std::uint32_t v : interior_of_patch_[p])
+        if (!fetched_slot_.contains(v)) prefetch_ids_.push_back(v);
+    }
+    std::sort(prefetch_ids_.begin(), prefetch_ids_.end());
+    prefetch_ids_.erase(std::unique(prefetch_ids_.begin(), prefetch_ids_.end()), prefetch_ids_.end());
+    const std::size_t first = fetched_.size();
+    fetched_.resize(first + prefetch_ids_.size());
+    source_->positions(prefetch_ids_, std::span(fetched_).subspan(first));
+    for (std::size_t i = 0; i < prefetch_ids_.size(); ++i)
+      fetched_slot_.emplace(prefetch_ids_[i], static_cast<std::uint32_t>(first + i));
   }
 
   // Loop l reduced to its kept vertices (this round's; empty for a patch keeping its faces).
@@ -864,6 +889,7 @@ class PolygonMesher {
   std::span<const format::Vec3f> positions_;
   std::shared_ptr<VertexPositionSource> source_;          // out of core: positions on demand
   EdgeKeyMap fetched_slot_;            // vertex id -> index in fetched_
+  std::vector<std::uint32_t> prefetch_ids_;
   std::vector<format::Vec3f> fetched_;  // the positions read from source_
   std::size_t vertex_count_ = 0;
   bool corners_given_ = false;  // out of core without degrees: loop stops are the kept vertices
