@@ -196,7 +196,8 @@ class PolygonMesher {
 
   // Loops of break edges (holes of the input), for the report.
   void count_boundary_loops() {
-    std::vector<std::uint8_t> visited(3 * in_->mesh.triangles.size(), 0);
+    std::vector<std::uint8_t>& visited = visited_;  // walk_loops' buffer, warm
+    std::fill(visited.begin(), visited.end(), 0);
     for (std::uint32_t f0 : patch_faces_) {
       for (int i0 = 0; i0 < 3; ++i0) {
         if (visited[3 * std::size_t{f0} + i0] || neighbor(f0, i0) != MeshAdjacency::kNoFace) continue;
@@ -212,10 +213,12 @@ class PolygonMesher {
         }
       }
     }
+    visited_ = {};
   }
 
   void walk_loops() {
-    std::vector<std::uint8_t> visited(3 * in_->mesh.triangles.size(), 0);
+    std::vector<std::uint8_t>& visited = visited_;
+    visited.assign(3 * in_->mesh.triangles.size(), 0);
     patch_loop_offset_.assign(patch_count_ + 1, 0);
     for (std::uint32_t p = 0; p < patch_count_; ++p) {
       for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
@@ -314,9 +317,11 @@ class PolygonMesher {
   // the guard rules over them.
   void choose_guards() {
     auto is_stop = [&](std::uint32_t v) { return keep_[v] != Keep::kNo || (!corners_given_ && degree_[v] != 2); };
+    // Every chain's path (stop, inner..., stop; canonical direction), one after the other.
     struct Chain {
-      std::vector<std::uint32_t> path;  // stop, inner..., stop; canonical direction
+      std::uint32_t begin, size;  // in chain_vertices
     };
+    std::vector<std::uint32_t> chain_vertices;
     std::vector<Chain> chains;
     std::vector<std::uint32_t> closed_loop_min;  // lowest id of each loop without a stop
     std::vector<std::uint32_t> guards;
@@ -343,36 +348,43 @@ class PolygonMesher {
         continue;
       }
       for (std::size_t k = first, seen = 0; seen < n;) {
-        Chain c;
-        c.path.push_back(loop.vertices[k]);
+        const std::size_t begin = chain_vertices.size();
+        chain_vertices.push_back(loop.vertices[k]);
         do {
           k = (k + 1) % n;
           ++seen;
-          c.path.push_back(loop.vertices[k]);
+          chain_vertices.push_back(loop.vertices[k]);
         } while (!is_stop(loop.vertices[k]));
-        const std::uint32_t a = c.path.front(), b = c.path.back();
-        if (a > b || (a == b && c.path.size() > 3 && c.path[1] > c.path[c.path.size() - 2]))
-          std::reverse(c.path.begin(), c.path.end());
-        chains.push_back(std::move(c));
+        const auto path = std::span(chain_vertices).subspan(begin);
+        const std::uint32_t a = path.front(), b = path.back();
+        if (a > b || (a == b && path.size() > 3 && path[1] > path[path.size() - 2])) std::reverse(path.begin(), path.end());
+        chains.push_back({static_cast<std::uint32_t>(begin), static_cast<std::uint32_t>(path.size())});
       }
     }
-    // By end points, then path: chains joining the same two stops are neighbours.
-    std::sort(chains.begin(), chains.end(), [](const Chain& x, const Chain& y) {
-      const auto kx = std::pair(x.path.front(), x.path.back()), ky = std::pair(y.path.front(), y.path.back());
-      return kx != ky ? kx < ky : x.path < y.path;
+    auto path_of = [&](const Chain& c) { return std::span<const std::uint32_t>(chain_vertices).subspan(c.begin, c.size); };
+    // By end points, then path: chains joining the same two stops are neighbours. (Chains that
+    // compare equal have equal paths, so the unstable sort leaves nothing to chance.)
+    std::sort(chains.begin(), chains.end(), [&](const Chain& x, const Chain& y) {
+      const auto px = path_of(x), py = path_of(y);
+      const auto kx = std::pair(px.front(), px.back()), ky = std::pair(py.front(), py.back());
+      return kx != ky ? kx < ky : std::lexicographical_compare(px.begin(), px.end(), py.begin(), py.end());
     });
-    chains.erase(std::unique(chains.begin(), chains.end(), [](const Chain& x, const Chain& y) { return x.path == y.path; }),
+    chains.erase(std::unique(chains.begin(), chains.end(),
+                             [&](const Chain& x, const Chain& y) {
+                               const auto px = path_of(x), py = path_of(y);
+                               return std::equal(px.begin(), px.end(), py.begin(), py.end());
+                             }),
                  chains.end());
     std::sort(closed_loop_min.begin(), closed_loop_min.end());
     result_.mesh.graph.closed_loops =
         std::unique(closed_loop_min.begin(), closed_loop_min.end()) - closed_loop_min.begin();
     result_.mesh.graph.chains = chains.size();
     for (std::size_t i = 0; i < chains.size();) {
-      const auto& path = chains[i].path;
+      const auto path = path_of(chains[i]);
       std::size_t j = i + 1;
-      while (j < chains.size() && chains[j].path.front() == path.front() && chains[j].path.back() == path.back()) ++j;
+      while (j < chains.size() && path_of(chains[j]).front() == path.front() && path_of(chains[j]).back() == path.back()) ++j;
       for (std::size_t k = i; k < j; ++k) {
-        const auto& q = chains[k].path;
+        const auto q = path_of(chains[k]);
         const std::size_t m = q.size() - 1;  // edges
         if (q.front() == q.back()) {
           // A loop through one corner: two more vertices make it a triangle.
@@ -905,6 +917,7 @@ class PolygonMesher {
   std::vector<std::uint8_t> patch_has_faces_;  // out of core: the patch has a non-collapsed face
   std::size_t patch_count_ = 0;
   std::vector<std::uint32_t> patch_offset_, patch_faces_;
+  std::vector<std::uint8_t> visited_;  // in core: per half-edge, for the loop walks
   std::vector<Loop> loops_;
   std::vector<std::uint32_t> patch_loop_offset_;
   std::vector<std::uint32_t> broken_patch_;
