@@ -488,6 +488,12 @@ class PolygonMesher {
     // for a break edge); more means two chains landed on one edge. edges_ holds every edge
     // made so far, its value the number of reduced loop sides it is on.
     edges_.reset(reduced_vertices_.size());
+    // About one triangle per reduced loop vertex and two queries: room up front, so that the
+    // first round does not copy and first-touch these arrays again each time they double.
+    out_tris_.reserve(reduced_vertices_.size());
+    out_patch_.reserve(reduced_vertices_.size());
+    patch_tris_.reserve(reduced_vertices_.size());
+    queries_.reserve(2 * reduced_vertices_.size());
     for (std::size_t l = 0; l < loops_.size(); ++l) {
       const std::span<const std::uint32_t> r = reduced(l);
       for (std::size_t k = 0; k < r.size(); ++k) ++edges_.emplace(edge_key(r[k], r[(k + 1) % r.size()]), 0);
