@@ -836,6 +836,16 @@ class PolygonMesher {
 
   // Checks the triangles make a valid mesh, then runs the corner collapses on it.
   format::Result<PolygonMesherResult> finish() {
+    // The rounds are over: their tables and replay logs go before phase 2 builds its mesh.
+    edges_ = {};
+    queries_ = {};
+    last_queries_ = {};
+    patch_tris_ = {};
+    last_patch_tris_ = {};
+    records_ = {};
+    last_records_ = {};
+    reduced_vertices_ = {};
+    last_reduced_vertices_ = {};
     auto fail = [](const std::string& what) {
       return format::Status::error(format::Code::kProcessing, "polygon mesher", what);
     };
