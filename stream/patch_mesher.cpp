@@ -87,6 +87,9 @@ class Mesher {
   void build() {
     ::omerr().disable();  // rejected faces are counted, not printed
     const auto& positions = input_.mesh.positions;
+    // Room for every element up front: the property arrays grow once instead of doubling.
+    const std::size_t faces = input_.mesh.triangles.size();
+    mesh_.reserve(positions.size(), faces + faces / 2 + 64, faces);
     for (size_t i = 0; i < positions.size(); ++i) {
       mesh_.add_vertex(Vec(positions[i].x, positions[i].y, positions[i].z));
     }

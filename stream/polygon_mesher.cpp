@@ -8,7 +8,6 @@
 #include <cmath>
 #include <numbers>
 #include <string>
-#include <unordered_map>
 #include <unordered_set>
 #include <utility>
 #include <vector>
@@ -151,12 +150,13 @@ class PolygonMesher {
 
  private:
   std::uint32_t vertex(std::uint32_t f, int i) const { return tris_[f].v[i]; }
-  // A vertex's position: in memory, or fetched once from the source.
-  const format::Vec3f& pos(std::uint32_t v) {
+  // A vertex's position: in memory, or fetched once from the source. By value: the cache grows.
+  format::Vec3f pos(std::uint32_t v) {
     if (!source_) return positions_[v];
-    auto [it, inserted] = fetched_.try_emplace(v);
-    if (inserted) it->second = source_->position(v);
-    return it->second;
+    bool inserted = false;
+    const std::uint32_t slot = fetched_slot_.emplace(v, static_cast<std::uint32_t>(fetched_.size()), &inserted);
+    if (inserted) fetched_.push_back(source_->position(v));
+    return fetched_[slot];
   }
   std::uint32_t neighbor(std::uint32_t f, int i) const { return adj_.edge_neighbor[3 * std::size_t{f} + i]; }
   bool is_border(std::uint32_t f, int i) const {
@@ -196,7 +196,8 @@ class PolygonMesher {
 
   // Loops of break edges (holes of the input), for the report.
   void count_boundary_loops() {
-    std::vector<std::uint8_t> visited(3 * in_->mesh.triangles.size(), 0);
+    std::vector<std::uint8_t>& visited = visited_;  // walk_loops' buffer, warm
+    std::fill(visited.begin(), visited.end(), 0);
     for (std::uint32_t f0 : patch_faces_) {
       for (int i0 = 0; i0 < 3; ++i0) {
         if (visited[3 * std::size_t{f0} + i0] || neighbor(f0, i0) != MeshAdjacency::kNoFace) continue;
@@ -212,10 +213,12 @@ class PolygonMesher {
         }
       }
     }
+    visited_ = {};
   }
 
   void walk_loops() {
-    std::vector<std::uint8_t> visited(3 * in_->mesh.triangles.size(), 0);
+    std::vector<std::uint8_t>& visited = visited_;
+    visited.assign(3 * in_->mesh.triangles.size(), 0);
     patch_loop_offset_.assign(patch_count_ + 1, 0);
     for (std::uint32_t p = 0; p < patch_count_; ++p) {
       for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
@@ -467,42 +470,56 @@ class PolygonMesher {
     return !chosen.empty();
   }
 
-  std::vector<std::uint32_t> reduced(const Loop& loop) const {
-    std::vector<std::uint32_t> out;
-    for (std::uint32_t v : loop.vertices)
-      if (keep_[v] != Keep::kNo) out.push_back(v);
-    return out;
-  }
-
   // One round: every patch in id order, against the edges made so far. Fills out_ and lists
   // the patches that failed.
   void triangulate_all(std::vector<std::uint32_t>& failed, bool& retry) {
     out_tris_.clear();
     out_patch_.clear();
-    edges_.clear();
     result_.mesh.planar_patches = 0;
-    // Chain edges first: a reduced loop edge appears once per side (twice for a border, once
-    // for a break edge); more means two chains landed on one edge.
-    std::unordered_map<std::uint64_t, std::uint32_t> uses;
-    std::vector<std::vector<std::uint32_t>> reduced_loops(loops_.size());
+    // Reduced loops (kept vertices only), one flat list; last round's are kept for replay.
+    std::swap(reduced_offset_, last_reduced_offset_);
+    std::swap(reduced_vertices_, last_reduced_vertices_);
+    std::swap(records_, last_records_);
+    std::swap(queries_, last_queries_);
+    std::swap(patch_tris_, last_patch_tris_);
+    records_.assign(patch_count_, PatchRecord{});
+    queries_.clear();
+    patch_tris_.clear();
+    reduced_offset_.assign(loops_.size() + 1, 0);
+    reduced_vertices_.clear();
     for (std::size_t l = 0; l < loops_.size(); ++l) {
-      if (mode_[loops_[l].patch] == PatchMode::kOriginal) continue;
-      reduced_loops[l] = reduced(loops_[l]);
-      const auto& r = reduced_loops[l];
-      for (std::size_t k = 0; k < r.size(); ++k) ++uses[edge_key(r[k], r[(k + 1) % r.size()])];
+      if (mode_[loops_[l].patch] != PatchMode::kOriginal) {
+        for (std::uint32_t v : loops_[l].vertices)
+          if (keep_[v] != Keep::kNo) reduced_vertices_.push_back(v);
+      }
+      reduced_offset_[l + 1] = static_cast<std::uint32_t>(reduced_vertices_.size());
     }
-    for (const auto& [key, count] : uses) edges_.insert(key);
-    std::vector<std::uint8_t> failing(patch_count_, 0);
-    for (std::uint32_t p : broken_patch_) failing[p] = 1;
+    // Chain edges first: a reduced loop edge appears once per side (twice for a border, once
+    // for a break edge); more means two chains landed on one edge. edges_ holds every edge
+    // made so far, its value the number of reduced loop sides it is on.
+    edges_.reset(reduced_vertices_.size());
+    // About one triangle per reduced loop vertex and two queries: room up front, so that the
+    // first round does not copy and first-touch these arrays again each time they double.
+    out_tris_.reserve(reduced_vertices_.size());
+    out_patch_.reserve(reduced_vertices_.size());
+    patch_tris_.reserve(reduced_vertices_.size());
+    queries_.reserve(2 * reduced_vertices_.size());
     for (std::size_t l = 0; l < loops_.size(); ++l) {
-      const auto& r = reduced_loops[l];
+      const std::span<const std::uint32_t> r = reduced(l);
+      for (std::size_t k = 0; k < r.size(); ++k) ++edges_.emplace(edge_key(r[k], r[(k + 1) % r.size()]), 0);
+    }
+    failing_.assign(patch_count_, 0);
+    for (std::uint32_t p : broken_patch_) failing_[p] = 1;
+    for (std::size_t l = 0; l < loops_.size(); ++l) {
+      const std::span<const std::uint32_t> r = reduced(l);
       if (mode_[loops_[l].patch] == PatchMode::kOriginal) continue;
-      if (r.size() < 3) failing[loops_[l].patch] = 1;
+      if (r.size() < 3) failing_[loops_[l].patch] = 1;
       for (std::size_t k = 0; k < r.size(); ++k) {
         const std::uint32_t a = r[k], b = r[(k + 1) % r.size()];
-        if (a == b || uses[edge_key(a, b)] > 2) failing[loops_[l].patch] = 1;
+        if (a == b || *edges_.find(edge_key(a, b)) > 2) failing_[loops_[l].patch] = 1;
       }
     }
+    if (source_) prefetch_positions();
     // Patches that keep their input triangles go first: their edges are fixed.
     for (std::uint32_t p = 0; p < patch_count_; ++p) {
       if (mode_[p] != PatchMode::kOriginal || !has_faces(p)) continue;
@@ -524,12 +541,99 @@ class PolygonMesher {
       if (mode_[p] == PatchMode::kOriginal || mode_[p] == PatchMode::kCollapsed ||
           (from_mesh_ ? patch_offset_[p] == patch_offset_[p + 1] : !patch_has_faces_[p]))
         continue;
-      if (failing[p] || !triangulate_patch(p, reduced_loops)) {
+      if (failing_[p] || !replay_or_triangulate_patch(p)) {
         failed.push_back(p);
       } else {
         ++result_.mesh.planar_patches;
       }
     }
+  }
+
+  // triangulate_patch(p), or its result from the last round when that is provably what it
+  // would give again. triangulate_patch is a deterministic function of the patch's reduced
+  // loops, its interior samples, positions and normals (all fixed but the loops) and of the
+  // answers its forbidden-edge test gets (edges_ does not change while a patch is
+  // triangulated). So when the loops are the same as last round and every edge it asked about
+  // then is still present or absent as it was, it would make the same calls, get the same
+  // answers and give the same triangles (or fail again): those are replayed. Later rounds
+  // differ from the first only around the few patches that were refined.
+  bool replay_or_triangulate_patch(std::uint32_t p) {
+    PatchRecord& record = records_[p];
+    if (can_replay(p)) {
+      const PatchRecord& last = last_records_[p];
+      record.query_begin = record.query_end = static_cast<std::uint32_t>(queries_.size());
+      queries_.insert(queries_.end(), last_queries_.begin() + last.query_begin, last_queries_.begin() + last.query_end);
+      record.query_end = static_cast<std::uint32_t>(queries_.size());
+      record.outcome = last.outcome;
+      record.tri_begin = static_cast<std::uint32_t>(patch_tris_.size());
+      for (std::uint32_t t = last.tri_begin; t < last.tri_end; ++t) emit(p, last_patch_tris_[t]);
+      record.tri_end = static_cast<std::uint32_t>(patch_tris_.size());
+      if (record.outcome == Outcome::kMeanPlane) ++result_.stats.mean_plane_patches;
+      return record.outcome != Outcome::kFailed;
+    }
+    record.query_begin = static_cast<std::uint32_t>(queries_.size());
+    record.tri_begin = static_cast<std::uint32_t>(patch_tris_.size());
+    const std::size_t mean_before = result_.stats.mean_plane_patches;
+    logging_ = true;
+    const bool ok = triangulate_patch(p);
+    logging_ = false;
+    record.query_end = static_cast<std::uint32_t>(queries_.size());
+    record.tri_end = static_cast<std::uint32_t>(patch_tris_.size());
+    record.outcome = !ok ? Outcome::kFailed
+                         : (result_.stats.mean_plane_patches != mean_before ? Outcome::kMeanPlane : Outcome::kPlane);
+    return ok;
+  }
+
+  bool can_replay(std::uint32_t p) const {
+    if (p >= last_records_.size() || last_records_[p].outcome == Outcome::kNone) return false;
+    for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l) {
+      const auto now = reduced(l);
+      const auto then = std::span(last_reduced_vertices_)
+                            .subspan(last_reduced_offset_[l], last_reduced_offset_[l + 1] - last_reduced_offset_[l]);
+      if (!std::equal(now.begin(), now.end(), then.begin(), then.end())) return false;
+    }
+    const PatchRecord& last = last_records_[p];
+    for (std::uint32_t q = last.query_begin; q < last.query_end; ++q) {
+      if (edges_.contains(last_queries_[q].key) != last_queries_[q].answer) return false;
+    }
+    return true;
+  }
+
+  // Adds a triangle of patch p to the output and its edges to edges_.
+  void emit(std::uint32_t p, const std::array<std::uint32_t, 3>& g) {
+    out_tris_.push_back(g);
+    out_patch_.push_back(p);
+    patch_tris_.push_back(g);
+    for (int i = 0; i < 3; ++i) edges_.insert(edge_key(g[i], g[(i + 1) % 3]));
+  }
+
+  // Out of core: reads, in one batch in ascending id order, the positions this round's planar
+  // triangulations will ask for that are not cached yet (the loop vertices and interior
+  // samples of every patch that reaches triangulate_patch). The cache ends up holding the same
+  // values as when they were read one by one.
+  void prefetch_positions() {
+    prefetch_ids_.clear();
+    for (std::uint32_t p = 0; p < patch_count_; ++p) {
+      if (mode_[p] == PatchMode::kOriginal || mode_[p] == PatchMode::kCollapsed || failing_[p] || !patch_has_faces_[p])
+        continue;
+      for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l)
+        for (std::uint32_t v : reduced(l))
+          if (!fetched_slot_.contains(v)) prefetch_ids_.push_back(v);
+      for (std::uint32_t v : interior_of_patch_[p])
+        if (!fetched_slot_.contains(v)) prefetch_ids_.push_back(v);
+    }
+    std::sort(prefetch_ids_.begin(), prefetch_ids_.end());
+    prefetch_ids_.erase(std::unique(prefetch_ids_.begin(), prefetch_ids_.end()), prefetch_ids_.end());
+    const std::size_t first = fetched_.size();
+    fetched_.resize(first + prefetch_ids_.size());
+    source_->positions(prefetch_ids_, std::span(fetched_).subspan(first));
+    for (std::size_t i = 0; i < prefetch_ids_.size(); ++i)
+      fetched_slot_.emplace(prefetch_ids_[i], static_cast<std::uint32_t>(first + i));
+  }
+
+  // Loop l reduced to its kept vertices (this round's; empty for a patch keeping its faces).
+  std::span<const std::uint32_t> reduced(std::size_t l) const {
+    return std::span(reduced_vertices_).subspan(reduced_offset_[l], reduced_offset_[l + 1] - reduced_offset_[l]);
   }
 
   // A patch whose loops are simple in no plane: the collapse mesher on the patch's own faces,
@@ -581,7 +685,9 @@ class PolygonMesher {
     // new.
     std::unordered_set<std::uint64_t> own_loop_edges;
     for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l) {
-      const std::vector<std::uint32_t> r = reduced(loops_[l]);
+      std::vector<std::uint32_t> r;
+      for (std::uint32_t v : loops_[l].vertices)
+        if (keep_[v] != Keep::kNo) r.push_back(v);
       for (std::size_t k = 0; k < r.size(); ++k) own_loop_edges.insert(edge_key(r[k], r[(k + 1) % r.size()]));
     }
     std::vector<std::array<std::uint32_t, 3>> tris;
@@ -590,7 +696,7 @@ class PolygonMesher {
       for (int i = 0; i < 3; ++i) g[i] = vertices[meshed->birth[t.v[i]]];
       for (int i = 0; i < 3; ++i) {
         const std::uint64_t key = edge_key(g[i], g[(i + 1) % 3]);
-        if (!own_loop_edges.count(key) && edges_.count(key)) return Collapse::kFailed;
+        if (!own_loop_edges.count(key) && edges_.contains(key)) return Collapse::kFailed;
       }
       tris.push_back(g);
     }
@@ -624,74 +730,82 @@ class PolygonMesher {
   // Triangulates patch p in the plane of its Gaussian triangle; where that fails (a patch
   // that a merge gave its neighbour's label need not be a height field over that plane), in
   // the plane of its mean normal.
-  bool triangulate_patch(std::uint32_t p, const std::vector<std::vector<std::uint32_t>>& reduced_loops) {
+  bool triangulate_patch(std::uint32_t p) {
     PolygonPoint3 plane{0, 0, 0};
     if (p < plane_.size()) {
       const auto& n = plane_[p];
       plane = {double(n.x), double(n.y), double(n.z)};
     }
-    if (!(plane[0] == 0 && plane[1] == 0 && plane[2] == 0) && triangulate_patch(p, reduced_loops, plane)) return true;
-    if (triangulate_patch(p, reduced_loops, mean_normal(p))) {
+    if (!(plane[0] == 0 && plane[1] == 0 && plane[2] == 0) && triangulate_patch(p, plane)) return true;
+    if (triangulate_patch(p, mean_normal(p))) {
       ++result_.stats.mean_plane_patches;
       return true;
     }
     return false;
   }
 
-  bool triangulate_patch(std::uint32_t p, const std::vector<std::vector<std::uint32_t>>& reduced_loops,
-                         const PolygonPoint3& normal) {
+  // The local id of vertex v in the patch being triangulated (ids in order of first use).
+  std::uint32_t local_id(std::uint32_t v) {
+    // Small patches: a scan; from kScanLimit local vertices on, a hash table.
+    constexpr std::size_t kScanLimit = 32;
+    const std::size_t n = local_to_vertex_.size();
+    if (n < kScanLimit) {
+      for (std::size_t i = 0; i < n; ++i)
+        if (local_to_vertex_[i] == v) return static_cast<std::uint32_t>(i);
+    } else {
+      if (local_index_.size() != n) {
+        local_index_.reset(2 * n);
+        for (std::size_t i = 0; i < n; ++i) local_index_.emplace(local_to_vertex_[i], static_cast<std::uint32_t>(i));
+      }
+      if (const std::uint32_t* i = local_index_.find(v)) return *i;
+      local_index_.emplace(v, static_cast<std::uint32_t>(n));
+    }
+    const format::Vec3f q = pos(v);
+    local_to_vertex_.push_back(v);
+    local_points_.push_back({double(q.x), double(q.y), double(q.z)});
+    return static_cast<std::uint32_t>(n);
+  }
+
+  bool triangulate_patch(std::uint32_t p, const PolygonPoint3& normal) {
     const std::uint32_t lb = patch_loop_offset_[p], le = patch_loop_offset_[p + 1];
     if (lb == le) return false;  // a closed patch with no border: nothing to build it from
-    std::vector<std::uint32_t> local_to_vertex;
-    std::vector<PolygonPoint3> points;
-    auto local_id = [&](std::uint32_t v) {
-      for (std::size_t i = 0; i < local_to_vertex.size(); ++i)
-        if (local_to_vertex[i] == v) return static_cast<std::uint32_t>(i);
-      const auto& q = pos(v);
-      local_to_vertex.push_back(v);
-      points.push_back({double(q.x), double(q.y), double(q.z)});
-      return static_cast<std::uint32_t>(local_to_vertex.size() - 1);
-    };
     if (!(normal[0] != 0 || normal[1] != 0 || normal[2] != 0) || !std::isfinite(normal[0] + normal[1] + normal[2]))
       return false;
-    std::vector<std::vector<std::uint32_t>> local_loops;
-    std::vector<double> area;
+    local_to_vertex_.clear();
+    local_points_.clear();
+    local_index_.reset();
+    const std::size_t loop_count = le - lb;
+    if (local_loops_.size() < loop_count) local_loops_.resize(loop_count);
+    loop_area_.clear();
     for (std::uint32_t l = lb; l < le; ++l) {
-      std::vector<std::uint32_t> local;
+      std::vector<std::uint32_t>& local = local_loops_[l - lb];
+      local.clear();
       double newell[3] = {0, 0, 0};
-      const auto& r = reduced_loops[l];
+      const std::span<const std::uint32_t> r = reduced(l);
       for (std::size_t k = 0; k < r.size(); ++k) {
         local.push_back(local_id(r[k]));
-        const auto& a = pos(r[k]);
-        const auto& b = pos(r[(k + 1) % r.size()]);
+        const format::Vec3f a = pos(r[k]);
+        const format::Vec3f b = pos(r[(k + 1) % r.size()]);
         newell[0] += double(a.y) * b.z - double(a.z) * b.y;
         newell[1] += double(a.z) * b.x - double(a.x) * b.z;
         newell[2] += double(a.x) * b.y - double(a.y) * b.x;
       }
-      local_loops.push_back(std::move(local));
-      area.push_back(newell[0] * normal[0] + newell[1] * normal[1] + newell[2] * normal[2]);
+      loop_area_.push_back(newell[0] * normal[0] + newell[1] * normal[1] + newell[2] * normal[2]);
     }
-    const std::size_t outer = std::max_element(area.begin(), area.end()) - area.begin();
-    if (!(area[outer] > 0)) return false;
-    std::swap(local_loops[0], local_loops[outer]);
-    const std::size_t loop_points = points.size();
+    const std::size_t outer = std::max_element(loop_area_.begin(), loop_area_.end()) - loop_area_.begin();
+    if (!(loop_area_[outer] > 0)) return false;
+    std::swap(local_loops_[0], local_loops_[outer]);
+    const std::size_t loop_points = local_points_.size();
     for (std::uint32_t v : interior_of_patch_[p]) local_id(v);
-    if (points.size() != loop_points + interior_of_patch_[p].size()) return false;  // a sample on a loop twice
-    const std::vector<PolygonPoint2> plane = project_to_plane(points, normal, points[local_loops[0][0]]);
-    auto forbidden = [&](std::uint32_t u, std::uint32_t v) {
-      return edges_.count(edge_key(local_to_vertex[u], local_to_vertex[v])) != 0;
-    };
-    auto triangles = triangulate_polygon_2d(std::span(plane).first(loop_points), local_loops, forbidden);
-    if (!triangles) return false;
-    std::vector<PolygonTriangle> tri = std::move(triangles).value();
-    for (std::size_t i = loop_points; i < points.size(); ++i) {
-      if (!insert_point(plane, static_cast<std::uint32_t>(i), tri)) return false;
+    if (local_points_.size() != loop_points + interior_of_patch_[p].size()) return false;  // a sample on a loop twice
+    project_to_plane(local_points_, normal, local_points_[local_loops_[0][0]], plane_points_);
+    const std::span<const std::vector<std::uint32_t>> loops = std::span(local_loops_).first(loop_count);
+    if (!triangulate_polygon_2d(std::span(plane_points_).first(loop_points), loops, forbidden_, workspace_, tri_).is_ok())
+      return false;
+    for (std::size_t i = loop_points; i < local_points_.size(); ++i) {
+      if (!insert_point(plane_points_, static_cast<std::uint32_t>(i), tri_)) return false;
     }
-    for (const auto& t : tri) {
-      out_tris_.push_back({local_to_vertex[t[0]], local_to_vertex[t[1]], local_to_vertex[t[2]]});
-      out_patch_.push_back(p);
-      for (int i = 0; i < 3; ++i) edges_.insert(edge_key(local_to_vertex[t[i]], local_to_vertex[t[(i + 1) % 3]]));
-    }
+    for (const auto& t : tri_) emit(p, {local_to_vertex_[t[0]], local_to_vertex_[t[1]], local_to_vertex_[t[2]]});
     return true;
   }
 
@@ -732,23 +846,39 @@ class PolygonMesher {
 
   // Checks the triangles make a valid mesh, then runs the corner collapses on it.
   format::Result<PolygonMesherResult> finish() {
+    // The rounds are over: their tables and replay logs go before phase 2 builds its mesh.
+    edges_ = {};
+    queries_ = {};
+    last_queries_ = {};
+    patch_tris_ = {};
+    last_patch_tris_ = {};
+    records_ = {};
+    last_records_ = {};
+    reduced_vertices_ = {};
+    last_reduced_vertices_ = {};
     auto fail = [](const std::string& what) {
       return format::Status::error(format::Code::kProcessing, "polygon mesher", what);
     };
-    // Every directed edge at most once (orientation consistent, edges manifold), no repeated
-    // triangle.
-    std::unordered_set<std::uint64_t> directed;
+    // Sorted keys find a repeat; only then is the first one (in triangle order) looked for.
+    std::vector<std::uint64_t> directed;
     directed.reserve(3 * out_tris_.size());
     std::vector<std::array<std::uint32_t, 3>> sorted;
     sorted.reserve(out_tris_.size());
     for (const auto& t : out_tris_) {
-      for (int i = 0; i < 3; ++i) {
-        if (!directed.insert(std::uint64_t{t[i]} << 32 | t[(i + 1) % 3]).second)
-          return fail("edge " + std::to_string(t[i]) + "-" + std::to_string(t[(i + 1) % 3]) + " used twice");
-      }
+      for (int i = 0; i < 3; ++i) directed.push_back(std::uint64_t{t[i]} << 32 | t[(i + 1) % 3]);
       auto key = t;
       std::sort(key.begin(), key.end());
       sorted.push_back(key);
+    }
+    std::sort(directed.begin(), directed.end());
+    if (std::adjacent_find(directed.begin(), directed.end()) != directed.end()) {
+      EdgeKeyMap seen;
+      for (const auto& t : out_tris_) {
+        for (int i = 0; i < 3; ++i) {
+          if (!seen.insert(std::uint64_t{t[i]} << 32 | t[(i + 1) % 3]))
+            return fail("edge " + std::to_string(t[i]) + "-" + std::to_string(t[(i + 1) % 3]) + " used twice");
+        }
+      }
     }
     std::sort(sorted.begin(), sorted.end());
     if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()) return fail("a triangle made twice");
@@ -760,6 +890,9 @@ class PolygonMesher {
     used.erase(std::unique(used.begin(), used.end()), used.end());
     Mesh mesh;
     std::vector<VertexRole> roles;
+    mesh.positions.reserve(used.size());
+    roles.reserve(used.size());
+    mesh.triangles.reserve(out_tris_.size());
     for (std::uint32_t v : used) {
       mesh.positions.push_back(pos(v));
       roles.push_back(keep_[v] == Keep::kSample   ? VertexRole::kSample
@@ -793,7 +926,9 @@ class PolygonMesher {
   std::vector<std::uint8_t> skip_;
   std::span<const format::Vec3f> positions_;
   std::shared_ptr<VertexPositionSource> source_;          // out of core: positions on demand
-  std::unordered_map<std::uint32_t, format::Vec3f> fetched_;  // the positions read from source_
+  EdgeKeyMap fetched_slot_;            // vertex id -> index in fetched_
+  std::vector<std::uint32_t> prefetch_ids_;
+  std::vector<format::Vec3f> fetched_;  // the positions read from source_
   std::size_t vertex_count_ = 0;
   bool corners_given_ = false;  // out of core without degrees: loop stops are the kept vertices
   std::span<const format::Vec3f> plane_;
@@ -808,6 +943,7 @@ class PolygonMesher {
   std::vector<std::uint8_t> patch_has_faces_;  // out of core: the patch has a non-collapsed face
   std::size_t patch_count_ = 0;
   std::vector<std::uint32_t> patch_offset_, patch_faces_;
+  std::vector<std::uint8_t> visited_;  // in core: per half-edge, for the loop walks
   std::vector<Loop> loops_;
   std::vector<std::uint32_t> patch_loop_offset_;
   std::vector<std::uint32_t> broken_patch_;
@@ -816,7 +952,42 @@ class PolygonMesher {
   std::vector<std::vector<std::uint32_t>> interior_of_patch_;
   std::vector<PatchMode> mode_;
   std::vector<std::uint8_t> refinements_;
-  std::unordered_set<std::uint64_t> edges_;
+  // Every edge made so far this round (value: on how many reduced loop sides it lies).
+  EdgeKeyMap edges_;
+  std::vector<std::uint32_t> reduced_offset_, reduced_vertices_;  // per loop: its kept vertices
+  std::vector<std::uint8_t> failing_;
+  // Scratch of triangulate_patch, reused from patch to patch.
+  std::vector<std::uint32_t> local_to_vertex_;
+  EdgeKeyMap local_index_;
+  std::vector<PolygonPoint3> local_points_;
+  std::vector<std::vector<std::uint32_t>> local_loops_;
+  std::vector<double> loop_area_;
+  std::vector<PolygonPoint2> plane_points_;
+  std::vector<PolygonTriangle> tri_;
+  PolygonWorkspace workspace_;
+  // An edge may not be made twice: the forbidden test of every patch's triangulation.
+  const ForbiddenEdge forbidden_ = [this](std::uint32_t u, std::uint32_t v) {
+    const std::uint64_t key = edge_key(local_to_vertex_[u], local_to_vertex_[v]);
+    const bool answer = edges_.contains(key);
+    if (logging_) queries_.push_back({key, answer});
+    return answer;
+  };
+  // What replay_or_triangulate_patch keeps of each patch's triangulation, this round and last.
+  enum class Outcome : std::uint8_t { kNone, kPlane, kMeanPlane, kFailed };
+  struct PatchRecord {
+    std::uint32_t query_begin = 0, query_end = 0;  // in queries_
+    std::uint32_t tri_begin = 0, tri_end = 0;      // in patch_tris_
+    Outcome outcome = Outcome::kNone;              // kNone: not triangulated this round
+  };
+  struct Query {
+    std::uint64_t key;
+    bool answer;
+  };
+  bool logging_ = false;
+  std::vector<PatchRecord> records_, last_records_;
+  std::vector<Query> queries_, last_queries_;
+  std::vector<std::array<std::uint32_t, 3>> patch_tris_, last_patch_tris_;
+  std::vector<std::uint32_t> last_reduced_offset_, last_reduced_vertices_;
   std::vector<std::array<std::uint32_t, 3>> out_tris_;
   std::vector<std::uint32_t> out_patch_;
   PolygonMesherResult result_;
@@ -834,17 +1005,25 @@ std::vector<std::uint8_t> faces_the_mesher_skips(std::span<const format::Triangl
     return key;
   };
   for (std::uint32_t f = 0; f < tris.size(); ++f) {
-    if (is_collapsed(tris[f])) {
+    const format::Triangle& t = tris[f];
+    if (is_collapsed(t)) {
       skip[f] = 1;
       continue;
     }
-    const std::array<std::uint32_t, 3> key = sorted(f);
+    // f's three vertices are distinct, so a neighbour is on the same vertex set exactly when it
+    // holds all three.
     bool suspect = false;
     for (int i = 0; i < 3 && !suspect; ++i) {
       const std::uint32_t g = adjacency.edge_neighbor[3 * std::size_t{f} + i];
-      suspect = g == MeshAdjacency::kNoFace || sorted(g) == key;
+      if (g == MeshAdjacency::kNoFace) {
+        suspect = true;
+        break;
+      }
+      const auto& u = tris[g].v;
+      auto holds = [&](std::uint32_t v) { return u[0] == v || u[1] == v || u[2] == v; };
+      suspect = holds(t.v[0]) && holds(t.v[1]) && holds(t.v[2]);
     }
-    if (suspect) keys.emplace_back(key, f);
+    if (suspect) keys.emplace_back(sorted(f), f);
   }
   std::sort(keys.begin(), keys.end());
   bool repeat = false;

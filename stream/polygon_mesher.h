@@ -118,6 +118,13 @@ class VertexPositionSource {
  public:
   virtual ~VertexPositionSource() = default;
   virtual format::Vec3f position(std::uint32_t v) = 0;
+  // The positions of `ids` (ascending, no repeats) into `out` (out.size() == ids.size()), as
+  // position() gives them one by one, which is what this default does. The mesher asks for each
+  // round's new vertices this way: a source that reads a file should read the ranges they fall
+  // in with a few large reads (one read per vertex costs a system call each).
+  virtual void positions(std::span<const std::uint32_t> ids, std::span<format::Vec3f> out) {
+    for (std::size_t i = 0; i < ids.size() && i < out.size(); ++i) out[i] = position(ids[i]);
+  }
   virtual format::Status status() const = 0;
 };
 

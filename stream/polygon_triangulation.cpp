@@ -26,11 +26,8 @@
 #include <cmath>
 #include <limits>
 #include <optional>
-#include <queue>
 #include <string>
 #include <tuple>
-#include <unordered_map>
-#include <unordered_set>
 #include <utility>
 
 namespace gaussmesh::stream {
@@ -128,7 +125,13 @@ double shape_quality(const P2& a, const P2& b, const P2& c) {
 // ---------------------------------------------------------------------------------------------
 // Stage 1: the loops as given.
 
-format::Status check_loops(std::span<const P2> points, std::span<const Loop> loops) {
+// A loop edge for the crossing sweep of check_loops.
+struct SweepEdge {
+  double min_x, max_x;
+  std::uint32_t u, v;
+};
+
+format::Status check_loops(std::span<const P2> points, std::span<const Loop> loops, std::vector<SweepEdge>& edges) {
   if (loops.empty()) return failure("no boundary loop");
   for (std::size_t k = 0; k < loops.size(); ++k) {
     const Loop& loop = loops[k];
@@ -154,11 +157,8 @@ format::Status check_loops(std::span<const P2> points, std::span<const Loop> loo
     }
   }
   // Every pair of edges whose x-ranges overlap, found by a sweep over edges sorted by min x.
-  struct Edge {
-    double min_x, max_x;
-    std::uint32_t u, v;
-  };
-  std::vector<Edge> edges;
+  using Edge = SweepEdge;
+  edges.clear();
   for (const Loop& loop : loops) {
     for (std::size_t i = 0; i < loop.size(); ++i) {
       const std::uint32_t u = loop[i], v = loop[(i + 1) % loop.size()];
@@ -203,13 +203,8 @@ int loop_orientation(std::span<const P2> points, const Loop& loop) {
   return extreme_leaves ? 1 : -1;
 }
 
-// The loop reversed, keeping its first vertex first (so a rotated input stays a rotation).
-Loop reversed(const Loop& loop) {
-  Loop out(loop.size());
-  out[0] = loop[0];
-  for (std::size_t i = 1; i < loop.size(); ++i) out[i] = loop[loop.size() - i];
-  return out;
-}
+// Reverses the loop, keeping its first vertex first (so a rotated input stays a rotation).
+void reverse_loop(Loop& loop) { std::reverse(loop.begin() + 1, loop.end()); }
 
 // ---------------------------------------------------------------------------------------------
 // Stage 3: joining holes into one weakly simple polygon.
@@ -444,8 +439,8 @@ class HoleJoiner {
 // Stage 4: at every point the joined boundary visits more than once, no visit's interior wedge
 // may hold an edge of another visit (that would be a crossing at a vertex, or overlapping
 // interiors). Edges along a wedge's bounding ray (the two sides of a bridge) are allowed.
-format::Status check_repeated_points(std::span<const P2> points, const Loop& boundary) {
-  std::vector<std::size_t> order(boundary.size());
+format::Status check_repeated_points(std::span<const P2> points, const Loop& boundary, std::vector<std::size_t>& order) {
+  order.resize(boundary.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
   std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
     const P2 &p = points[boundary[x]], &q = points[boundary[y]];
@@ -475,14 +470,32 @@ format::Status check_repeated_points(std::span<const P2> points, const Loop& bou
 // ---------------------------------------------------------------------------------------------
 // Stage 5: ear clipping of the weakly simple boundary, best shape first.
 
+struct EarCandidate {
+  double quality;
+  std::uint32_t tip, before, after;  // point indices, for a tie order that ignores loop rotation
+  std::uint32_t node, version;
+};
+
+// The ear clipper's arrays, kept in a workspace between polygons.
+struct EarBuffers {
+  std::vector<std::uint32_t> prev, next, version;
+  std::vector<char> alive;
+  std::vector<EarCandidate> queue;  // a binary heap (std::push_heap / pop_heap), best on top
+};
+
 class EarClipper {
  public:
-  EarClipper(std::span<const P2> points, const Loop& boundary, const ForbiddenEdge& forbidden,
-             std::unordered_set<std::uint64_t>& edges)
-      : points_(points), forbidden_(forbidden), edges_(edges), id_(boundary), prev_(boundary.size()),
-        next_(boundary.size()), alive_(boundary.size(), 1), version_(boundary.size(), 0),
+  EarClipper(std::span<const P2> points, const Loop& boundary, const ForbiddenEdge& forbidden, EdgeKeyMap& edges,
+             EarBuffers& buffers)
+      : points_(points), forbidden_(forbidden), edges_(edges), id_(boundary), prev_(buffers.prev),
+        next_(buffers.next), alive_(buffers.alive), version_(buffers.version), queue_(buffers.queue),
         remaining_(boundary.size()) {
     const std::size_t n = boundary.size();
+    prev_.resize(n);
+    next_.resize(n);
+    alive_.assign(n, 1);
+    version_.assign(n, 0);
+    queue_.clear();
     for (std::size_t i = 0; i < n; ++i) {
       prev_[i] = std::uint32_t((i + n - 1) % n);
       next_[i] = std::uint32_t((i + 1) % n);
@@ -506,8 +519,9 @@ class EarClipper {
         }
         continue;
       }
-      const Candidate top = queue_.top();
-      queue_.pop();
+      std::pop_heap(queue_.begin(), queue_.end(), LowerPriority());
+      const Candidate top = queue_.back();
+      queue_.pop_back();
       if (!alive_[top.node] || version_[top.node] != top.version) continue;
       // New diagonals elsewhere can spoil a queued ear (its diagonal may now exist): re-check.
       if (!ear_quality(top.node)) continue;
@@ -523,11 +537,7 @@ class EarClipper {
   std::size_t lobes() const { return lobes_; }
 
  private:
-  struct Candidate {
-    double quality;
-    std::uint32_t tip, before, after;  // point indices, for a tie order that ignores loop rotation
-    std::uint32_t node, version;
-  };
+  using Candidate = EarCandidate;
   struct LowerPriority {
     bool operator()(const Candidate& x, const Candidate& y) const {
       if (x.quality != y.quality) return x.quality < y.quality;
@@ -555,7 +565,7 @@ class EarClipper {
     if (orientation_2d(pa, pb, pc) <= 0) return std::nullopt;
     if (remaining_ == 3) return shape_quality(pa, pb, pc);
     const bool closes_lobe = id_[next_[c]] == id_[a];
-    if (!closes_lobe && (edges_.count(edge_key(id_[a], id_[c])) != 0 || is_forbidden(forbidden_, id_[a], id_[c]))) {
+    if (!closes_lobe && (edges_.contains(edge_key(id_[a], id_[c])) || is_forbidden(forbidden_, id_[a], id_[c]))) {
       return std::nullopt;
     }
     const double min_x = std::min({pa[0], pb[0], pc[0]}), max_x = std::max({pa[0], pb[0], pc[0]});
@@ -579,12 +589,13 @@ class EarClipper {
 
   void push_if_ear(std::uint32_t node) {
     if (auto quality = ear_quality(node)) {
-      queue_.push({*quality, id_[node], id_[prev_[node]], id_[next_[node]], node, version_[node]});
+      queue_.push_back({*quality, id_[node], id_[prev_[node]], id_[next_[node]], node, version_[node]});
+      std::push_heap(queue_.begin(), queue_.end(), LowerPriority());
     }
   }
 
   void rescan() {
-    queue_ = {};
+    queue_.clear();
     for (std::uint32_t node = 0; node < id_.size(); ++node) {
       if (!alive_[node]) continue;
       ++version_[node];
@@ -626,28 +637,29 @@ class EarClipper {
 
   std::span<const P2> points_;
   const ForbiddenEdge& forbidden_;
-  std::unordered_set<std::uint64_t>& edges_;  // membership only: iteration order is never used
-  std::vector<std::uint32_t> id_, prev_, next_;
-  std::vector<char> alive_;
-  std::vector<std::uint32_t> version_;
+  EdgeKeyMap& edges_;  // membership only
+  const Loop& id_;
+  std::vector<std::uint32_t>&prev_, &next_;
+  std::vector<char>& alive_;
+  std::vector<std::uint32_t>& version_;
+  std::vector<Candidate>& queue_;
   std::size_t remaining_;
   std::size_t lobes_ = 0;
-  std::priority_queue<Candidate, std::vector<Candidate>, LowerPriority> queue_;
 };
 
 // ---------------------------------------------------------------------------------------------
 // Stage 6: Lawson's flips towards the Delaunay triangulation, over new edges only.
 
 void flip_towards_delaunay(std::span<const P2> points, std::vector<PolygonTriangle>& triangles,
-                           const std::unordered_set<std::uint64_t>& loop_edges,
-                           std::unordered_set<std::uint64_t>& edges, const ForbiddenEdge& forbidden) {
-  std::unordered_map<std::uint64_t, std::uint32_t> owner;  // directed edge -> triangle; lookups only
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> pending;
+                           const EdgeKeyMap& loop_edges, EdgeKeyMap& edges, const ForbiddenEdge& forbidden,
+                           EdgeKeyMap& owner, std::vector<std::pair<std::uint32_t, std::uint32_t>>& pending) {
+  owner.reset(3 * triangles.size());  // directed edge -> triangle; lookups only
+  pending.clear();
   for (std::uint32_t t = 0; t < triangles.size(); ++t) {
     for (int k = 0; k < 3; ++k) {
       const std::uint32_t u = triangles[t][k], v = triangles[t][(k + 1) % 3];
-      owner[directed_key(u, v)] = t;
-      if (u < v && loop_edges.count(edge_key(u, v)) == 0) pending.push_back({u, v});
+      owner.emplace(directed_key(u, v), 0) = t;
+      if (u < v && !loop_edges.contains(edge_key(u, v))) pending.push_back({u, v});
     }
   }
   std::reverse(pending.begin(), pending.end());  // first triangles first
@@ -666,9 +678,10 @@ void flip_towards_delaunay(std::span<const P2> points, std::vector<PolygonTriang
   while (!pending.empty() && flips < max_flips) {
     const auto [u, v] = pending.back();
     pending.pop_back();
-    const auto first = owner.find(directed_key(u, v)), second = owner.find(directed_key(v, u));
-    if (first == owner.end() || second == owner.end()) continue;
-    const std::uint32_t t1 = first->second, t2 = second->second;
+    const std::uint32_t* first = owner.find(directed_key(u, v));
+    const std::uint32_t* second = owner.find(directed_key(v, u));
+    if (first == nullptr || second == nullptr) continue;
+    const std::uint32_t t1 = *first, t2 = *second;
     const std::uint32_t w = third(t1, u, v), x = third(t2, v, u);
     if (w == x) continue;
     const P2 &pu = points[u], &pv = points[v], &pw = points[w], &px = points[x];
@@ -677,31 +690,56 @@ void flip_towards_delaunay(std::span<const P2> points, std::vector<PolygonTriang
       continue;
     }
     if (orientation_2d(pu, px, pw) <= 0 || orientation_2d(px, pv, pw) <= 0) continue;
-    if (edges.count(edge_key(w, x)) != 0 || is_forbidden(forbidden, w, x)) continue;
+    if (edges.contains(edge_key(w, x)) || is_forbidden(forbidden, w, x)) continue;
     triangles[t1] = {u, x, w};
     triangles[t2] = {x, v, w};
     owner.erase(directed_key(u, v));
     owner.erase(directed_key(v, u));
-    owner[directed_key(u, x)] = t1, owner[directed_key(x, w)] = t1, owner[directed_key(w, u)] = t1;
-    owner[directed_key(x, v)] = t2, owner[directed_key(v, w)] = t2, owner[directed_key(w, x)] = t2;
+    owner.emplace(directed_key(u, x), 0) = t1, owner.emplace(directed_key(x, w), 0) = t1;
+    owner.emplace(directed_key(w, u), 0) = t1;
+    owner.emplace(directed_key(x, v), 0) = t2, owner.emplace(directed_key(v, w), 0) = t2;
+    owner.emplace(directed_key(w, x), 0) = t2;
     edges.erase(edge_key(u, v));
     edges.insert(edge_key(w, x));
     ++flips;
     for (auto [p, q] : {std::pair{u, x}, std::pair{x, v}, std::pair{v, w}, std::pair{w, u}}) {
-      if (loop_edges.count(edge_key(p, q)) == 0) pending.push_back({std::min(p, q), std::max(p, q)});
+      if (!loop_edges.contains(edge_key(p, q))) pending.push_back({std::min(p, q), std::max(p, q)});
     }
   }
 }
 
 }  // namespace
 
+struct PolygonWorkspace::Buffers {
+  std::vector<SweepEdge> sweep;
+  std::vector<Loop> oriented;
+  Loop boundary;
+  std::vector<std::size_t> order;
+  EdgeKeyMap loop_edges, edges, owner;
+  EarBuffers ears;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> pending;
+};
+
+PolygonWorkspace::PolygonWorkspace() : buffers_(std::make_unique<Buffers>()) {}
+PolygonWorkspace::~PolygonWorkspace() = default;
+
 int orientation_2d(const PolygonPoint2& a, const PolygonPoint2& b, const PolygonPoint2& c) {
+  // Two equal points are collinear with any third: exactly 0, which the filtered predicate
+  // would only reach through its exact (slow) stage.
+  if (same_point(a, b) || same_point(b, c) || same_point(a, c)) return 0;
   const CGAL::Orientation o = CGAL::orientation(CgalPoint(a[0], a[1]), CgalPoint(b[0], b[1]), CgalPoint(c[0], c[1]));
   return o == CGAL::LEFT_TURN ? 1 : (o == CGAL::RIGHT_TURN ? -1 : 0);
 }
 
 std::vector<PolygonPoint2> project_to_plane(std::span<const PolygonPoint3> points, const PolygonPoint3& normal,
                                             const PolygonPoint3& origin) {
+  std::vector<PolygonPoint2> out;
+  project_to_plane(points, normal, origin, out);
+  return out;
+}
+
+void project_to_plane(std::span<const PolygonPoint3> points, const PolygonPoint3& normal, const PolygonPoint3& origin,
+                      std::vector<PolygonPoint2>& out) {
   const double length = std::sqrt(normal[0] * normal[0] + normal[1] * normal[1] + normal[2] * normal[2]);
   assert(std::isfinite(length) && length > 0 && "project_to_plane needs a finite non-zero normal");
   const PolygonPoint3 n = {normal[0] / length, normal[1] / length, normal[2] / length};
@@ -716,12 +754,11 @@ std::vector<PolygonPoint2> project_to_plane(std::span<const PolygonPoint3> point
   const double u_length = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
   u = {u[0] / u_length, u[1] / u_length, u[2] / u_length};
   const PolygonPoint3 v = {n[1] * u[2] - n[2] * u[1], n[2] * u[0] - n[0] * u[2], n[0] * u[1] - n[1] * u[0]};
-  std::vector<PolygonPoint2> out(points.size());
+  out.resize(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
     const double dx = points[i][0] - origin[0], dy = points[i][1] - origin[1], dz = points[i][2] - origin[2];
     out[i] = {dx * u[0] + dy * u[1] + dz * u[2], dx * v[0] + dy * v[1] + dz * v[2]};
   }
-  return out;
 }
 
 format::Result<std::vector<PolygonTriangle>> triangulate_polygon(std::span<const PolygonPoint3> points,
@@ -741,40 +778,62 @@ format::Result<std::vector<PolygonTriangle>> triangulate_polygon(std::span<const
 format::Result<std::vector<PolygonTriangle>> triangulate_polygon_2d(std::span<const PolygonPoint2> points,
                                                                     std::span<const std::vector<std::uint32_t>> loops,
                                                                     const ForbiddenEdge& forbidden) {
-  GM_RETURN_IF_ERROR(check_loops(points, loops));
-  std::vector<Loop> oriented(loops.begin(), loops.end());
+  PolygonWorkspace workspace;
+  std::vector<PolygonTriangle> triangles;
+  GM_RETURN_IF_ERROR(triangulate_polygon_2d(points, loops, forbidden, workspace, triangles));
+  return triangles;
+}
+
+format::Status triangulate_polygon_2d(std::span<const PolygonPoint2> points,
+                                      std::span<const std::vector<std::uint32_t>> loops, const ForbiddenEdge& forbidden,
+                                      PolygonWorkspace& workspace, std::vector<PolygonTriangle>& triangles) {
+  PolygonWorkspace::Buffers& ws = workspace.buffers();
+  triangles.clear();
+  GM_RETURN_IF_ERROR(check_loops(points, loops, ws.sweep));
+  std::vector<Loop>& oriented = ws.oriented;
+  oriented.resize(loops.size());
   std::size_t total = 0;
   for (std::size_t k = 0; k < oriented.size(); ++k) {
+    oriented[k].assign(loops[k].begin(), loops[k].end());
     const int wanted = k == 0 ? 1 : -1;
-    if (loop_orientation(points, oriented[k]) != wanted) oriented[k] = reversed(oriented[k]);
+    if (loop_orientation(points, oriented[k]) != wanted) reverse_loop(oriented[k]);
     total += oriented[k].size();
   }
   if (total >= std::numeric_limits<std::uint32_t>::max() / 2) return failure("too many loop vertices");
 
-  std::unordered_set<std::uint64_t> loop_edges;
+  EdgeKeyMap& loop_edges = ws.loop_edges;
+  loop_edges.reset(total);
   for (const Loop& loop : oriented) {
     for (std::size_t i = 0; i < loop.size(); ++i) loop_edges.insert(edge_key(loop[i], loop[(i + 1) % loop.size()]));
   }
 
-  Loop boundary;
+  Loop& boundary = ws.boundary;
   std::size_t spliced = 0;
-  GM_RETURN_IF_ERROR(HoleJoiner(points, oriented, forbidden).run(boundary, spliced));
-  GM_RETURN_IF_ERROR(check_repeated_points(points, boundary));
+  if (oriented.size() == 1) {
+    boundary = oriented[0];  // no hole to join
+  } else {
+    GM_RETURN_IF_ERROR(HoleJoiner(points, oriented, forbidden).run(boundary, spliced));
+  }
+  GM_RETURN_IF_ERROR(check_repeated_points(points, boundary, ws.order));
 
-  std::unordered_set<std::uint64_t> edges = loop_edges;
+  // Every loop edge, then the bridges (a bridge is an edge of the joined boundary).
+  EdgeKeyMap& edges = ws.edges;
+  edges.reset(2 * boundary.size());
+  for (const Loop& loop : oriented) {
+    for (std::size_t i = 0; i < loop.size(); ++i) edges.insert(edge_key(loop[i], loop[(i + 1) % loop.size()]));
+  }
   for (std::size_t i = 0; i < boundary.size(); ++i) edges.insert(edge_key(boundary[i], boundary[(i + 1) % boundary.size()]));
 
-  std::vector<PolygonTriangle> triangles;
   triangles.reserve(boundary.size());
-  EarClipper clipper(points, boundary, forbidden, edges);
+  EarClipper clipper(points, boundary, forbidden, edges, ws.ears);
   GM_RETURN_IF_ERROR(clipper.run(triangles));
   // A weakly simple boundary of N visits gives N - 2 triangles, 2 fewer per closed lobe.
   if (triangles.size() + 2 + 2 * clipper.lobes() != boundary.size()) {
     return failure("internal count mismatch: " + std::to_string(triangles.size()) + " triangles for " +
                    std::to_string(boundary.size()) + " boundary visits");
   }
-  flip_towards_delaunay(points, triangles, loop_edges, edges, forbidden);
-  return triangles;
+  flip_towards_delaunay(points, triangles, loop_edges, edges, forbidden, ws.owner, ws.pending);
+  return {};
 }
 
 }  // namespace gaussmesh::stream
