@@ -69,10 +69,11 @@ std::uint64_t pass_two_chunk_faces(std::uint64_t memory_bytes, std::uint32_t thr
 // thread at a time. The first error stops the chunks not yet started and is returned.
 // memory_bytes (0: no check): the pass's budget. Each chunk allocates and frees arrays of its own
 // size, so the allocator's arenas fill with free pages that stay resident (measured at 100M
-// triangles under 64 MiB: 25-35 MB in use, 60 MB of arenas). When the resident set passes 7/8
-// of the budget and has grown by 1/8 of it since the last release, free pages go back to the
-// system (release_free_memory) — not after every chunk: re-touching released pages is costly
-// (a release after every chunk made pass A 4x slower at 100M).
+// triangles under 64 MiB: 25-35 MB in use, 55-90 MB of arenas; 68 MB peak without releases,
+// 64 MB with them, one arena). When the resident set passes 7/8 of the budget and has grown by
+// 1/8 of it (at least 8 MiB) since the last release, free pages go back to the system
+// (release_free_memory) — not after every chunk: re-touching released pages is costly (a
+// release after every chunk made pass A 4x slower at 100M).
 using ChunkBody = std::function<format::Status(std::size_t, const ChunkMesh&, ChunkSamplerWorkspace&)>;
 format::Status for_each_chunk(const Partition& partition, std::uint32_t threads, const ChunkBody& body,
                               const std::function<void(std::size_t, std::size_t)>& progress,
