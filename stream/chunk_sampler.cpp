@@ -108,13 +108,14 @@ format::Status for_each_chunk(const Partition& partition, std::uint32_t threads,
     });
   });
   workspaces.clear();
-  release_free_memory();
+  release_free_memory(memory_bytes);
   for (const format::Status& e : errors)
     if (!e) return e;
   return format::Status();
 }
 
-void release_free_memory() {
+void release_free_memory(std::uint64_t memory_bytes) {
+  if (memory_bytes > 0 && current_rss() <= memory_bytes / 8 * 7) return;
 #ifdef __GLIBC__
   ::malloc_trim(0);
 #endif

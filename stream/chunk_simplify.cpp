@@ -297,7 +297,7 @@ format::Status read_run_vertices(const ChunkLoopSummary& chunk, Body&& body) {
 format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummary>& chunks, std::size_t patches,
                                                const std::vector<format::Vec3f>& plane_normal, const std::string& dir,
                                                const std::vector<std::pair<std::uint32_t, format::Vec3f>>& extra_vertices,
-                                               LoopStitchStats* stats) {
+                                               LoopStitchStats* stats, std::uint64_t memory_bytes) {
   PolygonGraphInput g;
   g.patches = patches;
   g.patch_area.assign(patches, {0, 0, 0});
@@ -414,7 +414,7 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
     compact();
     global.shrink_to_fit();
   }
-  release_free_memory();  // the gathering's spare capacity
+  release_free_memory(memory_bytes);  // the gathering's spare capacity
   const std::size_t nv = global.size();
   auto dense = [&](std::uint32_t v) {
     return static_cast<std::uint32_t>(std::lower_bound(global.begin(), global.end(), v) - global.begin());
@@ -452,7 +452,7 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
         return format::Status::error(format::Code::kOutput, path, "cannot write loop vertex positions: " + std::string(std::strerror(errno)));
     }
   }
-  release_free_memory();  // the range buffer
+  release_free_memory(memory_bytes);  // the range buffer
   // The loops, in dense ids.
   g.loops.resize(infos.size());
   for (std::uint32_t l = 0; l < infos.size(); ++l) {
@@ -573,7 +573,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   auto stitched = stitch_pieces(pieces, **joins, options.partition.memory_bytes);
   if (!stitched) return stitched.status();
   std::vector<ChunkPieces>().swap(pieces);
-  release_free_memory();
+  release_free_memory(options.partition.memory_bytes);
   PatchGraphInput merge_input = stitched_merge_input(*stitched);
   std::vector<StitchedPatches::Adjacent>().swap(stitched->adjacency);
   std::vector<StitchedPatches::Collapsed>().swap(stitched->collapsed);
@@ -593,7 +593,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   std::vector<StitchedPatches::Candidate>().swap(stitched->candidates);
   std::vector<std::pair<std::uint32_t, std::uint32_t>>().swap(merged.adjacency);
   std::vector<std::uint8_t>().swap(merged.is_candidate);
-  release_free_memory();
+  release_free_memory(options.partition.memory_bytes);
   auto merged_patch_of_piece = [&](PieceId piece) -> std::uint32_t {
     const std::int64_t p = stitched->patch_of_piece(piece);
     return p < 0 ? kNone : merged.patch_of[p];
@@ -640,7 +640,8 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     plane[p] = {float(c.x), float(c.y), float(c.z)};
   }
   LoopStitchStats stitch_stats;
-  auto graph = stitch_loops(loops, merged.patch_label.size(), plane, partition->dir, {}, &stitch_stats);
+  auto graph = stitch_loops(loops, merged.patch_label.size(), plane, partition->dir, {}, &stitch_stats,
+                            options.partition.memory_bytes);
   if (!graph) return graph.status();
   out.stitch_runs = stitch_stats.runs;
   out.stitch_half_edges = stitch_stats.half_edges;
@@ -700,7 +701,8 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     std::sort(extra.begin(), extra.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     extra.erase(std::unique(extra.begin(), extra.end(), [](const auto& a, const auto& b) { return a.first == b.first; }),
                 extra.end());
-    auto regraph = stitch_loops(loops, merged.patch_label.size(), plane, partition->dir, extra);
+    auto regraph = stitch_loops(loops, merged.patch_label.size(), plane, partition->dir, extra, nullptr,
+                                options.partition.memory_bytes);
     if (!regraph) return regraph.status();
     const std::vector<std::uint32_t>& global = regraph->global;
     auto dense = [&](std::uint32_t v) {
