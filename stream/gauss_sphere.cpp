@@ -286,12 +286,14 @@ format::Result<GaussSphere> GaussSphere::create(const GaussSphereOptions& option
     for (std::uint32_t v : g.triangle_vertices_[t])
       if (first[v] == kNone) first[v] = static_cast<std::uint32_t>(t);
   g.vertex_triangles_.assign(g.vertex_offsets_[vertex_total], kNone);
+  g.vertex_triangle_slots_.assign(nt, {0, 0, 0});
   for (std::uint32_t v = 0; v < vertex_total; ++v) {
     std::uint32_t t = first[v];
     for (std::uint32_t k = g.vertex_offsets_[v]; k < g.vertex_offsets_[v + 1]; ++k) {
       g.vertex_triangles_[k] = t;
       const auto& tv = g.triangle_vertices_[t];
       const int i = tv[0] == v ? 0 : (tv[1] == v ? 1 : 2);
+      g.vertex_triangle_slots_[t][i] = static_cast<std::uint8_t>(k - g.vertex_offsets_[v]);
       t = g.triangle_neighbors_[t][(i + 2) % 3];
     }
   }

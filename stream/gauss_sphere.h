@@ -66,6 +66,10 @@ class GaussSphere {
     return {vertex_triangles_.data() + vertex_offsets_[v],
             vertex_triangles_.data() + vertex_offsets_[v + 1]};
   }
+  // Slot j: the position of t in vertex_triangles(triangle_vertices(t)[j]) (0 to 5).
+  const std::array<std::uint8_t, 3>& vertex_triangle_slots(std::uint32_t t) const {
+    return vertex_triangle_slots_[t];
+  }
   bool triangle_has_vertex(std::uint32_t t, std::uint32_t v) const {
     const auto& tv = triangle_vertices_[t];
     return tv[0] == v || tv[1] == v || tv[2] == v;
@@ -140,6 +144,7 @@ class GaussSphere {
   std::vector<std::array<std::uint32_t, 3>> triangle_neighbors_;
   std::vector<std::uint32_t> vertex_offsets_;
   std::vector<std::uint32_t> vertex_triangles_;
+  std::vector<std::array<std::uint8_t, 3>> vertex_triangle_slots_;
   std::vector<Vec3d> centers_;
   std::vector<double> cap_cos_;
   struct CapAngle {
