@@ -3,6 +3,7 @@
 #include "stream/gauss_sphere.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -450,6 +451,18 @@ std::uint32_t GaussSphere::locate(const Vec3d& n) const {
     }
   }
   return locate_without_table(n);
+}
+
+void GaussSphere::locate(std::span<const format::Vec3f> directions, std::span<std::uint32_t> out,
+                         std::uint32_t for_zero) const {
+  assert(out.size() >= directions.size());
+  const std::size_t n = directions.size();
+  const format::Vec3f* d = directions.data();
+  std::uint32_t* o = out.data();
+  for (std::size_t i = 0; i < n; ++i) {
+    const format::Vec3f& v = d[i];
+    o[i] = v.x == 0 && v.y == 0 && v.z == 0 ? for_zero : locate(to_d(v));
+  }
 }
 
 std::uint32_t GaussSphere::locate_without_table(const Vec3d& n) const {

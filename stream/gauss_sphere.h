@@ -102,6 +102,10 @@ class GaussSphere {
   // double rounding) goes to a deterministic neighbour: the lowest base face, then the
   // lower row/column and the "up" cell.
   std::uint32_t locate(const Vec3d& n) const;
+  // locate() of many float directions (widened exactly to double): out[i] for directions[i], or
+  // `for_zero` for the zero vector. One call per batch lets the table lookup inline into the
+  // loop. Precondition: out.size() >= directions.size().
+  void locate(std::span<const format::Vec3f> directions, std::span<std::uint32_t> out, std::uint32_t for_zero) const;
   // The same answer as locate() without the fine lookup table (for tests and benchmarks).
   std::uint32_t locate_without_table(const Vec3d& n) const;
   // Cells per side of each cube face in the fine lookup table of locate() (0: no table), and

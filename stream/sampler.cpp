@@ -193,12 +193,11 @@ struct Scratch {
   IdSet visited_set, gauss_set;         // membership of the two lists above
   std::vector<std::uint32_t> star_labels;  // MergeLabels: the labels of the current star
   std::uint32_t star_begin = 0;
-  // The current star's faces and labels by slot (read once, by the fast path).
-  std::vector<std::uint32_t> star_face, star_label;
+  // The current star's labels by slot (read once, by the fast path).
+  std::vector<std::uint32_t> star_label;
   std::vector<std::uint8_t> star_slot;  // of each slot's label around the represented v_G
   void fit_star(std::uint32_t degree) {
-    if (star_face.size() < degree) {
-      star_face.resize(degree);
+    if (star_label.size() < degree) {
       star_label.resize(degree);
       star_slot.resize(degree);
       poly.resize(degree);
@@ -500,7 +499,8 @@ void compute_face_labels(const FaceNormals& normals, const GaussSphere& gauss, s
   const Vec3f* normal = normals.normal.data();
   std::uint32_t* out = labels.data();
   for_faces(nf, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t f = begin; f < end; ++f) out[f] = is_zero(normal[f]) ? kNoLabel : gauss.locate(to_d(normal[f]));
+    gauss.locate(std::span<const Vec3f>(normal + begin, end - begin), std::span<std::uint32_t>(out + begin, end - begin),
+                 kNoLabel);
   });
 }
 
@@ -612,17 +612,15 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
   // counts its outgoing edge; the incoming edges add the break edges among them, one per open
   // fan (the last slot of an open fan is the only slot whose incoming edge is a break:
   // MeshAdjacency), read from the slot flags instead of the faces' edge neighbours.
-  // The star's faces and labels go to the scratch arrays (slot k at k - sb) for the steps below.
+  // The star's labels go to the scratch array (slot k at k - sb) for the steps below.
   std::uint32_t feature_count = 0, fan_starts = 0;
   const std::uint32_t first_label = labels.label(sb, corners[sb] / 3, s);
   bool several_labels = false;
   s.fit_star(se - sb);
-  std::uint32_t* star_face = s.star_face.data() - sb;
   std::uint32_t* star_label = s.star_label.data() - sb;
   for (std::uint32_t k = sb; k < se; ++k) {
     const std::uint32_t c = corners[k], f = c / 3, i = c % 3;
     const std::uint32_t l = labels.label(k, f, s);
-    star_face[k] = f;
     star_label[k] = l;
     feature_count += labels.feature_bit(k, f, i, s);
     feature_count += (flags[k] & (MeshAdjacency::kFanStart | MeshAdjacency::kFanClosed)) == MeshAdjacency::kFanStart;
@@ -748,7 +746,7 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
     while (fan_end < se && !(flags[fan_end] & MeshAdjacency::kFanStart)) ++fan_end;
     std::size_t corners_in_poly = 0;
     for (std::uint32_t j = k; j < fan_end; ++j) {
-      const std::uint32_t f = star_face[j];
+      const std::uint32_t f = corners[j] / 3;
       poly[corners_in_poly] = to_d(normal[f]);  // kept unless the face is degenerate
       corners_in_poly += !degenerate[f];
     }
