@@ -3,6 +3,7 @@
 #include "stream/gauss_sphere.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -286,12 +287,14 @@ format::Result<GaussSphere> GaussSphere::create(const GaussSphereOptions& option
     for (std::uint32_t v : g.triangle_vertices_[t])
       if (first[v] == kNone) first[v] = static_cast<std::uint32_t>(t);
   g.vertex_triangles_.assign(g.vertex_offsets_[vertex_total], kNone);
+  g.vertex_triangle_slots_.assign(nt, {0, 0, 0});
   for (std::uint32_t v = 0; v < vertex_total; ++v) {
     std::uint32_t t = first[v];
     for (std::uint32_t k = g.vertex_offsets_[v]; k < g.vertex_offsets_[v + 1]; ++k) {
       g.vertex_triangles_[k] = t;
       const auto& tv = g.triangle_vertices_[t];
       const int i = tv[0] == v ? 0 : (tv[1] == v ? 1 : 2);
+      g.vertex_triangle_slots_[t][i] = static_cast<std::uint8_t>(k - g.vertex_offsets_[v]);
       t = g.triangle_neighbors_[t][(i + 2) % 3];
     }
   }
@@ -448,6 +451,18 @@ std::uint32_t GaussSphere::locate(const Vec3d& n) const {
     }
   }
   return locate_without_table(n);
+}
+
+void GaussSphere::locate(std::span<const format::Vec3f> directions, std::span<std::uint32_t> out,
+                         std::uint32_t for_zero) const {
+  assert(out.size() >= directions.size());
+  const std::size_t n = directions.size();
+  const format::Vec3f* d = directions.data();
+  std::uint32_t* o = out.data();
+  for (std::size_t i = 0; i < n; ++i) {
+    const format::Vec3f& v = d[i];
+    o[i] = v.x == 0 && v.y == 0 && v.z == 0 ? for_zero : locate(to_d(v));
+  }
 }
 
 std::uint32_t GaussSphere::locate_without_table(const Vec3d& n) const {

@@ -66,6 +66,10 @@ class GaussSphere {
     return {vertex_triangles_.data() + vertex_offsets_[v],
             vertex_triangles_.data() + vertex_offsets_[v + 1]};
   }
+  // Slot j: the position of t in vertex_triangles(triangle_vertices(t)[j]) (0 to 5).
+  const std::array<std::uint8_t, 3>& vertex_triangle_slots(std::uint32_t t) const {
+    return vertex_triangle_slots_[t];
+  }
   bool triangle_has_vertex(std::uint32_t t, std::uint32_t v) const {
     const auto& tv = triangle_vertices_[t];
     return tv[0] == v || tv[1] == v || tv[2] == v;
@@ -98,6 +102,10 @@ class GaussSphere {
   // double rounding) goes to a deterministic neighbour: the lowest base face, then the
   // lower row/column and the "up" cell.
   std::uint32_t locate(const Vec3d& n) const;
+  // locate() of many float directions (widened exactly to double): out[i] for directions[i], or
+  // `for_zero` for the zero vector. One call per batch lets the table lookup inline into the
+  // loop. Precondition: out.size() >= directions.size().
+  void locate(std::span<const format::Vec3f> directions, std::span<std::uint32_t> out, std::uint32_t for_zero) const;
   // The same answer as locate() without the fine lookup table (for tests and benchmarks).
   std::uint32_t locate_without_table(const Vec3d& n) const;
   // Cells per side of each cube face in the fine lookup table of locate() (0: no table), and
@@ -140,6 +148,7 @@ class GaussSphere {
   std::vector<std::array<std::uint32_t, 3>> triangle_neighbors_;
   std::vector<std::uint32_t> vertex_offsets_;
   std::vector<std::uint32_t> vertex_triangles_;
+  std::vector<std::array<std::uint8_t, 3>> vertex_triangle_slots_;
   std::vector<Vec3d> centers_;
   std::vector<double> cap_cos_;
   struct CapAngle {

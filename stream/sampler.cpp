@@ -6,11 +6,16 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cassert>
 #include <cmath>
 #include <chrono>
 #include <ctime>
 #include <numbers>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -62,17 +67,60 @@ inline bool is_above(const Vec3d& p, const Vec3d& g, int axis, const Vec3d& d) {
   return orientation_sign(p, g, d) > 0;
 }
 
-int winding_number(const std::vector<Vec3d>& poly, const Vec3d& g) {
+// Bit i set iff poly[i] is above g (is_above), for k <= 64 points, the filter of is_above
+// without branches; false when the filter leaves a point undecided (the caller then asks
+// is_above point by point). U, W: the components of p × g whose difference is `axis`'s.
+template <int kU, int kW>
+bool above_bits(const Vec3d* poly, std::size_t k, const Vec3d& g, std::uint64_t& bits) {
+  auto component = [](const Vec3d& p, int c) { return c == 0 ? p.x : (c == 1 ? p.y : p.z); };
+  const double gu = component(g, kU), gw = component(g, kW);
+  constexpr double kBound = 4 * 0x1.0p-53;
+  std::uint64_t above = 0;
+  bool decided = true;
+  for (std::size_t i = 0; i < k; ++i) {
+    const double x = component(poly[i], kU) * gw, y = component(poly[i], kW) * gu;
+    const double det = x - y, perm = std::abs(x) + std::abs(y);
+    const bool is_up = det > kBound * perm, is_down = det < -kBound * perm;
+    decided &= (is_up | is_down) & (perm > 1e-150) & (perm < 1e150);
+    above |= static_cast<std::uint64_t>(is_up) << i;
+  }
+  bits = above;
+  return decided;
+}
+
+int winding_number(const Vec3d* poly, std::size_t k, const Vec3d& g) {
   const double ax = std::abs(g.x), ay = std::abs(g.y), az = std::abs(g.z);
   const int axis = ax <= ay && ax <= az ? 0 : (ay <= az ? 1 : 2);
   const Vec3d d = axis == 0 ? Vec3d{1, 0, 0} : (axis == 1 ? Vec3d{0, 1, 0} : Vec3d{0, 0, 1});
-  const std::size_t k = poly.size();
   int w = 0;
+  if (k <= 64) {
+    // The same signs as the loop below, as a bit mask: the edges (i, i + 1) that cross the
+    // plane are the bits where `above` and its rotation differ; only those need orient.
+    std::uint64_t above = 0;
+    const bool decided = axis == 0   ? above_bits<1, 2>(poly, k, g, above)
+                         : axis == 1 ? above_bits<2, 0>(poly, k, g, above)
+                                     : above_bits<0, 1>(poly, k, g, above);
+    if (!decided) {
+      above = 0;
+      for (std::size_t i = 0; i < k; ++i) above |= static_cast<std::uint64_t>(is_above(poly[i], g, axis, d)) << i;
+    }
+    const std::uint64_t all = k == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << k) - 1;
+    const std::uint64_t next = ((above >> 1) | (above << (k - 1))) & all;  // bit i: poly[i + 1 mod k]
+    for (std::uint64_t up = ~above & next & all; up != 0; up &= up - 1) {
+      const std::size_t i = static_cast<std::size_t>(std::countr_zero(up));
+      if (orient(poly[i], poly[i + 1 == k ? 0 : i + 1], g) > 0) ++w;
+    }
+    for (std::uint64_t down = above & ~next & all; down != 0; down &= down - 1) {
+      const std::size_t i = static_cast<std::size_t>(std::countr_zero(down));
+      if (orient(poly[i], poly[i + 1 == k ? 0 : i + 1], g) < 0) --w;
+    }
+    return w;
+  }
   bool above_first = is_above(poly[0], g, axis, d);
   bool above_a = above_first;
   for (std::size_t i = 0; i < k; ++i) {
     const Vec3d& a = poly[i];
-    const Vec3d& b = poly[(i + 1) % k];
+    const Vec3d& b = poly[i + 1 == k ? 0 : i + 1];
     const bool above_b = i + 1 == k ? above_first : is_above(b, g, axis, d);
     if (!above_a && above_b) {
       if (orient(a, b, g) > 0) ++w;
@@ -138,19 +186,21 @@ class IdSet {
 };
 
 struct Scratch {
-  std::vector<std::uint32_t> labels;    // fan-ordered labels of the current fan
-  std::vector<Vec3d> poly;
+  std::vector<std::uint32_t> labels;    // distinct labels of the current fan (large fans)
+  std::vector<Vec3d> poly;              // the current fan's normals (fit_star: degree entries)
   std::vector<std::uint32_t> visited;   // Gaussian triangles of the cap search, in visit order
   std::vector<std::uint32_t> gauss;     // Gaussian vertices to test
   IdSet visited_set, gauss_set;         // membership of the two lists above
   std::vector<std::uint32_t> star_labels;  // MergeLabels: the labels of the current star
   std::uint32_t star_begin = 0;
-  // The current star's faces and labels by slot (read once, by the fast path).
-  std::vector<std::uint32_t> star_face, star_label;
+  // The current star's labels by slot (read once, by the fast path).
+  std::vector<std::uint32_t> star_label;
+  std::vector<std::uint8_t> star_slot;  // of each slot's label around the represented v_G
   void fit_star(std::uint32_t degree) {
-    if (star_face.size() < degree) {
-      star_face.resize(degree);
+    if (star_label.size() < degree) {
       star_label.resize(degree);
+      star_slot.resize(degree);
+      poly.resize(degree);
     }
   }
 };
@@ -209,15 +259,64 @@ void gauss_vertices_in_cap(const GaussSphere& gauss, const Vec3d& c, double cos_
 
 // Closes the polygon of a fan's own normals and checks it lies in an open hemisphere; returns
 // false (no verdict) otherwise. On success c is the hemisphere's pole.
-bool fan_polygon(const std::vector<Vec3d>& poly, Vec3d& c, double& cos_theta) {
+bool fan_polygon(const Vec3d* poly, std::size_t k, Vec3d& c, double& cos_theta) {
   c = {};
-  for (const Vec3d& n : poly) c = c + n;
+  for (std::size_t i = 0; i < k; ++i) c = c + poly[i];
   const double len = std::sqrt(dot(c, c));
   if (!(len > 0)) return false;
   c = (1.0 / len) * c;
   cos_theta = 1.0;
-  for (const Vec3d& n : poly) cos_theta = std::min(cos_theta, dot(n, c));
+  for (std::size_t i = 0; i < k; ++i) cos_theta = std::min(cos_theta, dot(poly[i], c));
   return cos_theta > kHemisphereMargin;
+}
+
+// Whether the winding around g is counted: g in the hemisphere around c and in the polygon's cap
+// by 1e-9. The polygon lies in the cap {x : x·c >= cos_theta} (convex: cos_theta > 0), so it
+// does not wind around a direction outside it; by 1e-9 that is certain despite rounding, and
+// the exact winding would be 0.
+bool winds_maybe(const Vec3d& g, const Vec3d& c, double cos_theta) {
+  const double gc = dot(g, c);
+  return gc > kHemisphereMargin && gc >= cos_theta - 1e-9;
+}
+
+// Where x / |c| lies against t > 0, for x a dot product with the unnormalised c (len2 = c·c),
+// compared through squares: kAbove or kBelow when certain by a relative margin of 1e-9 (far
+// above the rounding of either this or fan_polygon's normalised computation, ~1e-15 for unit
+// vectors), else kUnsure (also for len2 outside [1e-100, 1e100] and NaN).
+enum class Side { kBelow, kAbove, kUnsure };
+Side side_of_scaled(double x, double t, double len2) {
+  if (!(len2 >= 1e-100 && len2 <= 1e100)) return Side::kUnsure;
+  if (x <= 0) return Side::kBelow;
+  const double x2 = x * x, bound = t * t * len2;
+  if (x2 > bound * (1 + 1e-9)) return Side::kAbove;
+  if (x2 < bound * (1 - 1e-9)) return Side::kBelow;
+  return Side::kUnsure;
+}
+
+// fan_polygon's verdict and, for a Gaussian vertex g (the zero vector: none), winds_maybe's,
+// decided from the unnormalised sum c of the polygon's k >= 1 unit normals: the hemisphere test
+// is min(1, min_i n_i·c / |c|) > kHemisphereMargin, g's are g·c / |c| > kHemisphereMargin and
+// (min_i n_i·c - g·c) / |c| <= 1e-9, each decided by side_of_scaled with a margin (the last one
+// between 0.5e-9 and 2e-9, where winds_maybe's 1e-9 cannot fall). kUndecided: ask fan_polygon.
+enum class FanDecision { kNoHemisphere, kWindsNot, kWindsMaybe, kUndecided };
+FanDecision fan_decisions(const Vec3d* poly, std::size_t k, const Vec3d& g) {
+  Vec3d c{};
+  for (std::size_t i = 0; i < k; ++i) c = c + poly[i];
+  const double len2 = dot(c, c);
+  double min_dot = dot(poly[0], c);
+  for (std::size_t i = 1; i < k; ++i) min_dot = std::min(min_dot, dot(poly[i], c));
+  const Side hemisphere = side_of_scaled(min_dot, kHemisphereMargin, len2);
+  if (hemisphere == Side::kUnsure) return FanDecision::kUndecided;
+  if (hemisphere == Side::kBelow) return FanDecision::kNoHemisphere;
+  if (g.x == 0 && g.y == 0 && g.z == 0) return FanDecision::kWindsNot;
+  const double gc = dot(g, c);
+  const Side g_hemisphere = side_of_scaled(gc, kHemisphereMargin, len2);
+  if (g_hemisphere == Side::kUnsure) return FanDecision::kUndecided;
+  if (g_hemisphere == Side::kBelow) return FanDecision::kWindsNot;
+  const double outside = min_dot - gc;  // > 0: g beyond the cap's rim
+  if (side_of_scaled(outside, 2e-9, len2) == Side::kAbove) return FanDecision::kWindsNot;
+  if (side_of_scaled(outside, 0.5e-9, len2) == Side::kBelow) return FanDecision::kWindsMaybe;
+  return FanDecision::kUndecided;
 }
 
 }  // namespace
@@ -281,7 +380,7 @@ void compute_face_normals(format::MeshView mesh, const MeshAdjacency& adjacency,
   std::atomic<std::size_t> degenerate_count{0};
   for_faces(nf, [&](std::size_t begin, std::size_t end) {
     std::size_t local = 0;
-    for (std::size_t f = begin; f < end; ++f) {
+    auto one_face = [&](std::size_t f) {
       const auto& t = tris[f];
       const Vec3d p0 = to_d(pos[t.v[0]]), p1 = to_d(pos[t.v[1]]), p2 = to_d(pos[t.v[2]]);
       const Vec3d e1 = p1 - p0, e2 = p2 - p0, e3 = p2 - p1;
@@ -292,13 +391,60 @@ void compute_face_normals(format::MeshView mesh, const MeshAdjacency& adjacency,
         ++local;
         area[f] = 0;
         normal[f] = {};
-        continue;
+        return;
       }
       const double s = 1.0 / len;
       degenerate[f] = 0;
       normal[f] = {static_cast<float>(n.x * s), static_cast<float>(n.y * s), static_cast<float>(n.z * s)};
       area[f] = static_cast<float>(0.5 * len);
+    };
+    std::size_t f = begin;
+#if defined(__SSE2__)
+    // Two faces per step in the two lanes of SSE2 doubles: one_face's IEEE operations in the
+    // same order (no FMA), so the same bits. A pair with a degenerate face goes to one_face.
+    auto load = [&](std::uint32_t a, std::uint32_t b, __m128d& x, __m128d& y, __m128d& z) {
+      x = _mm_set_pd(pos[b].x, pos[a].x);
+      y = _mm_set_pd(pos[b].y, pos[a].y);
+      z = _mm_set_pd(pos[b].z, pos[a].z);
+    };
+    auto dot2 = [](__m128d ax, __m128d ay, __m128d az, __m128d bx, __m128d by, __m128d bz) {
+      return _mm_add_pd(_mm_add_pd(_mm_mul_pd(ax, bx), _mm_mul_pd(ay, by)), _mm_mul_pd(az, bz));
+    };
+    for (; f + 2 <= end; f += 2) {
+      const auto& ta = tris[f];
+      const auto& tb = tris[f + 1];
+      __m128d p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z;
+      load(ta.v[0], tb.v[0], p0x, p0y, p0z);
+      load(ta.v[1], tb.v[1], p1x, p1y, p1z);
+      load(ta.v[2], tb.v[2], p2x, p2y, p2z);
+      const __m128d e1x = _mm_sub_pd(p1x, p0x), e1y = _mm_sub_pd(p1y, p0y), e1z = _mm_sub_pd(p1z, p0z);
+      const __m128d e2x = _mm_sub_pd(p2x, p0x), e2y = _mm_sub_pd(p2y, p0y), e2z = _mm_sub_pd(p2z, p0z);
+      const __m128d e3x = _mm_sub_pd(p2x, p1x), e3y = _mm_sub_pd(p2y, p1y), e3z = _mm_sub_pd(p2z, p1z);
+      const __m128d nx = _mm_sub_pd(_mm_mul_pd(e1y, e2z), _mm_mul_pd(e1z, e2y));
+      const __m128d ny = _mm_sub_pd(_mm_mul_pd(e1z, e2x), _mm_mul_pd(e1x, e2z));
+      const __m128d nz = _mm_sub_pd(_mm_mul_pd(e1x, e2y), _mm_mul_pd(e1y, e2x));
+      const __m128d len = _mm_sqrt_pd(dot2(nx, ny, nz, nx, ny, nz));
+      const __m128d edges = _mm_add_pd(_mm_add_pd(dot2(e1x, e1y, e1z, e1x, e1y, e1z), dot2(e2x, e2y, e2z, e2x, e2y, e2z)),
+                                       dot2(e3x, e3y, e3z, e3x, e3y, e3z));
+      if (_mm_movemask_pd(_mm_cmpgt_pd(len, _mm_mul_pd(_mm_set1_pd(kDegenerateRatio), edges))) != 3) {
+        one_face(f);
+        one_face(f + 1);
+        continue;
+      }
+      const __m128d inv = _mm_div_pd(_mm_set1_pd(1.0), len);
+      alignas(16) double x[2], y[2], z[2], a[2];
+      _mm_store_pd(x, _mm_mul_pd(nx, inv));
+      _mm_store_pd(y, _mm_mul_pd(ny, inv));
+      _mm_store_pd(z, _mm_mul_pd(nz, inv));
+      _mm_store_pd(a, _mm_mul_pd(_mm_set1_pd(0.5), len));
+      for (int l = 0; l < 2; ++l) {
+        degenerate[f + l] = 0;
+        normal[f + l] = {static_cast<float>(x[l]), static_cast<float>(y[l]), static_cast<float>(z[l])};
+        area[f + l] = static_cast<float>(a[l]);
+      }
     }
+#endif
+    for (; f < end; ++f) one_face(f);
     degenerate_count += local;
   });
   out.degenerate_count = degenerate_count;
@@ -353,7 +499,8 @@ void compute_face_labels(const FaceNormals& normals, const GaussSphere& gauss, s
   const Vec3f* normal = normals.normal.data();
   std::uint32_t* out = labels.data();
   for_faces(nf, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t f = begin; f < end; ++f) out[f] = is_zero(normal[f]) ? kNoLabel : gauss.locate(to_d(normal[f]));
+    gauss.locate(std::span<const Vec3f>(normal + begin, end - begin), std::span<std::uint32_t>(out + begin, end - begin),
+                 kNoLabel);
   });
 }
 
@@ -426,6 +573,28 @@ struct MergeLabels {
   }
 };
 
+constexpr std::size_t kSmallStar = 16;
+
+// Writes the distinct values of labels[0 .. n) to out (n entries of room) and returns how many:
+// in first-seen order for n <= kSmallStar (a value equal to its predecessor is skipped before
+// the search), else sorted.
+std::size_t distinct_labels(const std::uint32_t* labels, std::size_t n, std::uint32_t* out) {
+  if (n > kSmallStar) {
+    std::copy(labels, labels + n, out);
+    std::sort(out, out + n);
+    return static_cast<std::size_t>(std::unique(out, out + n) - out);
+  }
+  std::size_t count = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::uint32_t l = labels[k];
+    if (k > 0 && l == labels[k - 1]) continue;
+    bool seen = false;
+    for (std::size_t x = 0; x < count; ++x) seen |= out[x] == l;
+    if (!seen) out[count++] = l;
+  }
+  return count;
+}
+
 // The per-vertex decisions of one vertex (docs/sampling.md); appends a record when the vertex
 // is a candidate or an exact sample.
 template <typename Labels>
@@ -443,20 +612,19 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
   // counts its outgoing edge; the incoming edges add the break edges among them, one per open
   // fan (the last slot of an open fan is the only slot whose incoming edge is a break:
   // MeshAdjacency), read from the slot flags instead of the faces' edge neighbours.
-  // The star's faces and labels go to the scratch arrays (slot k at k - sb) for the steps below.
-  std::uint32_t feature_count = 0;
+  // The star's labels go to the scratch array (slot k at k - sb) for the steps below.
+  std::uint32_t feature_count = 0, fan_starts = 0;
   const std::uint32_t first_label = labels.label(sb, corners[sb] / 3, s);
   bool several_labels = false;
   s.fit_star(se - sb);
-  std::uint32_t* star_face = s.star_face.data() - sb;
   std::uint32_t* star_label = s.star_label.data() - sb;
   for (std::uint32_t k = sb; k < se; ++k) {
     const std::uint32_t c = corners[k], f = c / 3, i = c % 3;
     const std::uint32_t l = labels.label(k, f, s);
-    star_face[k] = f;
     star_label[k] = l;
     feature_count += labels.feature_bit(k, f, i, s);
     feature_count += (flags[k] & (MeshAdjacency::kFanStart | MeshAdjacency::kFanClosed)) == MeshAdjacency::kFanStart;
+    fan_starts += flags[k] & MeshAdjacency::kFanStart;
     several_labels |= l != first_label;
   }
   const bool is_candidate = feature_count >= 3;
@@ -477,41 +645,15 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
     return side;
   };
 
-  // Whether the star has an unlabelled face (distinct labels are not needed: the tree filter
-  // takes each fan's, the represented vertex and the cover mask do not change with repeats).
-  bool has_unlabelled = false;
-  for (std::uint32_t k = sb; k < se; ++k) has_unlabelled |= star_label[k] == kNoLabel;
-
   if (is_candidate) {
-    // Non-sample filter, fan by fan: consecutive labels equal or edge-adjacent, and the fan's
-    // distinct labels a tree in G's dual graph.
-    bool all_trees = !has_unlabelled;
-    for (std::uint32_t k = sb; k < se && all_trees;) {
-      std::uint32_t fan_end = k + 1;
-      while (fan_end < se && !(flags[fan_end] & MeshAdjacency::kFanStart)) ++fan_end;
-      const std::uint32_t* fan = star_label + k;
-      const std::size_t m = fan_end - k;
-      for (std::size_t j = 0; j < m && all_trees; ++j) {
-        const std::uint32_t a = fan[j], b = fan[j + 1 == m ? 0 : j + 1];
-        if (a != b && !gauss.are_edge_adjacent(a, b)) all_trees = false;
-      }
-      if (all_trees) {
-        s.labels.assign(fan, fan + m);
-        std::sort(s.labels.begin(), s.labels.end());
-        s.labels.erase(std::unique(s.labels.begin(), s.labels.end()), s.labels.end());
-        // A set of triangles whose adjacency graph has |L| - 1 edges and is connected; with
-        // consecutive labels adjacent the set is connected, so count the edges.
-        std::size_t edges = 0;
-        for (std::size_t x = 0; x < s.labels.size(); ++x)
-          for (std::size_t y = x + 1; y < s.labels.size(); ++y) edges += gauss.are_edge_adjacent(s.labels[x], s.labels[y]);
-        if (edges + 1 != s.labels.size()) all_trees = false;
-      }
-      k = fan_end;
-    }
-    r.is_tree = all_trees;
+    bool has_unlabelled = false;
+    for (std::uint32_t k = sb; k < se; ++k) has_unlabelled |= star_label[k] == kNoLabel;
 
     // Represented Gaussian vertex: the one corner every label is incident on.
     // Bit j of `on_all`: corner j of the first label's triangle is a corner of every label's.
+    // The cover mask: bit k for the k-th triangle around it, read from each label's slot table
+    // (G's vertices have at most 6 triangles). Repeated labels change neither.
+    std::size_t gauss_degree = 0;
     if (!has_unlabelled) {
       const auto& first = gauss.triangle_vertices(star_label[sb]);
       unsigned on_all = 7;
@@ -525,14 +667,63 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
       if (on_all == 1 || on_all == 2 || on_all == 4) {
         const std::uint32_t found = first[on_all == 1 ? 0 : (on_all == 2 ? 1 : 2)];
         r.gauss_vertex = found;
-        const auto around = gauss.vertex_triangles(found);
-        const std::size_t n = std::min<std::size_t>(around.size(), 8);
+        gauss_degree = gauss.vertex_triangles(found).size();
+        assert(gauss_degree <= 8);
         unsigned mask = 0;
-        for (std::uint32_t k = sb; k < se; ++k)
-          for (std::size_t j = 0; j < n; ++j) mask |= static_cast<unsigned>(around[j] == star_label[k]) << j;
+        std::uint8_t* star_slot = s.star_slot.data() - sb;
+        for (std::uint32_t k = sb; k < se; ++k) {
+          const auto& tv = gauss.triangle_vertices(star_label[k]);
+          const unsigned j = static_cast<unsigned>(tv[1] == found) + 2 * static_cast<unsigned>(tv[2] == found);
+          star_slot[k] = gauss.vertex_triangle_slots(star_label[k])[j];
+          mask |= 1u << star_slot[k];
+        }
         r.cover_mask = static_cast<std::uint8_t>(mask);
       }
     }
+
+    // Non-sample filter, fan by fan: consecutive labels equal or edge-adjacent, and the fan's
+    // distinct labels a tree in G's dual graph.
+    bool all_trees = !has_unlabelled;
+    if (all_trees && fan_starts == 1 && gauss_degree > 0) {
+      // One fan around a represented v_G: its labels are triangles around v_G, and two of those
+      // are edge-adjacent iff they are neighbours around it (the link of a vertex of G is a
+      // cycle), equal iff their slots are. So consecutive labels are equal or adjacent iff their
+      // slots differ by 0 or +-1 modulo the degree; then the labels are a connected part of
+      // the cycle (one cover bit each), a tree iff it is not all of it.
+      const std::uint8_t* star_slot = s.star_slot.data() - sb;
+      const int last = static_cast<int>(gauss_degree) - 1;
+      bool adjacent = true;
+      for (std::uint32_t k = sb; k < se; ++k) {
+        const int step = static_cast<int>(star_slot[k + 1 == se ? sb : k + 1]) - static_cast<int>(star_slot[k]);
+        adjacent &= (step >= -1 && step <= 1) | (step == last) | (step == -last);
+      }
+      all_trees = adjacent && static_cast<std::size_t>(std::popcount(static_cast<unsigned>(r.cover_mask))) < gauss_degree;
+    }
+    for (std::uint32_t k = sb; k < se && all_trees && !(fan_starts == 1 && gauss_degree > 0);) {
+      std::uint32_t fan_end = k + 1;
+      while (fan_end < se && !(flags[fan_end] & MeshAdjacency::kFanStart)) ++fan_end;
+      const std::uint32_t* fan = star_label + k;
+      const std::size_t m = fan_end - k;
+      bool adjacent = true;
+      for (std::size_t j = 0; j < m; ++j) {
+        const std::uint32_t a = fan[j], b = fan[j + 1 == m ? 0 : j + 1];
+        adjacent &= (a == b) | gauss.are_edge_adjacent(a, b);
+      }
+      all_trees = adjacent;
+      if (all_trees) {
+        s.labels.resize(m);
+        const std::size_t count = distinct_labels(fan, m, s.labels.data());
+        const std::uint32_t* fan_labels = s.labels.data();
+        // A set of triangles whose adjacency graph has |L| - 1 edges and is connected; with
+        // consecutive labels adjacent the set is connected, so count the edges.
+        std::size_t edges = 0;
+        for (std::size_t x = 0; x < count; ++x)
+          for (std::size_t y = x + 1; y < count; ++y) edges += gauss.are_edge_adjacent(fan_labels[x], fan_labels[y]);
+        if (edges + 1 != count) all_trees = false;
+      }
+      k = fan_end;
+    }
+    r.is_tree = all_trees;
   }
 
   // Windings fan by fan, over each fan's own (non-degenerate) normals. Only needed for a
@@ -549,29 +740,40 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
   bool exact_fallback = false;
   const std::uint8_t* degenerate = in.normals.degenerate.data();
   const Vec3f* normal = in.normals.normal.data();
+  Vec3d* poly = s.poly.data();
   for (std::uint32_t k = sb; k < se;) {
     std::uint32_t fan_end = k + 1;
     while (fan_end < se && !(flags[fan_end] & MeshAdjacency::kFanStart)) ++fan_end;
-    s.poly.clear();
+    std::size_t corners_in_poly = 0;
     for (std::uint32_t j = k; j < fan_end; ++j) {
-      const std::uint32_t f = star_face[j];
-      if (!degenerate[f]) s.poly.push_back(to_d(normal[f]));
+      const std::uint32_t f = corners[j] / 3;
+      poly[corners_in_poly] = to_d(normal[f]);  // kept unless the face is degenerate
+      corners_in_poly += !degenerate[f];
     }
     k = fan_end;
-    if (s.poly.size() < 3) continue;
+    if (corners_in_poly < 3) continue;
+    if (!test_exact) {
+      // Paper decisions only: the two booleans below, without fan_polygon's square root and
+      // division when the unnormalised sum decides them (fan_decisions).
+      const FanDecision d = fan_decisions(poly, corners_in_poly, vg);
+      if (d == FanDecision::kNoHemisphere) {
+        exact_fallback = true;
+        continue;
+      }
+      if (d == FanDecision::kWindsMaybe) winding_vg += winding_number(poly, corners_in_poly, vg);
+      if (d != FanDecision::kUndecided) continue;
+    }
     Vec3d c;
     double cos_theta;
-    if (!fan_polygon(s.poly, c, cos_theta)) {
+    if (!fan_polygon(poly, corners_in_poly, c, cos_theta)) {
       exact_fallback = true;
       continue;
     }
     // The polygon lies in the cap {x : x·c >= cos_theta} (convex: cos_theta > 0), so it does not
     // wind around a direction outside the cap; by 1e-9 that is certain despite rounding, and
     // the exact winding would be 0.
-    if (r.gauss_vertex != kNoGaussVertex) {
-      const double gc = dot(vg, c);
-      if (gc > kHemisphereMargin && gc >= cos_theta - 1e-9) winding_vg += winding_number(s.poly, vg);
-    }
+    if (r.gauss_vertex != kNoGaussVertex && winds_maybe(vg, c, cos_theta))
+      winding_vg += winding_number(poly, corners_in_poly, vg);
     if (test_exact) {
       // A cap narrower than G's vertex clearance holds no Gaussian vertex but the corners of the
       // triangle that holds c: test those (in the hemisphere around c). A vertex the cap search
@@ -584,7 +786,7 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
         gauss_vertices_in_cap(gauss, c, cos_theta, s);
       }
       for (std::uint32_t g : s.gauss) {
-        const int w = winding_number(s.poly, gauss.vertex(g));
+        const int w = winding_number(poly, corners_in_poly, gauss.vertex(g));
         if (w == 0) continue;
         ++enclosed;
         if (exact_g == kNoGaussVertex || g < exact_g) {
