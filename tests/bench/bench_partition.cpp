@@ -6,10 +6,7 @@
 //   bench_partition [--sizes N,N,...] [--memory BYTES] [--rings K] [--threads T] [--level L]
 //                   [--dir D] [--shuffle-max N] [--keep]
 //   bench_partition --child INPUT MEMORY RINGS THREADS LEVEL TMPDIR   (one run; key=value line)
-#include <fcntl.h>
-#include <sys/resource.h>
 #include <sys/statvfs.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -30,63 +27,16 @@
 #include "format/temp_registry.h"
 #include "stream/chunk_partition.h"
 #include "stream/mesh.h"
+#include "tests/support/child_process.h"
 
 namespace gaussmesh::bench {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct RunResult {
-  int exit_code = -1;
-  double seconds = 0, cpu_seconds = 0, peak_rss_mb = 0;  // wall; user + system of the child
-  std::string out;
-};
-
-RunResult run(const std::vector<std::string>& argv, const fs::path& stdout_file, const fs::path& log) {
-  RunResult result;
-  std::fflush(stdout);
-  std::fflush(stderr);
-  const auto start = std::chrono::steady_clock::now();
-  pid_t child = ::fork();
-  if (child == 0) {
-    int out = ::open(stdout_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    int err = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    if (out < 0 || err < 0) std::_Exit(126);
-    ::dup2(out, 1);
-    ::dup2(err, 2);
-    std::vector<char*> args;
-    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    ::execv(args[0], args.data());
-    std::perror("exec");
-    std::_Exit(127);
-  }
-  if (child < 0) return result;
-  int status = 0;
-  struct rusage usage {};
-  ::wait4(child, &status, 0, &usage);
-  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  result.peak_rss_mb = double(usage.ru_maxrss) * 1024 / 1e6;
-  result.cpu_seconds = double(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
-                       double(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec) / 1e6;
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  std::ifstream in(stdout_file);
-  std::stringstream text;
-  text << in.rdbuf();
-  result.out = text.str();
-  return result;
-}
-
-std::map<std::string, std::string> parse_pairs(const std::string& line) {
-  std::map<std::string, std::string> pairs;
-  std::istringstream in(line);
-  std::string token;
-  while (in >> token) {
-    auto eq = token.find('=');
-    if (eq != std::string::npos) pairs[token.substr(0, eq)] = token.substr(eq + 1);
-  }
-  return pairs;
-}
+using testing::ChildRun;
+using testing::parse_pairs;
+using testing::run_child;
 
 std::string read_line(const char* path) {
   std::ifstream in(path);
@@ -216,7 +166,7 @@ int main(int argc, char** argv) {
       continue;
     }
     const fs::path input = work / ("in-" + std::to_string(size) + ".ply");
-    RunResult made = run({generator, "--triangles", std::to_string(size), "--out", input.string()}, work / "make.out", log);
+    ChildRun made = run_child({generator, "--triangles", std::to_string(size), "--out", input.string()}, work / "make.out", log);
     if (made.exit_code != 0) {
       std::printf("| cow %llu | | make_large_mesh failed (exit %d) |\n", (unsigned long long)size, made.exit_code);
       continue;
@@ -229,8 +179,9 @@ int main(int argc, char** argv) {
     for (const auto& [order, path] : inputs) {
       const fs::path tmp = work / "tmp";
       fs::create_directories(tmp);
-      RunResult r = run({self.string(), "--child", path.string(), std::to_string(memory), rings, threads, level, tmp.string()},
-                        work / "child.out", log);
+      ChildRun r = run_child({self.string(), "--child", path.string(), std::to_string(memory), rings, threads, level,
+                              tmp.string()},
+                             work / "child.out", log);
       auto f = parse_pairs(r.out);
       if (r.exit_code != 0 || f.count("faces") == 0) {
         std::printf("| cow %llu | %s | failed (exit %d, see %s) |\n", (unsigned long long)size, order.c_str(), r.exit_code,

@@ -18,10 +18,7 @@
 // compare's cost grows with the input whatever --samples says (every input vertex and edge
 // midpoint is measured: ~45 s at 10M triangles on 2 busy cores), so inputs above --compare-max
 // triangles (default 20M) get no error figures. --gaussmesh runs another build of the tool (default: the one built beside this program).
-#include <sys/resource.h>
 #include <sys/statvfs.h>
-#include <sys/wait.h>
-#include <fcntl.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -40,6 +37,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tests/support/child_process.h"
 #include "tests/support/test_util.h"
 
 namespace gaussmesh::bench {
@@ -47,58 +45,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct RunResult {
-  int exit_code = -1;  // exit status, or 128 + signal
-  double seconds = 0;
-  double peak_rss_mb = 0;  // ru_maxrss of the child
-  std::string out;         // its standard output
-};
-
-// Runs argv[0] with argv (no shell), stdout captured to a file, stderr to log (appended).
-RunResult run(const std::vector<std::string>& argv, const fs::path& stdout_file, const fs::path& log) {
-  RunResult result;
-  std::fflush(stdout);
-  std::fflush(stderr);
-  const auto start = std::chrono::steady_clock::now();
-  pid_t child = ::fork();
-  if (child == 0) {
-    int out = ::open(stdout_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    int err = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    if (out < 0 || err < 0) std::_Exit(126);
-    ::dup2(out, 1);
-    ::dup2(err, 2);
-    std::vector<char*> args;
-    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    ::execvp(args[0], args.data());
-    std::perror("exec");
-    std::_Exit(127);
-  }
-  if (child < 0) return result;
-  int status = 0;
-  struct rusage usage {};
-  ::wait4(child, &status, 0, &usage);
-  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  result.peak_rss_mb = double(usage.ru_maxrss) * 1024 / 1e6;  // Linux: kilobytes
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  std::ifstream in(stdout_file);
-  std::stringstream text;
-  text << in.rdbuf();
-  result.out = text.str();
-  return result;
-}
-
-// "key=value" pairs of a line such as meshopt_file prints.
-std::map<std::string, std::string> parse_pairs(const std::string& line) {
-  std::map<std::string, std::string> pairs;
-  std::istringstream in(line);
-  std::string token;
-  while (in >> token) {
-    auto eq = token.find('=');
-    if (eq != std::string::npos) pairs[token.substr(0, eq)] = token.substr(eq + 1);
-  }
-  return pairs;
-}
+using testing::ChildRun;
+using testing::parse_pairs;
+using testing::run_child;
 
 std::optional<nlohmann::json> read_json(const fs::path& path) {
   std::ifstream in(path);
@@ -269,7 +218,7 @@ int main(int argc, char** argv) {
     std::vector<std::string> make = {generator, "--triangles", std::to_string(size), "--source", source,
                                      "--seed", seed, "--out", input.string()};
     if (!noise.empty()) make.insert(make.end(), {"--noise", noise});
-    RunResult made = run(make, work / "make.out", log);
+    ChildRun made = run_child(make, work / "make.out", log);
     if (made.exit_code != 0) {
       rows.push_back({"(all)", size, "make_large_mesh failed (exit " + std::to_string(made.exit_code) + ", see log)"});
       continue;
@@ -299,9 +248,9 @@ int main(int argc, char** argv) {
     auto compare = [&](Row& row, const fs::path& output) {
       if (faces > compare_max) return;
       const fs::path report = work / "compare.json";
-      RunResult c = run({gaussmesh, "compare", input.string(), output.string(), "--samples", samples, "--report",
-                         report.string(), "-q"},
-                        work / "compare.out", log);
+      ChildRun c = run_child({gaussmesh, "compare", input.string(), output.string(), "--samples", samples, "--report",
+                              report.string(), "-q"},
+                             work / "compare.out", log);
       row.compare_seconds = c.seconds;
       auto json = read_json(report);
       if (c.exit_code == 0 && json) {
@@ -321,7 +270,7 @@ int main(int argc, char** argv) {
         std::vector<std::string> cmd = {gaussmesh, "simplify", input.string(), "-o", out.string(), "--report",
                                         report.string(), "-q"};
         cmd.insert(cmd.end(), extra.begin(), extra.end());
-        RunResult r = run(cmd, work / "simplify.out", log);
+        ChildRun r = run_child(cmd, work / "simplify.out", log);
         auto json = read_json(report);
         if (r.exit_code != 0 || !json) {
           row.note = "failed (exit " + std::to_string(r.exit_code) + ", see log)";
@@ -333,7 +282,7 @@ int main(int argc, char** argv) {
           largest[row.tool] = {faces, r.peak_rss_mb};
           if (have_decoder) {
             const fs::path decoded = work / "gaussmesh-decoded.ply";
-            RunResult d = run({"draco_decoder", "-i", out.string(), "-o", decoded.string()}, work / "decode.out", log);
+            ChildRun d = run_child({"draco_decoder", "-i", out.string(), "-o", decoded.string()}, work / "decode.out", log);
             if (d.exit_code == 0) compare(row, decoded);
             fs::remove(decoded);
           }
@@ -355,7 +304,7 @@ int main(int argc, char** argv) {
           std::vector<std::string> cmd = {meshopt, input.string(), "--target-faces", std::to_string(target), "-o",
                                           out.string()};
           if (sloppy) cmd.push_back("--sloppy");
-          RunResult r = run(cmd, work / "meshopt.out", log);
+          ChildRun r = run_child(cmd, work / "meshopt.out", log);
           auto pairs = parse_pairs(r.out);
           if (r.exit_code != 0 || !pairs.count("output_faces")) {
             row.note = "failed (exit " + std::to_string(r.exit_code) + ", see log)";
