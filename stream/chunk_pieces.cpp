@@ -196,11 +196,10 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
     compacted = w;
   };
   // Unsummed entries beyond twice the summed ones: 1/64 of the budget (a fixed 2^20 entries was
-  // 16 MB, 32 MB of capacity after doubling: half a 64 MiB budget at 100M triangles).
+  // 16 MB: half a 64 MiB budget at 100M triangles once doubled).
   const std::size_t slack = std::max<std::uint64_t>(memory_bytes / 64 / sizeof(Shared), 4096);
   auto add_shared = [&](std::uint32_t a, std::uint32_t b, std::uint64_t edges) {
-    if (shared.size() == shared.capacity() && shared.size() >= 2 * compacted + slack) compact();
-    if (shared.size() == shared.capacity()) shared.reserve(std::max(2 * compacted + slack, shared.size() + slack));
+    make_room_for_one(shared, compacted, slack, compact);
     shared.push_back({std::min(a, b), std::max(a, b), edges});
   };
   // Pieces and their feature edges inside a chunk; what pass B spilled comes back from the

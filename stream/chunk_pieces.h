@@ -12,6 +12,7 @@
 // the labels of every face sharing a vertex with an owned face exactly.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -92,6 +93,18 @@ struct CollapsedFaceRecord {
 // What find_chunk_pieces finds in one chunk. border and border_faces grow with the chunk's
 // border: PieceJoinFiles::spill moves them to disk before the next chunk; the rest grows with
 // the pieces and candidates and stays for the stitch.
+// Makes room for one more entry in v, a list that compact() shrinks to its distinct entries
+// (summing or dropping repeats) and that held `compacted` of them after the last compaction:
+// when v is full, compacts it if it is at least 2 * compacted + slack long, and if it is still
+// full grows its capacity by hand to that size. (A doubling vector overshot by up to 2x: 24 MB
+// of loop-vertex ids and 32 MB of piece pairs at 100M triangles.)
+template <typename T, typename Compact>
+void make_room_for_one(std::vector<T>& v, const std::size_t& compacted, std::size_t slack, const Compact& compact) {
+  if (v.size() != v.capacity()) return;
+  if (v.size() >= 2 * compacted + slack) compact();
+  if (v.size() == v.capacity()) v.reserve(std::max(2 * compacted + slack, v.size() + slack));
+}
+
 struct ChunkPieces {
   std::vector<PieceRecord> pieces;  // in piece index order
   std::vector<BorderEdgeRecord> border;

@@ -67,6 +67,13 @@ format::Status sample_chunk(const ChunkMesh& chunk, const GaussSphere& gauss, co
   return format::Status();
 }
 
+namespace {
+
+// Whether handing free pages back is worth a trim: the resident set is above 7/8 of the budget.
+bool worth_releasing(std::uint64_t rss, std::uint64_t memory_bytes) { return rss > memory_bytes / 8 * 7; }
+
+}  // namespace
+
 format::Status for_each_chunk(const Partition& partition, std::uint32_t threads, const ChunkBody& body,
                               const std::function<void(std::size_t, std::size_t)>& progress,
                               std::uint64_t memory_bytes) {
@@ -96,7 +103,7 @@ format::Status for_each_chunk(const Partition& partition, std::uint32_t threads,
       if (memory_bytes > 0) {
         std::unique_lock lock(release_mutex, std::try_to_lock);
         const std::uint64_t rss = lock ? current_rss() : 0;
-        if (rss > memory_bytes / 8 * 7 && rss > released_at + std::max<std::uint64_t>(memory_bytes / 8, kMinGrowth)) {
+        if (rss > released_at + std::max<std::uint64_t>(memory_bytes / 8, kMinGrowth) && worth_releasing(rss, memory_bytes)) {
           release_free_memory();
           released_at = current_rss();
         }
@@ -115,7 +122,7 @@ format::Status for_each_chunk(const Partition& partition, std::uint32_t threads,
 }
 
 void release_free_memory(std::uint64_t memory_bytes) {
-  if (memory_bytes > 0 && current_rss() <= memory_bytes / 8 * 7) return;
+  if (memory_bytes > 0 && !worth_releasing(current_rss(), memory_bytes)) return;
 #ifdef __GLIBC__
   ::malloc_trim(0);
 #endif

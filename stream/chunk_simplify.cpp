@@ -388,9 +388,7 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
   // the run files before the loops exist, summed up now and then (each vertex is on two loops).
   std::vector<std::uint32_t>& global = g.global;
   {
-    // Capacity grows by hand to twice the distinct ids plus 1 MiB of entries (doubling it
-    // overshot: 24 MB for 1.3M distinct ids at 100M triangles).
-    constexpr std::size_t kSlack = std::size_t{1} << 18;
+    constexpr std::size_t kSlack = std::size_t{1} << 18;  // 1 MiB of ids
     std::size_t unique = 0;
     auto compact = [&] {
       std::sort(global.begin(), global.end());
@@ -398,10 +396,7 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
       unique = global.size();
     };
     auto add = [&](std::uint32_t v) {
-      if (global.size() == global.capacity()) {
-        if (global.size() >= 2 * unique + kSlack) compact();
-        if (global.size() == global.capacity()) global.reserve(std::max(2 * unique + kSlack, global.size() + kSlack));
-      }
+      make_room_for_one(global, unique, kSlack, compact);
       global.push_back(v);
     };
     for (const ChunkLoopSummary& c : chunks) {
