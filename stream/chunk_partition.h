@@ -16,15 +16,19 @@
 
 namespace gaussmesh::stream {
 
-// Record kind of chunk face files (format/record_file.h): "GMCF" read as a little-endian u32.
-inline constexpr std::uint32_t kChunkFaceRecordKind = 0x46434D47u;
+// Record kind of chunk face files (format/record_file.h): "GMCG" read as a little-endian u32
+// ("GMCF", the first layout, also carried the corners' positions: 57 bytes).
+inline constexpr std::uint32_t kChunkFaceRecordKind = 0x47434D47u;
 // Bytes of one chunk face record (layout in docs/partition.md):
 //   0  u64  global face id (the face's position in the reader's triangle stream)
 //   8  u32  global vertex id of corner 0, 1, 2
-//   20 f32  x, y, z of corner 0, then corner 1, then corner 2 (bit-exact copies of the input)
-//   56 u8   flags: bit j (0..2) = the chunk owns corner j; bit 3 = the chunk owns the face;
+//   20 u8   flags: bit j (0..2) = the chunk owns corner j; bit 3 = the chunk owns the face;
 //           bits 4..7 zero
-inline constexpr std::uint32_t kChunkFaceRecordBytes = 57;
+// Positions are not repeated per face: load_chunk reads them from the partition's vertex file.
+inline constexpr std::uint32_t kChunkFaceRecordBytes = 21;
+// The partition's vertex file, kept with the chunk files: per global vertex id, its position
+// (3 x f32, bit-exact input floats) and owning chunk (u32), 16 bytes, little-endian.
+inline constexpr std::uint32_t kVertexFileRecordBytes = 16;
 inline constexpr std::uint8_t kOwnsFace = 8;
 
 // Working memory of a chunk in pass 2, per face (adjacency, normals, labels, records):
@@ -65,6 +69,7 @@ struct ChunkInfo {
   std::uint64_t owned_faces = 0;     // faces whose lowest-id vertex it owns
   std::uint64_t faces = 0;           // records in its file: F_k(C), owned faces included
   std::string path;                  // its chunk face record file
+  std::string vertices;              // the partition's vertex file (kVertexFileRecordBytes per id)
 };
 
 // The result of passes 0 and 1. Owns its temporary directory: the destructor (or
@@ -129,11 +134,13 @@ struct ChunkMesh {
   format::MeshView view() const { return {positions, triangles}; }
 };
 
-// Reads and checks one chunk file. Everything is untrusted: a damaged or inconsistent file
-// (checksums, record count against info.faces, owned faces against info.owned_faces, face ids
-// not ascending, flag bits, one vertex id with two positions or two ownerships, a face owned
-// though its lowest-id vertex is not) is a kBadInput error naming the file.
-// Memory: about 100 B per face of the chunk.
+// Reads and checks one chunk file, and the positions of its vertices from info.vertices
+// (ascending ids, one pread per run of nearby ids). Everything is untrusted: a damaged or
+// inconsistent file (checksums, record count against info.faces, owned faces against
+// info.owned_faces, face ids not ascending, flag bits, one vertex id with two ownerships, a face
+// owned though its lowest-id vertex is not, a vertex id beyond the vertex file, an owned flag
+// that disagrees with the vertex file's owner) is a kBadInput error naming the file.
+// Memory: about 75 B per face of the chunk.
 format::Result<ChunkMesh> load_chunk(const ChunkInfo& info);
 
 }  // namespace gaussmesh::stream

@@ -404,13 +404,16 @@ TEST(ChunkPartition, TempDirGoesWithThePartition) {
     ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
     run_dir = partition->dir;
     EXPECT_EQ(fs::path(run_dir).parent_path(), fs::path(dir.file("tmp")));
-    // Only the chunk files are left once the pass is done.
+    // Only the chunk files and the vertex file are left once the pass is done.
     std::size_t files = 0;
     for (const auto& entry : fs::directory_iterator(run_dir)) {
+      if (entry.path().filename() == "vertices.bin") continue;
       EXPECT_EQ(entry.path().extension(), ".gmr") << entry.path();
       ++files;
     }
     EXPECT_EQ(files, partition->chunks.size());
+    ASSERT_FALSE(partition->chunks.empty());
+    EXPECT_TRUE(fs::exists(partition->chunks[0].vertices));
     Partition moved = std::move(*partition);
     EXPECT_TRUE(partition->dir.empty());
     EXPECT_TRUE(fs::exists(run_dir));  // the moved-from partition removed nothing
@@ -559,35 +562,56 @@ TEST(ChunkPartition, DamagedChunkFilesAreBadInput) {
     expect_bad(info, what);
   };
   const std::size_t last = records.size() - kChunkFaceRecordBytes;
-  rewrite([&](auto& r) { r[last + 56] |= std::byte{0x40}; }, "reserved flag");
-  rewrite([&](auto& r) { r[last + 56] ^= std::byte{kOwnsFace}; }, "face owner");
+  constexpr std::size_t kFlags = 20;  // byte of the flags in a record
+  rewrite([&](auto& r) { r[last + kFlags] |= std::byte{0x40}; }, "reserved flag");
+  rewrite([&](auto& r) { r[last + kFlags] ^= std::byte{kOwnsFace}; }, "face owner");
   rewrite([&](auto& r) {
-    // A vertex that several records carry gets a different position in one of them.
-    std::map<std::uint32_t, int> uses;
-    for (std::size_t at = 0; at < r.size(); at += kChunkFaceRecordBytes) {
-      std::uint32_t v[3];
-      std::memcpy(v, r.data() + at + 8, 12);
-      for (std::uint32_t id : v) ++uses[id];
-    }
-    for (std::size_t at = 0; at < r.size(); at += kChunkFaceRecordBytes) {
-      std::uint32_t v0;
-      std::memcpy(&v0, r.data() + at + 8, 4);
-      if (uses[v0] > 1) {
-        r[at + 20] ^= std::byte{1};
-        break;
-      }
-    }
-  }, "second position");
+    // A corner that is not the face's lowest names a vertex past the end of the vertex file.
+    std::uint32_t v[3];
+    std::memcpy(v, r.data() + last + 8, 12);
+    const int highest = static_cast<int>(std::max_element(v, v + 3) - v);
+    v[highest] = 0xFFFFFFF0u;
+    std::memcpy(r.data() + last + 8, v, 12);
+  }, "vertex id beyond the vertex file");
   rewrite([&](auto& r) { std::memcpy(r.data() + last, r.data(), 8); }, "face order");
   rewrite([&](auto& r) {
     // One occurrence of a vertex claims ownership the others deny.
     for (std::size_t at = 0; at < r.size(); at += kChunkFaceRecordBytes) {
-      if ((std::to_integer<unsigned>(r[at + 56]) & 7) != 7) {
-        r[at + 56] ^= std::byte{7};
+      if ((std::to_integer<unsigned>(r[at + kFlags]) & 7) != 7) {
+        r[at + kFlags] ^= std::byte{7};
         break;
       }
     }
   }, "ownership");
+
+  // The vertex file the positions come from: missing, truncated, or naming another owner for a
+  // vertex the chunk file says is owned.
+  auto restore = [&] { testing::write_file(info.path, bytes); };
+  restore();
+  const std::string vertex_bytes = testing::read_file(info.vertices);
+  auto expect_bad_vertices = [&](const std::string& what) {
+    auto chunk = load_chunk(info);
+    ASSERT_FALSE(chunk.is_ok()) << what;
+    EXPECT_EQ(chunk.status().code(), Code::kBadInput) << what;
+    EXPECT_EQ(chunk.status().to_string().find('\n'), std::string::npos) << chunk.status().to_string();
+  };
+  auto loaded = load_chunk(info);
+  ASSERT_TRUE(loaded.is_ok()) << loaded.status().to_string();
+  fs::remove(info.vertices);
+  expect_bad_vertices("missing vertex file");
+  // Cut inside the chunk's highest vertex.
+  testing::write_file(info.vertices, vertex_bytes.substr(0, std::size_t{loaded->global_vertex.back()} * kVertexFileRecordBytes + 5));
+  expect_bad_vertices("truncated vertex file");
+  const auto owned = std::find(loaded->owned_vertex.begin(), loaded->owned_vertex.end(), 1);
+  ASSERT_NE(owned, loaded->owned_vertex.end());
+  const std::uint32_t id = loaded->global_vertex[static_cast<std::size_t>(owned - loaded->owned_vertex.begin())];
+  std::string other_owner = vertex_bytes;
+  const std::uint32_t elsewhere = info.id + 1;
+  std::memcpy(other_owner.data() + std::size_t{id} * kVertexFileRecordBytes + 12, &elsewhere, 4);
+  testing::write_file(info.vertices, other_owner);
+  expect_bad_vertices("vertex file owner");
+  testing::write_file(info.vertices, vertex_bytes);
+  EXPECT_TRUE(load_chunk(info).is_ok());
 }
 
 }  // namespace
