@@ -1177,23 +1177,42 @@ std::vector<std::uint64_t> sorted_corner_keys(const std::vector<std::uint32_t>& 
   if (n == 0) return keys;
   const auto [lo_it, hi_it] = std::minmax_element(ids.begin(), ids.end());
   const std::uint32_t lo = *lo_it, span = *hi_it - *lo_it;
-  for (std::size_t c = 0; c < n; ++c) keys[c] = std::uint64_t{ids[c]} << 32 | c;
-  constexpr int kBits = 11;
-  constexpr std::size_t kBuckets = std::size_t{1} << kBits;
-  std::vector<std::size_t> count(kBuckets);
-  for (int shift = 0; shift < 32 && (span >> shift) != 0; shift += kBits) {
-    std::fill(count.begin(), count.end(), 0);
-    auto digit = [&](std::uint64_t key) { return ((static_cast<std::uint32_t>(key >> 32) - lo) >> shift) & (kBuckets - 1); };
-    for (std::uint64_t key : keys) ++count[digit(key)];
+  constexpr int kBits = 11, kDigits = 3;  // 33 bits cover any 32-bit span
+  constexpr std::uint32_t kBuckets = 1u << kBits;
+  // Every digit's histogram in one sweep; a digit that puts every key in one bucket (the high
+  // digits of a small span) needs no pass.
+  std::vector<std::size_t> count(std::size_t{kDigits} * kBuckets);
+  std::size_t* c0 = count.data();
+  std::size_t* c1 = c0 + kBuckets;
+  std::size_t* c2 = c1 + kBuckets;
+  for (std::uint32_t id : ids) {
+    const std::uint32_t offset = id - lo;
+    ++c0[offset & (kBuckets - 1)];
+    ++c1[(offset >> kBits) & (kBuckets - 1)];
+    ++c2[offset >> (2 * kBits)];
+  }
+  bool first = true;
+  for (int d = 0; d < kDigits; ++d) {
+    const int shift = d * kBits;
+    std::size_t* c = count.data() + d * kBuckets;
+    if ((span >> shift) == 0 || c[((ids[0] - lo) >> shift) & (kBuckets - 1)] == n) continue;
     std::size_t sum = 0;
-    for (std::size_t& c : count) {
-      const std::size_t here = c;
-      c = sum;
+    for (std::uint32_t b = 0; b < kBuckets; ++b) {
+      const std::size_t here = c[b];
+      c[b] = sum;
       sum += here;
     }
-    for (std::uint64_t key : keys) scratch[count[digit(key)]++] = key;
+    auto digit = [&](std::uint32_t id) { return ((id - lo) >> shift) & (kBuckets - 1); };
+    if (first) {  // the first pass reads the ids themselves
+      for (std::size_t k = 0; k < n; ++k) scratch[c[digit(ids[k])]++] = std::uint64_t{ids[k]} << 32 | k;
+      first = false;
+    } else {
+      for (std::uint64_t key : keys) scratch[c[digit(static_cast<std::uint32_t>(key >> 32))]++] = key;
+    }
     keys.swap(scratch);
   }
+  if (first)  // one distinct id
+    for (std::size_t k = 0; k < n; ++k) keys[k] = std::uint64_t{ids[k]} << 32 | k;
   return keys;
 }
 
