@@ -100,7 +100,8 @@ Result<std::unique_ptr<RecordWriter>> RecordWriter::create(const std::string& pa
     ZSTD_CCtx_setParameter(cctx, ZSTD_c_compressionLevel, options.level);
     ZSTD_CCtx_setParameter(cctx, ZSTD_c_checksumFlag, 1);
   }
-  writer->pending_.reserve(writer->frame_limit_);
+  // pending_ grows on demand: a writer fed whole frames (the partition's chunk writers, thousands
+  // of them open at once) never touches it but for its last partial frame.
   std::byte header[kHeaderBytes] = {};
   std::memcpy(header, kMagic, sizeof kMagic);
   put<std::uint32_t>(header + 8, kRecordFileVersion);
