@@ -5,7 +5,10 @@
 // pages, ~10-15 µs per 4 KiB here) and "warm" into the same, reused arrays (what a chunk loop
 // with one workspace per thread pays).
 // The summary lines give triangles per second of CPU time too (the figure to compare on a
-// shared machine). STEPS_ONLY = 1 skips the whole-pass runs of sample_mesh.
+// shared machine). STEPS_ONLY = 1 skips the whole-pass runs of sample_mesh. The last line of
+// the steps gives a hash of every per-face array (normals, degenerate flags, areas, labels,
+// feature bits) and of every vertex record (paper and exact), field by field: a change that
+// must keep every decision shows the same hashes before and after.
 // Usage: bench_sampler [TRIANGLES (default 20000000) | MESH_FILE] [FREQUENCY (default 8)] [THREADS (default 1)]
 //                      [STEPS_ONLY (default 0)]
 #include <sys/resource.h>
@@ -15,6 +18,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <numbers>
+#include <vector>
 
 #include <tbb/global_control.h>
 
@@ -79,6 +83,43 @@ struct Timer {
     return s;
   }
 };
+
+// FNV-1a over bytes, fed value by value (no struct padding).
+struct Hash {
+  std::uint64_t h = 0xcbf29ce484222325ull;
+  void bytes(const void* p, std::size_t n) {
+    const auto* b = static_cast<const unsigned char*>(p);
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 0x100000001b3ull;
+  }
+  template <typename T>
+  void value(const T& v) {
+    bytes(&v, sizeof v);
+  }
+};
+
+std::uint64_t hash_floats(const std::vector<format::Vec3f>& v) {
+  Hash h;
+  for (const auto& x : v) h.value(x.x), h.value(x.y), h.value(x.z);
+  return h.h;
+}
+
+template <typename T>
+std::uint64_t hash_array(const std::vector<T>& v) {
+  Hash h;
+  h.bytes(v.data(), v.size() * sizeof(T));
+  return h.h;
+}
+
+std::uint64_t hash_records(const std::vector<stream::VertexRecord>& records) {
+  Hash h;
+  for (const auto& r : records) {
+    h.value(r.vertex), h.value(r.gauss_vertex), h.value(r.characteristic), h.value(r.winding);
+    h.value(r.feature_edges), h.value(r.is_candidate), h.value(r.is_tree), h.value(r.is_exact_sample);
+    h.value(r.enclosed), h.value(r.exact_gauss_vertex), h.value(r.exact_winding), h.value(r.exact_characteristic);
+    h.value(r.cover_mask);
+  }
+  return h.h;
+}
 
 void print_patch_stage(const stream::SamplerWorkspace& ws) {
   const auto& p = ws.patch_seconds;
@@ -162,6 +203,13 @@ int main(int argc, char** argv) {
                 double(nf) / (c_face + c_exact) / 1e6, double(nf) / (c_adj + c_face + c_exact) / 1e6);
   }
   std::printf("candidates %zu, exact records %zu, patches %zu\n", paper.size(), exact.size(), patches.patch_label.size());
+  std::printf("hashes: normals %016llx degenerate %016llx area %016llx labels %016llx feature %016llx paper %016llx "
+              "exact %016llx\n",
+              static_cast<unsigned long long>(hash_floats(normals.normal)),
+              static_cast<unsigned long long>(hash_array(normals.degenerate)),
+              static_cast<unsigned long long>(hash_array(area)), static_cast<unsigned long long>(hash_array(labels)),
+              static_cast<unsigned long long>(hash_array(feature)), static_cast<unsigned long long>(hash_records(paper)),
+              static_cast<unsigned long long>(hash_records(exact)));
   if (steps_only) return 0;
   stream::SamplerOptions so;
   stream::SamplerWorkspace ws;
