@@ -9,10 +9,13 @@
 // the steps gives a hash of every per-face array (normals, degenerate flags, areas, labels,
 // feature bits) and of every vertex record (paper and exact), field by field: a change that
 // must keep every decision shows the same hashes before and after.
+// WARM_PASSES (default 1) repeats the warm steps (less noise on a shared machine; the profile
+// of a step without the cold pass dominating).
 // Usage: bench_sampler [TRIANGLES (default 20000000) | MESH_FILE] [FREQUENCY (default 8)] [THREADS (default 1)]
-//                      [STEPS_ONLY (default 0)]
+//                      [STEPS_ONLY (default 0)] [WARM_PASSES (default 1)]
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -136,6 +139,7 @@ int main(int argc, char** argv) {
   const std::uint32_t frequency = argc > 2 ? static_cast<std::uint32_t>(std::strtoul(argv[2], nullptr, 10)) : 8;
   const int threads = argc > 3 ? std::atoi(argv[3]) : 1;
   const bool steps_only = argc > 4 && std::atoi(argv[4]) != 0;
+  const int warm_passes = argc > 5 ? std::max(1, std::atoi(argv[5])) : 1;
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   Timer t;
   Mesh mesh;
@@ -169,7 +173,9 @@ int main(int argc, char** argv) {
   std::vector<std::uint32_t> stack;
   double s_adj = 0, s_face = 0, s_vertex = 0, s_exact = 0;
   double c_adj = 0, c_face = 0, c_vertex = 0, c_exact = 0;  // CPU seconds
-  for (const char* pass : {"cold", "warm"}) {
+  double c_normals = 0, c_labels = 0, c_feature = 0;
+  for (int pass_index = 0; pass_index <= warm_passes; ++pass_index) {
+    const char* pass = pass_index == 0 ? "cold" : "warm";
     std::printf("-- %s (%s arrays)\n", pass, pass[0] == 'c' ? "new" : "reused");
     t.lap("(setup)");
     if (!build_mesh_adjacency(mesh.view(), adj).is_ok()) return 1;
@@ -177,13 +183,13 @@ int main(int argc, char** argv) {
     c_adj = t.last_cpu;
     stream::compute_face_normals(mesh.view(), adj, 0, normals, area, smoothed);
     s_face = t.lap("face normals");
-    c_face = t.last_cpu;
+    c_face = c_normals = t.last_cpu;
     stream::compute_face_labels(normals, g, labels);
     s_face += t.lap("labels (locate)");
-    c_face += t.last_cpu;
+    c_face += c_labels = t.last_cpu;
     stream::compute_feature_edges(adj, labels, feature);
     s_face += t.lap("feature edges");
-    c_face += t.last_cpu;
+    c_face += c_feature = t.last_cpu;
     paper.clear();
     stream::evaluate_vertices(mesh.view(), adj, normals, labels, feature, g, false, 0, nv, paper);
     s_vertex = t.lap("vertices (paper decisions)");
@@ -201,6 +207,9 @@ int main(int argc, char** argv) {
     std::printf("  by CPU time: %.1f Mtri/s (adjacency excluded), %.1f Mtri/s (included); with the exact test: %.1f / %.1f\n",
                 double(nf) / (c_face + c_vertex) / 1e6, double(nf) / (c_adj + c_face + c_vertex) / 1e6,
                 double(nf) / (c_face + c_exact) / 1e6, double(nf) / (c_adj + c_face + c_exact) / 1e6);
+    std::printf("  %s steps, CPU s: normals %.3f labels %.3f feature %.3f paper %.3f = %.3f (%.1f Mtri/s); exact %.3f\n",
+                pass, c_normals, c_labels, c_feature, c_vertex, c_face + c_vertex, double(nf) / (c_face + c_vertex) / 1e6,
+                c_exact);
   }
   std::printf("candidates %zu, exact records %zu, patches %zu\n", paper.size(), exact.size(), patches.patch_label.size());
   std::printf("hashes: normals %016llx degenerate %016llx area %016llx labels %016llx feature %016llx paper %016llx "
