@@ -117,6 +117,9 @@ class GaussSphere {
  private:
   GaussSphere() = default;
   void build_locate_table();
+  // The fine table's answer for m, or kNone (a fallback cell, m within the margin of the
+  // cell's edge, or m zero or not finite): locate_without_table() answers then.
+  std::uint32_t locate_in_table(const Vec3d& m) const;
 
   GaussSphereOptions options_;
   std::uint32_t frequency_ = 1;
