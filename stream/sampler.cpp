@@ -753,15 +753,20 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
     k = fan_end;
     if (corners_in_poly < 3) continue;
     if (!test_exact) {
-      // Paper decisions only: the two booleans below, without fan_polygon's square root and
-      // division when the unnormalised sum decides them (fan_decisions).
+      // Paper decisions only (v_G is set, the exact fallback is not read): the fan adds its
+      // winding around v_G when it lies in a hemisphere and v_G in its cap (fan_decisions,
+      // without fan_polygon's square root and division when the unnormalised sum decides,
+      // else fan_polygon and winds_maybe), 0 otherwise. So a winding of 0, most fans', needs
+      // neither verdict: the winding comes first (its signs are exact for any polygon).
+      const int w = winding_number(poly, corners_in_poly, vg);
+      if (w == 0) continue;
       const FanDecision d = fan_decisions(poly, corners_in_poly, vg);
-      if (d == FanDecision::kNoHemisphere) {
-        exact_fallback = true;
-        continue;
-      }
-      if (d == FanDecision::kWindsMaybe) winding_vg += winding_number(poly, corners_in_poly, vg);
+      if (d == FanDecision::kWindsMaybe) winding_vg += w;
       if (d != FanDecision::kUndecided) continue;
+      Vec3d c;
+      double cos_theta;
+      if (fan_polygon(poly, corners_in_poly, c, cos_theta) && winds_maybe(vg, c, cos_theta)) winding_vg += w;
+      continue;
     }
     Vec3d c;
     double cos_theta;
