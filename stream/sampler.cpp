@@ -656,13 +656,14 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
     std::size_t gauss_degree = 0;
     if (!has_unlabelled) {
       const auto& first = gauss.triangle_vertices(star_label[sb]);
+      const std::uint32_t a = first[0], b = first[1], c = first[2];
       unsigned on_all = 7;
       for (std::uint32_t k = sb + 1; k < se; ++k) {
         const auto& tv = gauss.triangle_vertices(star_label[k]);
-        unsigned here = 0;
-        for (unsigned j = 0; j < 3; ++j)
-          here |= static_cast<unsigned>((first[j] == tv[0]) | (first[j] == tv[1]) | (first[j] == tv[2])) << j;
-        on_all &= here;
+        const std::uint32_t t0 = tv[0], t1 = tv[1], t2 = tv[2];
+        on_all &= static_cast<unsigned>((a == t0) | (a == t1) | (a == t2)) |
+                  static_cast<unsigned>((b == t0) | (b == t1) | (b == t2)) << 1 |
+                  static_cast<unsigned>((c == t0) | (c == t1) | (c == t2)) << 2;
       }
       if (on_all == 1 || on_all == 2 || on_all == 4) {
         const std::uint32_t found = first[on_all == 1 ? 0 : (on_all == 2 ? 1 : 2)];
