@@ -748,6 +748,10 @@ void evaluate_vertex(const VertexInputs& in, const Labels labels, std::uint32_t 
     std::size_t corners_in_poly = 0;
     for (std::uint32_t j = k; j < fan_end; ++j) {
       const std::uint32_t f = corners[j] / 3;
+      // The star's triangles, for neighbour_side after a positive winding: only 1 candidate in
+      // 10 on a noisy mesh, but those loads missed the cache (the triangles were last read by
+      // the normals), about 10 % of this function's time on the 20 M torus.
+      __builtin_prefetch(tris + f);
       poly[corners_in_poly] = to_d(normal[f]);  // kept unless the face is degenerate
       corners_in_poly += !degenerate[f];
     }
