@@ -420,35 +420,43 @@ std::size_t GaussSphere::locate_table_hits() const {
       std::count_if(fine_.begin(), fine_.end(), [](const FineCell& c) { return c.plus != kNoFine; }));
 }
 
+// Inlined into both locate()s: the batch loop then makes no call for the 98 % of directions
+// the table answers (an out-of-line locate() per face cost a call and a spill of n). The
+// table comes as arguments so that the loop keeps it in registers (a member would be reloaded
+// after every store of a label).
+[[gnu::always_inline]] inline std::uint32_t GaussSphere::locate_in_table(const Vec3d& m, const FineCell* fine,
+                                                                         const Vec3d* planes, std::uint32_t cells,
+                                                                         double half) {
+  // The cube face of m's largest coordinate (on a tie either face holds m), the gnomonic cell
+  // of the other two (the table's cube is axis-aligned in G's rotated frame: no rotation).
+  const double ax = std::abs(m.x), ay = std::abs(m.y), az = std::abs(m.z);
+  double major, c0, c1, c2;
+  int axis;
+  if (ax >= ay && ax >= az) {
+    axis = 0, major = ax, c0 = m.x, c1 = m.y, c2 = m.z;
+  } else if (ay >= az) {
+    axis = 1, major = ay, c0 = m.y, c1 = m.z, c2 = m.x;
+  } else {
+    axis = 2, major = az, c0 = m.z, c1 = m.x, c2 = m.y;
+  }
+  if (!(major > 0 && major <= 1e300)) return kNone;
+  const double inv = 1.0 / major;
+  const int last = static_cast<int>(cells) - 1;
+  const int i = std::clamp(static_cast<int>((c1 * inv + 1) * half), 0, last);
+  const int j = std::clamp(static_cast<int>((c2 * inv + 1) * half), 0, last);
+  const FineCell cell = fine[(static_cast<std::size_t>(axis * 2 + (c0 > 0 ? 0 : 1)) * cells + i) * cells + j];
+  if (cell.plus == kNoFine) return kNone;
+  // |m| <= sqrt(3) major: a side margin of 1e-9 major is one of > 5e-10 in angle.
+  const double d = dot(m, planes[cell.plane]);
+  const bool decided = (cell.plus == cell.minus) | (std::abs(d) > 1e-9 * major);
+  if (!decided) return kNone;
+  return d > 0 ? cell.plus : cell.minus;
+}
+
 std::uint32_t GaussSphere::locate(const Vec3d& n) const {
   if (fine_cells_ > 0) {
-    // The cube face of n's largest coordinate (on a tie either face holds n), the gnomonic cell
-    // of the other two (the table's cube is axis-aligned in G's rotated frame: no rotation).
-    const Vec3d& m = n;
-    const double ax = std::abs(m.x), ay = std::abs(m.y), az = std::abs(m.z);
-    double major, c0, c1, c2;
-    int axis;
-    if (ax >= ay && ax >= az) {
-      axis = 0, major = ax, c0 = m.x, c1 = m.y, c2 = m.z;
-    } else if (ay >= az) {
-      axis = 1, major = ay, c0 = m.y, c1 = m.z, c2 = m.x;
-    } else {
-      axis = 2, major = az, c0 = m.z, c1 = m.x, c2 = m.y;
-    }
-    if (major > 0 && major <= 1e300) {
-      const double inv = 1.0 / major;
-      const int cells = static_cast<int>(fine_cells_);
-      const int i = std::clamp(static_cast<int>((c1 * inv + 1) * fine_half_), 0, cells - 1);
-      const int j = std::clamp(static_cast<int>((c2 * inv + 1) * fine_half_), 0, cells - 1);
-      const FineCell cell =
-          fine_[(static_cast<std::size_t>(axis * 2 + (c0 > 0 ? 0 : 1)) * fine_cells_ + i) * fine_cells_ + j];
-      if (cell.plus != kNoFine) {
-        // |m| <= sqrt(3) major: a side margin of 1e-9 major is one of > 5e-10 in angle.
-        const double d = dot(m, edge_planes_[cell.plane]);
-        const bool decided = (cell.plus == cell.minus) | (std::abs(d) > 1e-9 * major);
-        if (decided) return d > 0 ? cell.plus : cell.minus;
-      }
-    }
+    const std::uint32_t t = locate_in_table(n, fine_.data(), edge_planes_.data(), fine_cells_, fine_half_);
+    if (t != kNone) return t;
   }
   return locate_without_table(n);
 }
@@ -459,9 +467,17 @@ void GaussSphere::locate(std::span<const format::Vec3f> directions, std::span<st
   const std::size_t n = directions.size();
   const format::Vec3f* d = directions.data();
   std::uint32_t* o = out.data();
+  const FineCell* fine = fine_.data();
+  const Vec3d* planes = edge_planes_.data();
+  const std::uint32_t cells = fine_cells_;
+  const double half = fine_half_;
   for (std::size_t i = 0; i < n; ++i) {
-    const format::Vec3f& v = d[i];
-    o[i] = v.x == 0 && v.y == 0 && v.z == 0 ? for_zero : locate(to_d(v));
+    // The zero vector has no table cell (its largest coordinate is 0), so it is told apart
+    // only among the directions the table leaves.
+    const Vec3d m = to_d(d[i]);
+    std::uint32_t t = cells > 0 ? locate_in_table(m, fine, planes, cells, half) : kNone;
+    if (t == kNone) t = m.x == 0 && m.y == 0 && m.z == 0 ? for_zero : locate_without_table(m);
+    o[i] = t;
   }
 }
 

@@ -138,6 +138,11 @@ class GaussSphere {
   struct FineCell {
     std::uint16_t plus = kNoFine, minus = kNoFine, plane = 0, unused = 0;
   };
+  // The table's answer for m (fine: cells² cells per cube face, planes: edge_planes_, half:
+  // cells / 2), or kNone (a fallback cell, m within the margin of the cell's edge, or m zero or
+  // not finite): locate_without_table() answers then.
+  static std::uint32_t locate_in_table(const Vec3d& m, const FineCell* fine, const Vec3d* planes,
+                                       std::uint32_t cells, double half);
   std::uint32_t fine_cells_ = 0;
   double fine_half_ = 0;  // fine_cells_ / 2
   std::vector<FineCell> fine_;

@@ -5,16 +5,23 @@
 // pages, ~10-15 µs per 4 KiB here) and "warm" into the same, reused arrays (what a chunk loop
 // with one workspace per thread pays).
 // The summary lines give triangles per second of CPU time too (the figure to compare on a
-// shared machine). STEPS_ONLY = 1 skips the whole-pass runs of sample_mesh.
+// shared machine). STEPS_ONLY = 1 skips the whole-pass runs of sample_mesh. The last line of
+// the steps gives a hash of every per-face array (normals, degenerate flags, areas, labels,
+// feature bits) and of every vertex record (paper and exact), field by field: a change that
+// must keep every decision shows the same hashes before and after.
+// WARM_PASSES (default 1) repeats the warm steps (less noise on a shared machine; the profile
+// of a step without the cold pass dominating).
 // Usage: bench_sampler [TRIANGLES (default 20000000) | MESH_FILE] [FREQUENCY (default 8)] [THREADS (default 1)]
-//                      [STEPS_ONLY (default 0)]
+//                      [STEPS_ONLY (default 0)] [WARM_PASSES (default 1)]
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <numbers>
+#include <vector>
 
 #include <tbb/global_control.h>
 
@@ -80,6 +87,43 @@ struct Timer {
   }
 };
 
+// FNV-1a over bytes, fed value by value (no struct padding).
+struct Hash {
+  std::uint64_t h = 0xcbf29ce484222325ull;
+  void bytes(const void* p, std::size_t n) {
+    const auto* b = static_cast<const unsigned char*>(p);
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 0x100000001b3ull;
+  }
+  template <typename T>
+  void value(const T& v) {
+    bytes(&v, sizeof v);
+  }
+};
+
+std::uint64_t hash_floats(const std::vector<format::Vec3f>& v) {
+  Hash h;
+  for (const auto& x : v) h.value(x.x), h.value(x.y), h.value(x.z);
+  return h.h;
+}
+
+template <typename T>
+std::uint64_t hash_array(const std::vector<T>& v) {
+  Hash h;
+  h.bytes(v.data(), v.size() * sizeof(T));
+  return h.h;
+}
+
+std::uint64_t hash_records(const std::vector<stream::VertexRecord>& records) {
+  Hash h;
+  for (const auto& r : records) {
+    h.value(r.vertex), h.value(r.gauss_vertex), h.value(r.characteristic), h.value(r.winding);
+    h.value(r.feature_edges), h.value(r.is_candidate), h.value(r.is_tree), h.value(r.is_exact_sample);
+    h.value(r.enclosed), h.value(r.exact_gauss_vertex), h.value(r.exact_winding), h.value(r.exact_characteristic);
+    h.value(r.cover_mask);
+  }
+  return h.h;
+}
+
 void print_patch_stage(const stream::SamplerWorkspace& ws) {
   const auto& p = ws.patch_seconds;
   std::printf("patch stage %.3f s wall %.3f s cpu: find_patches %.3f, patch graph input %.3f, merge rounds %.3f, "
@@ -95,6 +139,7 @@ int main(int argc, char** argv) {
   const std::uint32_t frequency = argc > 2 ? static_cast<std::uint32_t>(std::strtoul(argv[2], nullptr, 10)) : 8;
   const int threads = argc > 3 ? std::atoi(argv[3]) : 1;
   const bool steps_only = argc > 4 && std::atoi(argv[4]) != 0;
+  const int warm_passes = argc > 5 ? std::max(1, std::atoi(argv[5])) : 1;
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   Timer t;
   Mesh mesh;
@@ -128,7 +173,9 @@ int main(int argc, char** argv) {
   std::vector<std::uint32_t> stack;
   double s_adj = 0, s_face = 0, s_vertex = 0, s_exact = 0;
   double c_adj = 0, c_face = 0, c_vertex = 0, c_exact = 0;  // CPU seconds
-  for (const char* pass : {"cold", "warm"}) {
+  double c_normals = 0, c_labels = 0, c_feature = 0;
+  for (int pass_index = 0; pass_index <= warm_passes; ++pass_index) {
+    const char* pass = pass_index == 0 ? "cold" : "warm";
     std::printf("-- %s (%s arrays)\n", pass, pass[0] == 'c' ? "new" : "reused");
     t.lap("(setup)");
     if (!build_mesh_adjacency(mesh.view(), adj).is_ok()) return 1;
@@ -136,13 +183,13 @@ int main(int argc, char** argv) {
     c_adj = t.last_cpu;
     stream::compute_face_normals(mesh.view(), adj, 0, normals, area, smoothed);
     s_face = t.lap("face normals");
-    c_face = t.last_cpu;
+    c_face = c_normals = t.last_cpu;
     stream::compute_face_labels(normals, g, labels);
     s_face += t.lap("labels (locate)");
-    c_face += t.last_cpu;
+    c_face += c_labels = t.last_cpu;
     stream::compute_feature_edges(adj, labels, feature);
     s_face += t.lap("feature edges");
-    c_face += t.last_cpu;
+    c_face += c_feature = t.last_cpu;
     paper.clear();
     stream::evaluate_vertices(mesh.view(), adj, normals, labels, feature, g, false, 0, nv, paper);
     s_vertex = t.lap("vertices (paper decisions)");
@@ -160,8 +207,18 @@ int main(int argc, char** argv) {
     std::printf("  by CPU time: %.1f Mtri/s (adjacency excluded), %.1f Mtri/s (included); with the exact test: %.1f / %.1f\n",
                 double(nf) / (c_face + c_vertex) / 1e6, double(nf) / (c_adj + c_face + c_vertex) / 1e6,
                 double(nf) / (c_face + c_exact) / 1e6, double(nf) / (c_adj + c_face + c_exact) / 1e6);
+    std::printf("  %s steps, CPU s: normals %.3f labels %.3f feature %.3f paper %.3f = %.3f (%.1f Mtri/s); exact %.3f\n",
+                pass, c_normals, c_labels, c_feature, c_vertex, c_face + c_vertex, double(nf) / (c_face + c_vertex) / 1e6,
+                c_exact);
   }
   std::printf("candidates %zu, exact records %zu, patches %zu\n", paper.size(), exact.size(), patches.patch_label.size());
+  std::printf("hashes: normals %016llx degenerate %016llx area %016llx labels %016llx feature %016llx paper %016llx "
+              "exact %016llx\n",
+              static_cast<unsigned long long>(hash_floats(normals.normal)),
+              static_cast<unsigned long long>(hash_array(normals.degenerate)),
+              static_cast<unsigned long long>(hash_array(area)), static_cast<unsigned long long>(hash_array(labels)),
+              static_cast<unsigned long long>(hash_array(feature)), static_cast<unsigned long long>(hash_records(paper)),
+              static_cast<unsigned long long>(hash_records(exact)));
   if (steps_only) return 0;
   stream::SamplerOptions so;
   stream::SamplerWorkspace ws;

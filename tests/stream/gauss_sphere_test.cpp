@@ -5,6 +5,7 @@
 #include <cmath>
 #include <random>
 #include <set>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -167,6 +168,32 @@ TEST(GaussSphere, LocateTableAgreesWithTheFullComputation) {
           }
         }
       }
+    }
+  }
+}
+
+// The batch locate (the sampler's labels) answers each float direction as locate() does, the
+// zero vector (either sign) with for_zero; also with no table (f = 64), on G's vertices
+// rounded to float, and on non-finite input.
+TEST(GaussSphere, BatchLocateAgreesWithLocateAndTellsZeroApart) {
+  const std::uint64_t seed = 20261124;
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal;
+  constexpr std::uint32_t kForZero = 0xFFFFFFFFu;
+  for (std::uint32_t f : {1u, 8u, 64u}) {
+    const GaussSphere g = make(GaussBase::kIcosahedron, f, 7);
+    std::vector<format::Vec3f> d = {{0, 0, 0}, {-0.0f, 0, -0.0f}, {1, 0, 0}, {0, -1, 0}, {1, 1, 1}, {1, -1, 0},
+                                    {1e-30f, 0, 0}, {0, 0, 1e30f}, {INFINITY, 0, 0}, {NAN, 1, 0}};
+    for (std::uint32_t v = 0; v < g.vertex_count(); ++v)
+      d.push_back({float(g.vertex(v).x), float(g.vertex(v).y), float(g.vertex(v).z)});
+    for (int i = 0; i < 20000; ++i) d.push_back({float(normal(rng)), float(normal(rng)), float(normal(rng))});
+    std::vector<std::uint32_t> out(d.size());
+    g.locate(d, out, kForZero);
+    for (std::size_t i = 0; i < d.size(); ++i) {
+      const Vec3d n{d[i].x, d[i].y, d[i].z};
+      const bool is_zero = n.x == 0 && n.y == 0 && n.z == 0;
+      EXPECT_EQ(out[i], is_zero ? kForZero : g.locate(n))
+          << "seed " << seed << " f " << f << " n " << n.x << " " << n.y << " " << n.z;
     }
   }
 }
