@@ -734,12 +734,7 @@ struct Planner {
   std::uint32_t owner(const Vec3f& p) const { return cell_chunk[grid.cell(p)]; }
 };
 
-// A vertex as the scans see it: position and owning chunk, written once after the histogram.
-struct SpillVertex {
-  Vec3f position;
-  std::uint32_t owner = 0;
-};
-static_assert(sizeof(SpillVertex) == kVertexFileRecordBytes);
+static_assert(sizeof(Vec3f) == kPositionRecordBytes && sizeof(std::uint32_t) == kOwnerRecordBytes);
 
 class PartitionRun {
  public:
@@ -763,10 +758,10 @@ class PartitionRun {
   const PartitionOptions& options_;
   const char* scan_pass_ = "rings";  // what scan_faces reports to options_.progress
   Partition& out_;
-  std::string positions_path_, faces_path_, vertices_path_;
+  std::string positions_path_, faces_path_, owners_path_;
   Planner planner_;
   std::unique_ptr<BlockCache> cache_;
-  std::unique_ptr<CachedArray<SpillVertex>> vertices_;
+  std::unique_ptr<CachedArray<std::uint32_t>> owners_;  // owners.bin: the scans need only owners
   std::unique_ptr<ChunkSets> sets_;
   std::unique_ptr<CachedBitmap> has_extras_;
   std::unique_ptr<CachedBitmap> frontier_[2];
@@ -833,23 +828,23 @@ Status PartitionRun::plan() {
     p.cell_chunk[c] = chunk;
   }
   p.chunks = any ? chunk + 1 : 0;
-  // Owner pass: positions + owner per vertex, so that no later scan recomputes cells.
-  vertices_path_ = out_.dir + "/vertices.bin";
-  SpillWriter vertices;
-  GM_RETURN_IF_ERROR(vertices.open(vertices_path_, std::size_t{1} << 20));
+  // Owner pass: the owning chunk per vertex, so that no later scan recomputes cells. The scans
+  // read owners only (4 bytes a vertex through the cache); positions.bin stays for load_chunk.
+  owners_path_ = out_.dir + "/owners.bin";
+  SpillWriter owners;
+  GM_RETURN_IF_ERROR(owners.open(owners_path_, std::size_t{1} << 20));
   GM_RETURN_IF_ERROR(scan_spill<Vec3f>(positions_path_, out_.vertices, std::size_t{1} << 20,
                                        [&](std::uint64_t, std::span<const Vec3f> batch) {
-                                         SpillVertex records[256];
-                                         for (std::size_t at = 0; at < batch.size(); at += 256) {
-                                           const std::size_t n = std::min<std::size_t>(256, batch.size() - at);
-                                           for (std::size_t i = 0; i < n; ++i) records[i] = {batch[at + i], p.owner(batch[at + i])};
-                                           GM_RETURN_IF_ERROR(vertices.write(records, n * sizeof(SpillVertex)));
+                                         std::uint32_t records[1024];
+                                         for (std::size_t at = 0; at < batch.size(); at += 1024) {
+                                           const std::size_t n = std::min<std::size_t>(1024, batch.size() - at);
+                                           for (std::size_t i = 0; i < n; ++i) records[i] = p.owner(batch[at + i]);
+                                           GM_RETURN_IF_ERROR(owners.write(records, n * sizeof(std::uint32_t)));
                                          }
                                          return Status{};
                                        }));
-  GM_RETURN_IF_ERROR(vertices.close());
-  bytes_spilled_ += vertices.bytes();
-  ::unlink(positions_path_.c_str());
+  GM_RETURN_IF_ERROR(owners.close());
+  bytes_spilled_ += owners.bytes();
   // The cell table stays with the partition for owner_of.
   for (int a = 0; a < 3; ++a) {
     out_.owner_map.lo[a] = p.grid.lo[a];
@@ -900,7 +895,7 @@ Status PartitionRun::expand_rings() {
     GM_RETURN_IF_ERROR(scan_faces([&](std::uint64_t, const Triangle& t) {
       std::uint32_t owner[3];
       if (round == 1) {
-        for (int j = 0; j < 3; ++j) owner[j] = vertices_->get(t.v[j]).owner;
+        for (int j = 0; j < 3; ++j) owner[j] = owners_->get(t.v[j]);
         if (owner[0] == owner[1] && owner[1] == owner[2]) return;
         for (int j = 0; j < 3; ++j)
           for (int i = 0; i < 3; ++i) add(t.v[j], owner[j], owner[i]);
@@ -918,7 +913,7 @@ Status PartitionRun::expand_rings() {
       std::sort(incoming.begin(), incoming.end());
       incoming.erase(std::unique(incoming.begin(), incoming.end()), incoming.end());
       for (int j = 0; j < 3; ++j) {
-        const std::uint32_t o = vertices_->get(t.v[j]).owner;
+        const std::uint32_t o = owners_->get(t.v[j]);
         for (std::uint32_t c : incoming) add(t.v[j], o, c);
       }
     }));
@@ -939,7 +934,8 @@ Status PartitionRun::write_chunks() {
     char name[32];
     std::snprintf(name, sizeof name, "/chunk-%06u.gmr", c);
     info.path = out_.dir + name;
-    info.vertices = vertices_path_;
+    info.positions = positions_path_;
+    info.owners = owners_path_;
   }
   if (chunks == 0) return {};
   // Staged frames share memory_bytes / 8; frames of at least 64 records; more chunks than fit
@@ -990,7 +986,7 @@ Status PartitionRun::write_chunks() {
     Status scanned = scan_faces([&](std::uint64_t f, const Triangle& t) {
       std::uint32_t owner[3];
       bool extra = false;
-      for (int j = 0; j < 3; ++j) owner[j] = vertices_->get(t.v[j]).owner;
+      for (int j = 0; j < 3; ++j) owner[j] = owners_->get(t.v[j]);
       if (options_.rings > 1) extra = has_extras_->test(t.v[0]) || has_extras_->test(t.v[1]) || has_extras_->test(t.v[2]);
       int lowest = 0;
       for (int j = 1; j < 3; ++j)
@@ -1055,9 +1051,9 @@ Status PartitionRun::run(const std::string& input_path, const format::ReadOption
   // Half the budget caches vertex-indexed data; an eighth holds chunk writers' frames; the
   // rest is the scan buffer, the cell tables and the zstd context.
   cache_ = std::make_unique<BlockCache>(options_.memory_bytes / 2);
-  auto vertices = cache_->open_file(vertices_path_);
-  if (!vertices) return vertices.status();
-  vertices_ = std::make_unique<CachedArray<SpillVertex>>(*cache_, *vertices);
+  auto owners = cache_->open_file(owners_path_);
+  if (!owners) return owners.status();
+  owners_ = std::make_unique<CachedArray<std::uint32_t>>(*cache_, *owners);
   if (options_.rings > 1) {
     auto slots = cache_->add_file(out_.dir + "/sets.bin");
     auto nodes = cache_->add_file(out_.dir + "/set-nodes.bin");
@@ -1078,8 +1074,8 @@ Status PartitionRun::run(const std::string& input_path, const format::ReadOption
   out_.bytes_spilled = bytes_spilled_ + cache_->bytes_written();
   out_.cache_misses = cache_->misses();
   cache_.reset();
-  // The face spill is no longer needed; the chunk files and the vertex file (load_chunk reads
-  // positions from it) stay until the Partition goes.
+  // The face spill is no longer needed; the chunk files and the vertex files (load_chunk reads
+  // positions and owners from them) stay until the Partition goes.
   ::unlink(faces_path_.c_str());
   for (const char* name : {"/sets.bin", "/set-nodes.bin", "/has-extras.bin", "/frontier-0.bin", "/frontier-1.bin"}) {
     ::unlink((out_.dir + name).c_str());
@@ -1216,47 +1212,61 @@ std::vector<std::uint64_t> sorted_corner_keys(const std::vector<std::uint32_t>& 
   return keys;
 }
 
-// Positions (and owners) of the chunk's vertices from the partition's vertex file: ids ascend,
-// so one pread covers each run of ids less than kWindow apart (ordered input: a few per chunk;
-// scattered ids: one per vertex). The owner read back must agree with the chunk's owned flags.
-Status read_chunk_positions(const ChunkInfo& info, ChunkMesh& mesh) {
-  constexpr std::size_t kWindow = 4096;  // vertices per read at most (64 KiB)
-  const int fd = ::open(info.vertices.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return Status::error(Code::kBadInput, info.vertices, "cannot open the vertex file: " + errno_text());
+// Calls fn(i, record) for every id of `ids` (ascending) with its record_bytes-sized record of
+// `path`: one pread covers each run of ids less than kWindow apart (ordered input: a few per
+// chunk; scattered ids: one per vertex). An id beyond the file is kBadInput naming `chunk_path`.
+template <class Fn>
+Status read_vertex_records(const std::string& path, std::size_t record_bytes, const std::vector<std::uint32_t>& ids,
+                           const std::string& chunk_path, Fn&& fn) {
+  constexpr std::size_t kWindow = 4096;  // vertices per read at most
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return Status::error(Code::kBadInput, path, "cannot open a vertex file: " + errno_text());
   struct Closer {
     int fd;
     ~Closer() { ::close(fd); }
   } closer{fd};
   struct stat st {};
-  if (::fstat(fd, &st) != 0) return Status::error(Code::kBadInput, info.vertices, "cannot stat the vertex file: " + errno_text());
-  const std::uint64_t count = static_cast<std::uint64_t>(st.st_size) / kVertexFileRecordBytes;
-  const std::vector<std::uint32_t>& ids = mesh.global_vertex;
-  mesh.positions.resize(ids.size());
-  std::vector<SpillVertex> window;
+  if (::fstat(fd, &st) != 0) return Status::error(Code::kBadInput, path, "cannot stat a vertex file: " + errno_text());
+  const std::uint64_t count = static_cast<std::uint64_t>(st.st_size) / record_bytes;
+  std::vector<std::byte> window;
   for (std::size_t i = 0; i < ids.size();) {
     if (ids[i] >= count) {
-      return Status::error(Code::kBadInput, info.path,
-                           "vertex " + std::to_string(ids[i]) + " is beyond the vertex file's " + std::to_string(count));
+      return Status::error(Code::kBadInput, chunk_path,
+                           "vertex " + std::to_string(ids[i]) + " is beyond " + path + " (" + std::to_string(count) + " vertices)");
     }
     const std::uint64_t base = ids[i];
     std::size_t end = i + 1;
     while (end < ids.size() && ids[end] < base + kWindow && ids[end] < count) ++end;
-    const std::size_t span = ids[end - 1] - base + 1;
-    window.resize(span);
-    const std::uint64_t offset = base * kVertexFileRecordBytes;
-    if (read_some(fd, window.data(), span * sizeof(SpillVertex), offset) != static_cast<std::int64_t>(span * sizeof(SpillVertex))) {
-      return Status::error(Code::kBadInput, info.vertices, "short read at byte " + std::to_string(offset));
+    const std::size_t bytes = (ids[end - 1] - base + 1) * record_bytes;
+    window.resize(bytes);
+    const std::uint64_t offset = base * record_bytes;
+    if (read_some(fd, window.data(), bytes, offset) != static_cast<std::int64_t>(bytes)) {
+      return Status::error(Code::kBadInput, path, "short read at byte " + std::to_string(offset));
     }
-    for (; i < end; ++i) {
-      const SpillVertex& v = window[ids[i] - base];
-      if ((v.owner == info.id) != static_cast<bool>(mesh.owned_vertex[i])) {
-        return Status::error(Code::kBadInput, info.path,
-                             "vertex " + std::to_string(ids[i]) + ": owned flag disagrees with the vertex file's owner");
-      }
-      mesh.positions[i] = v.position;
-    }
+    for (; i < end; ++i) GM_RETURN_IF_ERROR(fn(i, window.data() + (ids[i] - base) * record_bytes));
   }
   return {};
+}
+
+// Positions and owners of the chunk's vertices from the partition's vertex files; the owner
+// read back must agree with the chunk's owned flags.
+Status read_chunk_positions(const ChunkInfo& info, ChunkMesh& mesh) {
+  const std::vector<std::uint32_t>& ids = mesh.global_vertex;
+  mesh.positions.resize(ids.size());
+  GM_RETURN_IF_ERROR(read_vertex_records(info.positions, kPositionRecordBytes, ids, info.path,
+                                         [&](std::size_t i, const std::byte* record) {
+                                           std::memcpy(&mesh.positions[i], record, kPositionRecordBytes);
+                                           return Status{};
+                                         }));
+  return read_vertex_records(info.owners, kOwnerRecordBytes, ids, info.path, [&](std::size_t i, const std::byte* record) {
+    std::uint32_t owner;
+    std::memcpy(&owner, record, kOwnerRecordBytes);
+    if ((owner == info.id) != static_cast<bool>(mesh.owned_vertex[i])) {
+      return Status::error(Code::kBadInput, info.path,
+                           "vertex " + std::to_string(ids[i]) + ": owned flag disagrees with " + info.owners);
+    }
+    return Status{};
+  });
 }
 
 }  // namespace

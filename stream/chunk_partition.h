@@ -24,11 +24,13 @@ inline constexpr std::uint32_t kChunkFaceRecordKind = 0x47434D47u;
 //   8  u32  global vertex id of corner 0, 1, 2
 //   20 u8   flags: bit j (0..2) = the chunk owns corner j; bit 3 = the chunk owns the face;
 //           bits 4..7 zero
-// Positions are not repeated per face: load_chunk reads them from the partition's vertex file.
+// Positions are not repeated per face: load_chunk reads them from the partition's positions file.
 inline constexpr std::uint32_t kChunkFaceRecordBytes = 21;
-// The partition's vertex file, kept with the chunk files: per global vertex id, its position
-// (3 x f32, bit-exact input floats) and owning chunk (u32), 16 bytes, little-endian.
-inline constexpr std::uint32_t kVertexFileRecordBytes = 16;
+// The partition's vertex files, kept with the chunk files, indexed by global vertex id,
+// little-endian: positions.bin (x, y, z as f32, bit-exact input floats; 12 bytes) and
+// owners.bin (the owning chunk as u32; 4 bytes).
+inline constexpr std::uint32_t kPositionRecordBytes = 12;
+inline constexpr std::uint32_t kOwnerRecordBytes = 4;
 inline constexpr std::uint8_t kOwnsFace = 8;
 
 // Working memory of a chunk in pass 2, per face (adjacency, normals, labels, records):
@@ -69,7 +71,7 @@ struct ChunkInfo {
   std::uint64_t owned_faces = 0;     // faces whose lowest-id vertex it owns
   std::uint64_t faces = 0;           // records in its file: F_k(C), owned faces included
   std::string path;                  // its chunk face record file
-  std::string vertices;              // the partition's vertex file (kVertexFileRecordBytes per id)
+  std::string positions, owners;     // the partition's vertex files (positions.bin, owners.bin)
 };
 
 // The result of passes 0 and 1. Owns its temporary directory: the destructor (or
@@ -134,12 +136,12 @@ struct ChunkMesh {
   format::MeshView view() const { return {positions, triangles}; }
 };
 
-// Reads and checks one chunk file, and the positions of its vertices from info.vertices
-// (ascending ids, one pread per run of nearby ids). Everything is untrusted: a damaged or
+// Reads and checks one chunk file, and the positions and owners of its vertices from
+// info.positions and info.owners (ascending ids, one pread per run of nearby ids). Everything is untrusted: a damaged or
 // inconsistent file (checksums, record count against info.faces, owned faces against
 // info.owned_faces, face ids not ascending, flag bits, one vertex id with two ownerships, a face
-// owned though its lowest-id vertex is not, a vertex id beyond the vertex file, an owned flag
-// that disagrees with the vertex file's owner) is a kBadInput error naming the file.
+// owned though its lowest-id vertex is not, a vertex id beyond a vertex file, an owned flag
+// that disagrees with owners.bin) is a kBadInput error naming the file.
 // Memory: about 75 B per face of the chunk.
 format::Result<ChunkMesh> load_chunk(const ChunkInfo& info);
 

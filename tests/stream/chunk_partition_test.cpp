@@ -404,16 +404,17 @@ TEST(ChunkPartition, TempDirGoesWithThePartition) {
     ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
     run_dir = partition->dir;
     EXPECT_EQ(fs::path(run_dir).parent_path(), fs::path(dir.file("tmp")));
-    // Only the chunk files and the vertex file are left once the pass is done.
+    // Only the chunk files and the vertex files are left once the pass is done.
     std::size_t files = 0;
     for (const auto& entry : fs::directory_iterator(run_dir)) {
-      if (entry.path().filename() == "vertices.bin") continue;
+      if (entry.path().filename() == "positions.bin" || entry.path().filename() == "owners.bin") continue;
       EXPECT_EQ(entry.path().extension(), ".gmr") << entry.path();
       ++files;
     }
     EXPECT_EQ(files, partition->chunks.size());
     ASSERT_FALSE(partition->chunks.empty());
-    EXPECT_TRUE(fs::exists(partition->chunks[0].vertices));
+    EXPECT_TRUE(fs::exists(partition->chunks[0].positions));
+    EXPECT_TRUE(fs::exists(partition->chunks[0].owners));
     Partition moved = std::move(*partition);
     EXPECT_TRUE(partition->dir.empty());
     EXPECT_TRUE(fs::exists(run_dir));  // the moved-from partition removed nothing
@@ -584,11 +585,12 @@ TEST(ChunkPartition, DamagedChunkFilesAreBadInput) {
     }
   }, "ownership");
 
-  // The vertex file the positions come from: missing, truncated, or naming another owner for a
-  // vertex the chunk file says is owned.
+  // The vertex files: positions missing or truncated; owners missing, or naming another owner
+  // for a vertex the chunk file says is owned.
   auto restore = [&] { testing::write_file(info.path, bytes); };
   restore();
-  const std::string vertex_bytes = testing::read_file(info.vertices);
+  const std::string position_bytes = testing::read_file(info.positions);
+  const std::string owner_bytes = testing::read_file(info.owners);
   auto expect_bad_vertices = [&](const std::string& what) {
     auto chunk = load_chunk(info);
     ASSERT_FALSE(chunk.is_ok()) << what;
@@ -597,20 +599,23 @@ TEST(ChunkPartition, DamagedChunkFilesAreBadInput) {
   };
   auto loaded = load_chunk(info);
   ASSERT_TRUE(loaded.is_ok()) << loaded.status().to_string();
-  fs::remove(info.vertices);
-  expect_bad_vertices("missing vertex file");
+  fs::remove(info.positions);
+  expect_bad_vertices("missing positions file");
   // Cut inside the chunk's highest vertex.
-  testing::write_file(info.vertices, vertex_bytes.substr(0, std::size_t{loaded->global_vertex.back()} * kVertexFileRecordBytes + 5));
-  expect_bad_vertices("truncated vertex file");
+  testing::write_file(info.positions, position_bytes.substr(0, std::size_t{loaded->global_vertex.back()} * kPositionRecordBytes + 5));
+  expect_bad_vertices("truncated positions file");
+  testing::write_file(info.positions, position_bytes);
+  fs::remove(info.owners);
+  expect_bad_vertices("missing owners file");
   const auto owned = std::find(loaded->owned_vertex.begin(), loaded->owned_vertex.end(), 1);
   ASSERT_NE(owned, loaded->owned_vertex.end());
   const std::uint32_t id = loaded->global_vertex[static_cast<std::size_t>(owned - loaded->owned_vertex.begin())];
-  std::string other_owner = vertex_bytes;
+  std::string other_owner = owner_bytes;
   const std::uint32_t elsewhere = info.id + 1;
-  std::memcpy(other_owner.data() + std::size_t{id} * kVertexFileRecordBytes + 12, &elsewhere, 4);
-  testing::write_file(info.vertices, other_owner);
-  expect_bad_vertices("vertex file owner");
-  testing::write_file(info.vertices, vertex_bytes);
+  std::memcpy(other_owner.data() + std::size_t{id} * kOwnerRecordBytes, &elsewhere, 4);
+  testing::write_file(info.owners, other_owner);
+  expect_bad_vertices("owners file names another owner");
+  testing::write_file(info.owners, owner_bytes);
   EXPECT_TRUE(load_chunk(info).is_ok());
 }
 
