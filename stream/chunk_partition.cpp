@@ -603,9 +603,10 @@ void remove_tree(const std::string& dir) {
 // (write_chunks): a chunk's frames stay in order (one consumer per writer, FIFO) and no context
 // is used by two threads. Memory: (chunks + spare) frames.
 //
-// Why several workers: compression is most of the pass (100M triangles, 1,464 chunks under
-// 64 MiB: ~6 GB of records; the scan ~7 s, one compression thread ~29 s, the scan mostly waiting
-// for free buffers). With two workers both cores compress while the scan waits.
+// Why several workers: when records carried positions (57 bytes), one compression thread bounded
+// the pass (100M triangles under 64 MiB: ~6 GB of records; the scan ~14 s of CPU, compression
+// ~22 s, the scan waiting for free buffers). With 21-byte records each of two threads uses ~4 s
+// at 100M: compression stays off the scan's path.
 class ChunkOutput {
  public:
   // Spare frames for the compression threads: enough that the scan seldom waits for one when
