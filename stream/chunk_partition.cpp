@@ -29,6 +29,7 @@
 
 #include "format/record_file.h"
 #include "format/temp_registry.h"
+#include "stream/id_indexed_file.h"
 
 namespace gaussmesh::stream {
 namespace {
@@ -1213,13 +1214,10 @@ std::vector<std::uint64_t> sorted_corner_keys(const std::vector<std::uint32_t>& 
   return keys;
 }
 
-// Calls fn(i, record) for every id of `ids` (ascending) with its record_bytes-sized record of
-// `path`: one pread covers each run of ids less than kWindow apart (ordered input: a few per
-// chunk; scattered ids: one per vertex). An id beyond the file is kBadInput naming `chunk_path`.
-template <class Fn>
+// Copies the record_bytes-sized record of every id of `ids` (ascending) from `path` into `out`
+// (ids.size() * record_bytes bytes). An id beyond the file is kBadInput naming `chunk_path`.
 Status read_vertex_records(const std::string& path, std::size_t record_bytes, const std::vector<std::uint32_t>& ids,
-                           const std::string& chunk_path, Fn&& fn) {
-  constexpr std::size_t kWindow = 4096;  // vertices per read at most
+                           const std::string& chunk_path, std::byte* out) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) return Status::error(Code::kBadInput, path, "cannot open a vertex file: " + errno_text());
   struct Closer {
@@ -1230,23 +1228,15 @@ Status read_vertex_records(const std::string& path, std::size_t record_bytes, co
   if (::fstat(fd, &st) != 0) return Status::error(Code::kBadInput, path, "cannot stat a vertex file: " + errno_text());
   const std::uint64_t count = static_cast<std::uint64_t>(st.st_size) / record_bytes;
   std::vector<std::byte> window;
-  for (std::size_t i = 0; i < ids.size();) {
-    if (ids[i] >= count) {
-      return Status::error(Code::kBadInput, chunk_path,
-                           "vertex " + std::to_string(ids[i]) + " is beyond " + path + " (" + std::to_string(count) + " vertices)");
-    }
-    const std::uint64_t base = ids[i];
-    std::size_t end = i + 1;
-    while (end < ids.size() && ids[end] < base + kWindow && ids[end] < count) ++end;
-    const std::size_t bytes = (ids[end - 1] - base + 1) * record_bytes;
-    window.resize(bytes);
-    const std::uint64_t offset = base * record_bytes;
-    if (read_some(fd, window.data(), bytes, offset) != static_cast<std::int64_t>(bytes)) {
-      return Status::error(Code::kBadInput, path, "short read at byte " + std::to_string(offset));
-    }
-    for (; i < end; ++i) GM_RETURN_IF_ERROR(fn(i, window.data() + (ids[i] - base) * record_bytes));
+  const std::size_t served = read_by_ascending_id(fd, count, record_bytes, ids, window, [&](std::size_t i, const std::byte* record) {
+    std::memcpy(out + i * record_bytes, record, record_bytes);
+  });
+  if (served == ids.size()) return {};
+  if (ids[served] >= count) {
+    return Status::error(Code::kBadInput, chunk_path,
+                         "vertex " + std::to_string(ids[served]) + " is beyond " + path + " (" + std::to_string(count) + " vertices)");
   }
-  return {};
+  return Status::error(Code::kBadInput, path, "cannot read the record of vertex " + std::to_string(ids[served]));
 }
 
 // Positions and owners of the chunk's vertices from the partition's vertex files; the owner
@@ -1255,19 +1245,16 @@ Status read_chunk_positions(const ChunkInfo& info, ChunkMesh& mesh) {
   const std::vector<std::uint32_t>& ids = mesh.global_vertex;
   mesh.positions.resize(ids.size());
   GM_RETURN_IF_ERROR(read_vertex_records(info.positions, kPositionRecordBytes, ids, info.path,
-                                         [&](std::size_t i, const std::byte* record) {
-                                           std::memcpy(&mesh.positions[i], record, kPositionRecordBytes);
-                                           return Status{};
-                                         }));
-  return read_vertex_records(info.owners, kOwnerRecordBytes, ids, info.path, [&](std::size_t i, const std::byte* record) {
-    std::uint32_t owner;
-    std::memcpy(&owner, record, kOwnerRecordBytes);
-    if ((owner == info.id) != static_cast<bool>(mesh.owned_vertex[i])) {
+                                         reinterpret_cast<std::byte*>(mesh.positions.data())));
+  std::vector<std::uint32_t> owners(ids.size());
+  GM_RETURN_IF_ERROR(read_vertex_records(info.owners, kOwnerRecordBytes, ids, info.path, reinterpret_cast<std::byte*>(owners.data())));
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    if ((owners[i] == info.id) != static_cast<bool>(mesh.owned_vertex[i])) {
       return Status::error(Code::kBadInput, info.path,
                            "vertex " + std::to_string(ids[i]) + ": owned flag disagrees with " + info.owners);
     }
-    return Status{};
-  });
+  }
+  return {};
 }
 
 }  // namespace

@@ -16,6 +16,7 @@
 
 #include "format/record_file.h"
 
+#include "stream/id_indexed_file.h"
 #include "stream/piece_joins.h"
 
 namespace gaussmesh::stream {
@@ -226,26 +227,19 @@ class FilePositions final : public VertexPositionSource {
     }
     return {xyz[0], xyz[1], xyz[2]};
   }
-  // Ascending ids: one read per window of up to 64 KiB of the file that they fall in.
+  // Ascending ids: one read per run of nearby ids (read_by_ascending_id); an id it cannot serve
+  // (out of range, out of order, a failed read) is read alone, which records the error.
   void positions(std::span<const std::uint32_t> ids, std::span<format::Vec3f> out) override {
-    constexpr std::size_t kWindow = (std::size_t{64} << 10) / sizeof(format::Vec3f);
-    const std::size_t n = std::min(ids.size(), out.size());
-    for (std::size_t i = 0; i < n;) {
-      std::size_t j = i + 1;
-      while (j < n && ids[j] > ids[j - 1] && ids[j] - ids[i] < kWindow) ++j;
-      const std::uint32_t first = ids[i], last = ids[j - 1];
-      if (last >= count_ || last < first) {  // out of range or not ascending: one at a time
-        for (; i < j; ++i) out[i] = position(ids[i]);
-        continue;
-      }
-      window_.resize(last - first + 1);
-      const std::size_t bytes = window_.size() * sizeof(format::Vec3f);
-      if (::pread(fd_, window_.data(), bytes, static_cast<off_t>(std::uint64_t{first} * sizeof(format::Vec3f))) !=
-          static_cast<ssize_t>(bytes)) {
-        for (; i < j; ++i) out[i] = position(ids[i]);
-        continue;
-      }
-      for (; i < j; ++i) out[i] = window_[ids[i] - first];
+    ids = ids.first(std::min(ids.size(), out.size()));
+    while (!ids.empty()) {
+      const std::size_t served = read_by_ascending_id(fd_, count_, sizeof(format::Vec3f), ids, window_,
+                                                      [&](std::size_t i, const std::byte* record) {
+                                                        std::memcpy(&out[i], record, sizeof(format::Vec3f));
+                                                      });
+      if (served < ids.size()) out[served] = position(ids[served]);
+      const std::size_t next = std::min(served + 1, ids.size());
+      ids = ids.subspan(next);
+      out = out.subspan(next);
     }
   }
   format::Status status() const override { return status_; }
@@ -255,7 +249,7 @@ class FilePositions final : public VertexPositionSource {
   std::string path_;
   std::size_t count_;
   format::Status status_;
-  std::vector<format::Vec3f> window_;
+  std::vector<std::byte> window_;
 };
 
 // Calls body(run index in chunk, index in run, entry) for every run vertex of a chunk's file,
