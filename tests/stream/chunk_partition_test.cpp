@@ -587,8 +587,7 @@ TEST(ChunkPartition, DamagedChunkFilesAreBadInput) {
 
   // The vertex files: positions missing or truncated; owners missing, or naming another owner
   // for a vertex the chunk file says is owned.
-  auto restore = [&] { testing::write_file(info.path, bytes); };
-  restore();
+  testing::write_file(info.path, bytes);  // the undamaged chunk file
   const std::string position_bytes = testing::read_file(info.positions);
   const std::string owner_bytes = testing::read_file(info.owners);
   auto expect_bad_vertices = [&](const std::string& what) {
