@@ -38,6 +38,81 @@ T get(const std::byte* at) {
 
 std::string errno_text() { return std::strerror(errno); }
 
+// Field descriptors in the header: byte 20 the count (0: records as they are), then one byte
+// per field, its size in the low 7 bits and 0x80 for delta.
+constexpr std::size_t kColumnsAt = 20;
+static_assert(kColumnsAt + 1 + kMaxRecordFields == kHeaderBytes);
+
+// Records of a frame (n of size record_size) into columns, integer fields as differences.
+template <class T>
+void delta_column(const std::byte* records, std::size_t n, std::size_t stride, std::byte* out) {
+  T previous = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    T value;
+    std::memcpy(&value, records + i * stride, sizeof value);
+    const T d = static_cast<T>(value - previous);
+    std::memcpy(out + i * sizeof(T), &d, sizeof d);
+    previous = value;
+  }
+}
+template <class T>
+void undelta_column(const std::byte* column, std::size_t n, std::size_t stride, std::byte* records) {
+  T value = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    T d;
+    std::memcpy(&d, column + i * sizeof(T), sizeof d);
+    value = static_cast<T>(value + d);
+    std::memcpy(records + i * stride, &value, sizeof value);
+  }
+}
+void to_columns(std::span<const RecordField> fields, std::span<const std::byte> records, std::size_t record_size,
+                std::byte* out) {
+  const std::size_t n = records.size() / record_size;
+  std::size_t offset = 0;
+  for (const RecordField& field : fields) {
+    const std::byte* in = records.data() + offset;
+    if (field.delta && field.bytes == 8) {
+      delta_column<std::uint64_t>(in, n, record_size, out);
+    } else if (field.delta) {
+      delta_column<std::uint32_t>(in, n, record_size, out);
+    } else {
+      for (std::size_t i = 0; i < n; ++i) std::memcpy(out + i * field.bytes, in + i * record_size, field.bytes);
+    }
+    out += n * field.bytes;
+    offset += field.bytes;
+  }
+}
+void from_columns(std::span<const RecordField> fields, const std::byte* columns, std::size_t record_size,
+                  std::span<std::byte> records) {
+  const std::size_t n = records.size() / record_size;
+  std::size_t offset = 0;
+  for (const RecordField& field : fields) {
+    std::byte* out = records.data() + offset;
+    if (field.delta && field.bytes == 8) {
+      undelta_column<std::uint64_t>(columns, n, record_size, out);
+    } else if (field.delta) {
+      undelta_column<std::uint32_t>(columns, n, record_size, out);
+    } else {
+      for (std::size_t i = 0; i < n; ++i) std::memcpy(out + i * record_size, columns + i * field.bytes, field.bytes);
+    }
+    columns += n * field.bytes;
+    offset += field.bytes;
+  }
+}
+// Why a field list is refused, or "" when it describes records of record_size bytes.
+std::string check_columns(std::span<const RecordField> fields, std::size_t record_size) {
+  if (fields.empty()) return "";
+  if (fields.size() > kMaxRecordFields) return "more than " + std::to_string(kMaxRecordFields) + " fields";
+  std::size_t sum = 0;
+  for (const RecordField& field : fields) {
+    if (field.bytes == 0 || field.bytes > 127) return "a field of " + std::to_string(field.bytes) + " bytes";
+    if (field.delta && field.bytes != 4 && field.bytes != 8) return "a delta field of " + std::to_string(field.bytes) + " bytes";
+    sum += field.bytes;
+  }
+  if (sum != record_size) return "fields of " + std::to_string(sum) + " bytes in a record of " + std::to_string(record_size);
+  return "";
+}
+
 bool pread_all(int fd, void* out, std::size_t size, std::uint64_t offset) {
   auto* bytes = static_cast<char*>(out);
   while (size > 0) {
@@ -84,8 +159,12 @@ Result<std::unique_ptr<RecordWriter>> RecordWriter::create(const std::string& pa
   if (record_size == 0 || record_size > kMaxRecordFrameBytes) {
     return Status::error(Code::kProcessing, path, "record size " + std::to_string(record_size) + " out of range");
   }
+  if (std::string why = check_columns(options.columns, record_size); !why.empty()) {
+    return Status::error(Code::kProcessing, path, "record fields: " + why);
+  }
   std::unique_ptr<RecordWriter> writer(new RecordWriter());
   writer->path_ = path;
+  writer->columns_ = options.columns;
   writer->record_size_ = record_size;
   writer->shared_ = options.shared;
   writer->keep_open_ = options.keep_open;
@@ -107,6 +186,10 @@ Result<std::unique_ptr<RecordWriter>> RecordWriter::create(const std::string& pa
   put<std::uint32_t>(header + 8, kRecordFileVersion);
   put<std::uint32_t>(header + 12, kind);
   put<std::uint32_t>(header + 16, record_size);
+  header[kColumnsAt] = static_cast<std::byte>(options.columns.size());
+  for (std::size_t i = 0; i < options.columns.size(); ++i) {
+    header[kColumnsAt + 1 + i] = static_cast<std::byte>(options.columns[i].bytes | (options.columns[i].delta ? 0x80 : 0));
+  }
   GM_RETURN_IF_ERROR(writer->write_raw(header, sizeof header));
   if (!writer->keep_open_) GM_RETURN_IF_ERROR(writer->close_file());
   return writer;
@@ -158,8 +241,15 @@ Status RecordWriter::write_frame(std::span<const std::byte> plain) {
   ZSTD_CCtx* cctx = static_cast<ZSTD_CCtx*>(shared_ != nullptr ? shared_->cctx_ : cctx_);
   std::vector<std::byte>& compressed = shared_ != nullptr ? shared_->buffer_ : compressed_;
   compressed.resize(kFrameHeaderBytes + ZSTD_compressBound(plain.size()));
+  std::span<const std::byte> input = plain;
+  if (!columns_.empty()) {
+    std::vector<std::byte>& columns = shared_ != nullptr ? shared_->columns_ : column_buffer_;
+    columns.resize(plain.size());
+    to_columns(columns_, plain, record_size_, columns.data());
+    input = columns;
+  }
   std::size_t size = ZSTD_compress2(cctx, compressed.data() + kFrameHeaderBytes, compressed.size() - kFrameHeaderBytes,
-                                    plain.data(), plain.size());
+                                    input.data(), input.size());
   if (ZSTD_isError(size)) {
     failed_ = true;
     return Status::error(Code::kProcessing, path_, std::string("zstd: ") + ZSTD_getErrorName(size));
@@ -251,6 +341,7 @@ Status RecordWriter::finish() {
   finished_ = true;
   std::vector<std::byte>().swap(pending_);
   std::vector<std::byte>().swap(compressed_);
+  std::vector<std::byte>().swap(column_buffer_);
   return {};
 }
 
@@ -280,6 +371,13 @@ Result<std::unique_ptr<RecordReader>> RecordReader::open(const std::string& path
   }
   if (get<std::uint32_t>(header + 12) != kind) return reader->fail(12, "record kind " + std::to_string(get<std::uint32_t>(header + 12)) + ", expected " + std::to_string(kind));
   if (get<std::uint32_t>(header + 16) != record_size) return reader->fail(16, "record size " + std::to_string(get<std::uint32_t>(header + 16)) + ", expected " + std::to_string(record_size));
+  const std::size_t fields = std::to_integer<std::size_t>(header[kColumnsAt]);
+  if (fields > kMaxRecordFields) return reader->fail(kColumnsAt, std::to_string(fields) + " record fields, at most " + std::to_string(kMaxRecordFields));
+  for (std::size_t i = 0; i < fields; ++i) {
+    const unsigned code = std::to_integer<unsigned>(header[kColumnsAt + 1 + i]);
+    reader->columns_.push_back({static_cast<std::uint8_t>(code & 0x7F), (code & 0x80) != 0});
+  }
+  if (std::string why = check_columns(reader->columns_, record_size); !why.empty()) return reader->fail(kColumnsAt, "record fields: " + why);
   std::byte footer[kFooterBytes];
   const std::uint64_t footer_at = size - kFooterBytes;
   if (!pread_all(reader->fd_, footer, sizeof footer, footer_at)) return reader->fail(footer_at, "cannot read seek table");
@@ -339,9 +437,12 @@ Result<std::span<const std::byte>> RecordReader::next() {
   compressed_.resize(compressed);
   if (!pread_all(fd_, compressed_.data(), compressed, at + kFrameHeaderBytes)) return fail(at, frame + "cannot read frame");
   plain_.resize(plain);
-  std::size_t got = ZSTD_decompressDCtx(static_cast<ZSTD_DCtx*>(dctx_), plain_.data(), plain_.size(), compressed_.data(), compressed_.size());
+  std::vector<std::byte>& target = columns_.empty() ? plain_ : column_buffer_;
+  target.resize(plain);
+  std::size_t got = ZSTD_decompressDCtx(static_cast<ZSTD_DCtx*>(dctx_), target.data(), target.size(), compressed_.data(), compressed_.size());
   if (ZSTD_isError(got)) return fail(at + kFrameHeaderBytes, frame + "corrupt (" + ZSTD_getErrorName(got) + ")");
   if (got != plain) return fail(at + kFrameHeaderBytes, frame + "decompressed to " + std::to_string(got) + " bytes, expected " + std::to_string(plain));
+  if (!columns_.empty()) from_columns(columns_, column_buffer_.data(), record_size_, plain_);
   ++next_frame_;
   records_read_ += plain / record_size_;
   return std::span<const std::byte>(plain_.data(), plain_.size());

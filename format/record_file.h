@@ -16,7 +16,7 @@
 
 namespace gaussmesh::format {
 
-inline constexpr std::uint32_t kRecordFileVersion = 1;
+inline constexpr std::uint32_t kRecordFileVersion = 2;
 // Largest uncompressed frame; writers cut frames at whole records below it.
 inline constexpr std::size_t kMaxRecordFrameBytes = std::size_t{4} << 20;
 
@@ -35,8 +35,19 @@ class RecordCompressor {
   friend class RecordWriter;
   RecordCompressor() = default;
   void* cctx_ = nullptr;  // ZSTD_CCtx
-  std::vector<std::byte> buffer_;
+  std::vector<std::byte> buffer_, columns_;
 };
+
+// One field of a record, for files whose frames are stored column by column (docs/records.md):
+// the field's bytes of every record of the frame together, a 4- or 8-byte integer field with
+// `delta` as the difference from the previous record's (wrapping; the first from zero). Ids that
+// run nearly in order become runs of small numbers that zstd compresses several times faster,
+// and smaller, than the interleaved records. Readers need not know: the file's header says.
+struct RecordField {
+  std::uint8_t bytes = 0;  // 1..127
+  bool delta = false;      // only for 4 or 8 bytes
+};
+inline constexpr std::size_t kMaxRecordFields = 11;
 
 struct RecordWriterOptions {
   int level = 1;                               // zstd level of the writer's own context
@@ -45,6 +56,9 @@ struct RecordWriterOptions {
   // false: no descriptor is held between frames; the file is reopened (append) for each frame
   // and closed after it, so thousands of writers fit under the open-file limit.
   bool keep_open = true;
+  // Empty: frames hold the records as they are. Else the record's fields in order, their bytes
+  // summing to the record size, at most kMaxRecordFields (kProcessing at create if not).
+  std::vector<RecordField> columns;
 };
 
 class RecordWriter {
@@ -87,7 +101,8 @@ class RecordWriter {
   void* cctx_ = nullptr;  // ZSTD_CCtx, owned unless shared_
   RecordCompressor* shared_ = nullptr;
   bool keep_open_ = true;
-  std::vector<std::byte> pending_, compressed_;
+  std::vector<RecordField> columns_;
+  std::vector<std::byte> pending_, compressed_, column_buffer_;
   // Offsets of the first frames; beyond kOffsetsInMemory frames finish() finds them again from
   // the frames' own headers, so a writer's memory does not grow with its file.
   std::vector<std::uint64_t> frame_offsets_;
@@ -119,10 +134,11 @@ class RecordReader {
   std::string path_;
   std::uint32_t record_size_ = 0;
   void* dctx_ = nullptr;  // ZSTD_DCtx
+  std::vector<RecordField> columns_;  // from the header; empty: records as they are
   std::vector<std::uint64_t> frame_offsets_;
   std::uint64_t data_end_ = 0, records_ = 0, records_read_ = 0;
   std::size_t next_frame_ = 0;
-  std::vector<std::byte> compressed_, plain_;
+  std::vector<std::byte> compressed_, plain_, column_buffer_;
 };
 
 }  // namespace gaussmesh::format

@@ -110,6 +110,49 @@ TEST(RecordFile, ManyWritersShareOneContextWithoutHoldingFiles) {
   }
 }
 
+TEST(RecordFile, ColumnFramesRoundTripSmallerAndSayTheirLayout) {
+  // Ids in order as differences, positions and labels as bytes: the reader needs no layout of
+  // its own (the header carries it), gets every record back, and the file is smaller than rows.
+  testing::ScratchDir dir;
+  auto items = make_items(50000);
+  items[777].id = 3;  // a difference that wraps below zero
+  RecordWriterOptions options;
+  options.frame_bytes = 4096 * sizeof(Item);
+  options.columns = {{8, true}, {4, false}, {4, false}, {4, false}, {4, true}};
+  auto writer = RecordWriter::create(dir.file("c.bin"), 42, sizeof(Item), options);
+  ASSERT_TRUE(writer.is_ok()) << writer.status().to_string();
+  ASSERT_TRUE((*writer)->append(std::as_bytes(std::span(items))).is_ok());
+  ASSERT_TRUE((*writer)->finish().is_ok());
+  ASSERT_TRUE(write_items(dir.file("r.bin"), items, 4096 * sizeof(Item)).is_ok());
+  auto back = read_items(dir.file("c.bin"));
+  ASSERT_TRUE(back.is_ok()) << back.status().to_string();
+  ASSERT_EQ(back->size(), items.size());
+  EXPECT_EQ(std::memcmp(back->data(), items.data(), items.size() * sizeof(Item)), 0);
+  EXPECT_LT(testing::read_file(dir.file("c.bin")).size(), testing::read_file(dir.file("r.bin")).size());
+
+  // Layouts that do not describe the record are refused when the writer is made...
+  for (std::vector<RecordField> bad : {std::vector<RecordField>{{8, true}, {4, false}},  // 12 of 24 bytes
+                                       std::vector<RecordField>{{12, true}, {12, false}},  // delta of 12 bytes
+                                       std::vector<RecordField>{{0, false}, {24, false}},
+                                       std::vector<RecordField>(12, RecordField{2, false})}) {
+    options.columns = bad;
+    auto refused = RecordWriter::create(dir.file("x.bin"), 42, sizeof(Item), options);
+    ASSERT_FALSE(refused.is_ok());
+    EXPECT_EQ(refused.status().code(), Code::kProcessing);
+  }
+  // ...and a damaged layout in a header is bad input naming the file.
+  std::string bytes = testing::read_file(dir.file("c.bin"));
+  for (auto [at, value] : {std::pair<size_t, char>{20, 12}, {21, char(0x80 | 3)}, {25, 5}}) {
+    std::string damaged = bytes;
+    damaged[at] = value;
+    testing::write_file(dir.file("d.bin"), damaged);
+    auto read = read_items(dir.file("d.bin"));
+    ASSERT_FALSE(read.is_ok()) << "header byte " << at;
+    EXPECT_EQ(read.status().code(), Code::kBadInput);
+    EXPECT_NE(read.status().to_string().find("d.bin"), std::string::npos);
+  }
+}
+
 TEST(RecordFile, EmptyFileIsValid) {
   testing::ScratchDir dir;
   ASSERT_TRUE(write_items(dir.file("e.bin"), {}).is_ok());
