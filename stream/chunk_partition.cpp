@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <bit>
 #include <array>
 #include <atomic>
 #include <cerrno>
@@ -1225,6 +1226,71 @@ std::vector<std::uint64_t> sorted_corner_keys(const std::vector<std::uint32_t>& 
   return keys;
 }
 
+// Local vertex ids in ascending global id for a chunk's corners (global ids, owned flags):
+// fills mesh.global_vertex, owned_vertex and triangles; a vertex whose corners disagree on
+// ownership is bad(). Ids within a span of at most 256 per face (any spatially ordered input):
+// a bitmap of the span and a popcount rank per 64-bit word number them, in two sequential
+// passes over the corners and no sort; the bitmap and ranks (3 span / 16 bytes) are at most the
+// sort's keys (48 bytes a face). Wider spans (scattered ids): one sort of (global id, corner).
+template <class Bad>
+Status number_chunk_vertices(const std::vector<std::uint32_t>& ids, const std::vector<std::uint8_t>& owned,
+                             ChunkMesh& mesh, Bad&& bad) {
+  const std::size_t n = ids.size();
+  mesh.triangles.resize(n / 3);
+  if (n == 0) return {};
+  const auto [lo_it, hi_it] = std::minmax_element(ids.begin(), ids.end());
+  const std::uint32_t lo = *lo_it;
+  const std::uint64_t span = std::uint64_t{*hi_it} - lo + 1;
+  auto* corners = reinterpret_cast<std::uint32_t*>(mesh.triangles.data());
+  static_assert(sizeof(format::Triangle) == 3 * sizeof(std::uint32_t));
+  if (span <= std::uint64_t{256} * (n / 3 + 1)) {
+    const std::size_t words = static_cast<std::size_t>((span + 63) / 64);
+    std::vector<std::uint64_t> bits(words, 0);
+    for (std::uint32_t id : ids) bits[(id - lo) >> 6] |= std::uint64_t{1} << ((id - lo) & 63);
+    std::vector<std::uint32_t> rank(words);
+    std::uint32_t distinct = 0;
+    for (std::size_t w = 0; w < words; ++w) {
+      rank[w] = distinct;
+      distinct += static_cast<std::uint32_t>(std::popcount(bits[w]));
+    }
+    mesh.global_vertex.resize(distinct);
+    std::uint32_t* next = mesh.global_vertex.data();
+    for (std::size_t w = 0; w < words; ++w)
+      for (std::uint64_t word = bits[w]; word != 0; word &= word - 1)
+        *next++ = lo + static_cast<std::uint32_t>(64 * w) + static_cast<std::uint32_t>(std::countr_zero(word));
+    // Ownership per vertex: bit 0 a corner said owned, bit 1 a corner said not owned.
+    std::vector<std::uint8_t> said(distinct, 0);
+    for (std::size_t c = 0; c < n; ++c) {
+      const std::uint32_t offset = ids[c] - lo;
+      const std::uint64_t below = bits[offset >> 6] & ((std::uint64_t{1} << (offset & 63)) - 1);
+      const std::uint32_t local = rank[offset >> 6] + static_cast<std::uint32_t>(std::popcount(below));
+      corners[c] = local;
+      said[local] |= owned[c] ? 1 : 2;
+    }
+    mesh.owned_vertex.resize(distinct);
+    for (std::uint32_t v = 0; v < distinct; ++v) {
+      if (said[v] == 3) return bad("vertex " + std::to_string(mesh.global_vertex[v]) + " is both owned and not owned");
+      mesh.owned_vertex[v] = said[v] == 1;
+    }
+    return {};
+  }
+  const std::vector<std::uint64_t> keys = sorted_corner_keys(ids);
+  std::size_t first_corner = 0;
+  for (std::size_t k = 0; k < keys.size(); ++k) {
+    const auto id = static_cast<std::uint32_t>(keys[k] >> 32);
+    const auto c = static_cast<std::size_t>(keys[k] & 0xFFFFFFFFu);
+    if (k == 0 || id != mesh.global_vertex.back()) {
+      mesh.global_vertex.push_back(id);
+      mesh.owned_vertex.push_back(owned[c]);
+      first_corner = c;
+    } else if (owned[first_corner] != owned[c]) {
+      return bad("vertex " + std::to_string(id) + " is both owned and not owned");
+    }
+    corners[c] = static_cast<std::uint32_t>(mesh.global_vertex.size() - 1);
+  }
+  return {};
+}
+
 // Copies the record_bytes-sized record of every id of `ids` (ascending) from `path` into `out`
 // (ids.size() * record_bytes bytes). An id beyond the file is kBadInput naming `chunk_path`.
 Status read_vertex_records(const std::string& path, std::size_t record_bytes, const std::vector<std::uint32_t>& ids,
@@ -1319,23 +1385,7 @@ format::Result<ChunkMesh> load_chunk(const ChunkInfo& info) {
     }
   }
   if (mesh.global_face.size() != faces) return bad("fewer face records than the file claims");
-  // Local vertex ids in ascending global id: one sort of (global id, corner) keys, then a scan
-  // that numbers the distinct ids and checks every repeat's ownership against the first.
-  std::vector<std::uint64_t> keys = sorted_corner_keys(corner_ids);
-  mesh.triangles.resize(faces);
-  std::size_t first_corner = 0;
-  for (std::size_t k = 0; k < keys.size(); ++k) {
-    const auto id = static_cast<std::uint32_t>(keys[k] >> 32);
-    const auto c = static_cast<std::size_t>(keys[k] & 0xFFFFFFFFu);
-    if (k == 0 || id != mesh.global_vertex.back()) {
-      mesh.global_vertex.push_back(id);
-      mesh.owned_vertex.push_back(corner_owned[c]);
-      first_corner = c;
-    } else if (corner_owned[first_corner] != corner_owned[c]) {
-      return bad("vertex " + std::to_string(id) + " is both owned and not owned");
-    }
-    mesh.triangles[c / 3].v[c % 3] = static_cast<std::uint32_t>(mesh.global_vertex.size() - 1);
-  }
+  GM_RETURN_IF_ERROR(number_chunk_vertices(corner_ids, corner_owned, mesh, bad));
   std::uint64_t owned_faces = 0, owned_vertices = 0;
   for (std::uint8_t o : mesh.owned_face) owned_faces += o;
   for (std::uint8_t o : mesh.owned_vertex) owned_vertices += o;

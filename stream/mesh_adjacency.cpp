@@ -58,27 +58,25 @@ std::size_t build_star(const Triangle* tris, std::uint32_t begin, std::uint32_t 
     prev[r] = t.v[i == 0 ? 2 : i - 1];
   }
   // For each slot: the slot across its outgoing edge (partner) and the slot that continues the
-  // fan across its incoming edge (next_slot), kNone when that edge is a break.
+  // fan across its incoming edge (next_slot), kNone when that edge is a break. next_slot is
+  // partner's inverse: the incoming edge (p, v) of slot r is manifold iff exactly one slot has
+  // prev == p and exactly one d has next == p, and then partner[d] == r — the same two counts.
   std::size_t breaks = 0;
   if (degree <= 24) {
+    for (std::uint32_t r = 0; r < degree; ++r) next_slot[r] = kNone;
     for (std::uint32_t r = 0; r < degree; ++r) {
-      const std::uint32_t a = next[r], p = prev[r];
-      std::uint32_t out = 0, in = 0, in_slot = kNone, p_in = 0, p_out = 0, p_slot = kNone;
+      const std::uint32_t a = next[r];
+      std::uint32_t out = 0, in = 0, in_slot = kNone;
       for (std::uint32_t d = 0; d < degree; ++d) {
         out += next[d] == a;
         if (prev[d] == a) {
           ++in;
           in_slot = d;
         }
-        p_in += prev[d] == p;
-        if (next[d] == p) {
-          ++p_out;
-          p_slot = d;
-        }
       }
       partner[r] = out == 1 && in == 1 ? in_slot : kNone;
       breaks += partner[r] == kNone;
-      next_slot[r] = p_in == 1 && p_out == 1 ? p_slot : kNone;
+      if (partner[r] != kNone) next_slot[partner[r]] = r;
     }
   } else {
     // Large stars (fan apexes): sorted slot lists instead of the quadratic scan.

@@ -5,8 +5,11 @@
 //
 //   bench_partition [--sizes N,N,...] [--memory BYTES] [--rings K] [--threads T] [--level L]
 //                   [--dir D] [--shuffle-max N] [--keep]
-//   bench_partition --child INPUT MEMORY RINGS THREADS LEVEL TMPDIR   (one run; key=value line)
+//   bench_partition --child INPUT MEMORY RINGS THREADS LEVEL TMPDIR [read-back]
+//       (one run; key=value line; read-back: then loads every chunk and builds its adjacency on one
+//       thread, and prints the CPU seconds of each — what passes A and C pay per chunk)
 #include <sys/statvfs.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -22,11 +25,14 @@
 #include <string>
 #include <vector>
 
+#include <tbb/global_control.h>
+
 #include "format/mesh_writer.h"
 #include "format/output_file.h"
 #include "format/temp_registry.h"
 #include "stream/chunk_partition.h"
 #include "stream/mesh.h"
+#include "stream/mesh_adjacency.h"
 #include "tests/support/child_process.h"
 
 namespace gaussmesh::bench {
@@ -47,7 +53,7 @@ std::string read_line(const char* path) {
 
 // The child: one partition, figures on stdout.
 int child_main(int argc, char** argv) {
-  if (argc != 8) return 1;
+  if (argc != 8 && argc != 9) return 1;
   format::install_signal_cleanup();  // an interrupted run leaves no temp dir behind
   stream::PartitionOptions options;
   options.memory_bytes = std::strtoull(argv[3], nullptr, 10);
@@ -71,6 +77,29 @@ int child_main(int argc, char** argv) {
               (unsigned long long)partition->faces, partition->chunks.size(), (unsigned long long)records,
               (unsigned long long)largest, (unsigned long long)partition->bytes_spilled,
               (unsigned long long)partition->cache_misses, (unsigned long long)chunk_bytes);
+  if (argc == 9 && std::string(argv[8]) == "read-back") {
+    auto cpu = [] {
+      timespec t{};
+      ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+      return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+    };
+    tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);  // the adjacency's parallel_for
+    double load = 0, adjacency = 0;
+    stream::MeshAdjacency adj;
+    for (const auto& c : partition->chunks) {
+      const double t0 = cpu();
+      auto chunk = stream::load_chunk(c);
+      const double t1 = cpu();
+      if (!chunk) {
+        std::fprintf(stderr, "%s\n", chunk.status().to_string().c_str());
+        return static_cast<int>(chunk.status().code());
+      }
+      if (!stream::build_mesh_adjacency(chunk->view(), adj).is_ok()) return 1;
+      load += t1 - t0;
+      adjacency += cpu() - t1;
+    }
+    std::printf("load_cpu=%.3f adjacency_cpu=%.3f\n", load, adjacency);
+  }
   return 0;
 }
 

@@ -66,6 +66,9 @@ Loaded load_and_check(const Partition& partition, const Mesh& mesh, const std::s
     }
     const ChunkMesh& c = *chunk;
     EXPECT_EQ(c.chunk, info.id);
+    EXPECT_TRUE(std::adjacent_find(c.global_vertex.begin(), c.global_vertex.end(), std::greater_equal<>()) ==
+                c.global_vertex.end())
+        << tag << ": chunk " << info.id << " numbers its vertices out of global order";
     for (std::size_t l = 0; l < c.global_vertex.size(); ++l) {
       const std::uint32_t g = c.global_vertex[l];
       EXPECT_EQ(std::memcmp(&c.positions[l], &mesh.positions[g], sizeof(format::Vec3f)), 0) << tag << " vertex " << g;
@@ -325,6 +328,24 @@ TEST(ChunkPartition, ShuffledIdsGiveTheSameChunks) {
     std::sort(mapped.begin(), mapped.end());
     EXPECT_EQ(mapped, ordered.faces[c]) << "chunk " << c << ", seed " << seed;
   }
+}
+
+TEST(ChunkPartition, ScatteredIdsTakeTheSortAndGiveExactChunks) {
+  // load_chunk numbers a chunk's vertices with a bitmap over its id span when the span is at most
+  // 256 ids a face (every mesh above), else by sorting. Ids spread 400 apart, with unused vertices
+  // between them, make every chunk's span far wider: the same exact chunks must come out.
+  testing::ShapeOptions o;
+  o.vertices = 1500;
+  o.seed = 9;
+  const Mesh compact = testing::make_sphere(o);
+  constexpr std::uint32_t kSpread = 400;
+  Mesh spread;
+  spread.positions.reserve(compact.positions.size() * kSpread);
+  for (const format::Vec3f& p : compact.positions)
+    for (std::uint32_t k = 0; k < kSpread; ++k) spread.positions.push_back(p);
+  for (const format::Triangle& t : compact.triangles)
+    spread.triangles.push_back({{t.v[0] * kSpread, t.v[1] * kSpread, t.v[2] * kSpread}});
+  check_exact(spread, "sphere, ids 400 apart", 100, 3, 10);
 }
 
 TEST(ChunkPartition, HighValenceVertexKeepsEveryChunk) {
