@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -68,13 +69,13 @@ struct ChunkLoops {
   std::vector<std::pair<std::uint32_t, std::array<double, 3>>> areas;
 };
 
-// Pass C for one chunk. patch_of_face(local face) gives the merged patch of every face sharing a
-// vertex with an owned face; is_corner(global vertex) whether it is a candidate after the merge;
+// Pass C for one chunk. patch[local face] is the merged patch of every face sharing a vertex with
+// an owned face (one entry per chunk face); is_corner(global vertex) whether it is a candidate after the merge;
 // samples are the chunk's owned samples (ascending). Appends to out (offsets count from the
 // run vertices already there). Collapsed faces and repeats of a face's vertex set take no part
 // (faces_the_mesher_skips). Errors: the adjacency's, when repeats force a second one.
 format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
-                      const std::function<std::uint32_t(std::uint32_t)>& patch_of_face,
+                      std::span<const std::uint32_t> patch,
                       const std::function<bool(std::uint32_t)>& is_corner, const std::vector<GlobalSample>& samples,
                       ChunkLoops& out);
 

@@ -243,8 +243,11 @@ Status PieceJoinFiles::read_stars(std::uint32_t chunk, std::vector<StarEntry>& o
 }
 
 Status PieceJoinFiles::write_answer_file(std::uint32_t chunk, std::span<const FacePieceRecord> answers) {
-  auto writer = format::RecordWriter::create(answer_path(chunk), kFaceAnswerRecordKind, kFaceAnswerRecordBytes, 1,
-                                             kAnswerFrameBytes);
+  // Ascending faces and their pieces (mostly a few per chunk) as differences, column by column.
+  format::RecordWriterOptions options;
+  options.frame_bytes = kAnswerFrameBytes;
+  options.columns = {{8, true}, {8, true}};
+  auto writer = format::RecordWriter::create(answer_path(chunk), kFaceAnswerRecordKind, kFaceAnswerRecordBytes, options);
   if (!writer) return writer.status();
   const std::size_t per_frame = (*writer)->frame_limit() / kFaceAnswerRecordBytes;
   std::vector<std::byte> bytes(std::min(answers.size(), per_frame) * kFaceAnswerRecordBytes);
