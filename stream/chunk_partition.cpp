@@ -460,6 +460,7 @@ class ChunkSets {
 // ---- The cell grid --------------------------------------------------------------------------
 
 constexpr std::uint32_t kCellBits = 18;  // at most 2^18 cells: histogram and table 1 MiB each
+constexpr std::uint32_t kMaxSplitBits = 5;  // a split cell has at most 8^5 sub-cells (128 KiB of counts)
 
 struct Grid {
   double lo[3] = {0, 0, 0}, scale[3] = {0, 0, 0};
@@ -504,6 +505,29 @@ struct Grid {
   }
   std::uint32_t cell(const Vec3f& p) const {
     return axis(0, p.x) + n[0] * (axis(1, p.y) + n[1] * axis(2, p.z));
+  }
+  // Z-order code of p's sub-cell when its cell is split into 2^k parts per axis (axes of zero
+  // extent stay whole). The fine coordinate is floor(t * 2^k) on the cell's own t: scaling by a
+  // power of two is exact, so it always lies inside the cell that cell(p) names.
+  std::uint32_t sub_code(const Vec3f& p, std::uint32_t k) const {
+    const float c[3] = {p.x, p.y, p.z};
+    std::uint32_t local[3] = {0, 0, 0};
+    for (int a = 0; a < 3; ++a) {
+      if (scale[a] == 0) continue;
+      const double t = (static_cast<double>(c[a]) - lo[a]) * scale[a];
+      const std::uint64_t parts = std::uint64_t{1} << k;
+      std::uint64_t fine = 0;
+      if (t >= n[a]) {
+        fine = std::uint64_t{n[a]} * parts - 1;
+      } else if (t >= 0) {
+        fine = std::min<std::uint64_t>(static_cast<std::uint64_t>(std::ldexp(t, static_cast<int>(k))), std::uint64_t{n[a]} * parts - 1);
+      }
+      local[a] = static_cast<std::uint32_t>(fine - (std::uint64_t{axis(a, c[a])} << k));
+    }
+    std::uint32_t code = 0;
+    for (std::uint32_t level = k; level-- > 0;)
+      for (int a = 0; a < 3; ++a) code = code << 1 | ((local[a] >> level) & 1u);
+    return code;
   }
   // Z-order code of a cell: bits interleaved from the top level down; an axis with fewer bits
   // joins the interleave at its own top level.
@@ -824,12 +848,28 @@ class ChunkOutput {
 
 // ---- Pass 1 -------------------------------------------------------------------------------------
 
+// The chunk of p: its cell's, or for a split cell its sub-cell's (Partition::OwnerMap).
+std::uint32_t owner_in(const Grid& grid, const std::vector<std::uint32_t>& cell_chunk,
+                       const std::vector<Partition::SplitCell>& splits, const Vec3f& p) {
+  const std::uint32_t cell = grid.cell(p);
+  if (cell >= cell_chunk.size()) return 0;
+  const std::uint32_t entry = cell_chunk[cell];
+  if (!(entry & Partition::kSplitCell)) return entry;
+  const std::uint32_t index = entry & ~Partition::kSplitCell;
+  if (index >= splits.size()) return 0;
+  const Partition::SplitCell& split = splits[index];
+  const std::uint32_t code = grid.sub_code(p, split.k);
+  return split.first + static_cast<std::uint32_t>(std::upper_bound(split.starts.begin(), split.starts.end(), code) -
+                                                  split.starts.begin());
+}
+
 struct Planner {
   Grid grid;
-  std::vector<std::uint32_t> cell_chunk;  // linear cell -> chunk
+  std::vector<std::uint32_t> cell_chunk;  // linear cell -> chunk, or kSplitCell | split
+  std::vector<Partition::SplitCell> splits;
   std::uint32_t chunks = 0;
   std::vector<std::uint64_t> owned_vertices;
-  std::uint32_t owner(const Vec3f& p) const { return cell_chunk[grid.cell(p)]; }
+  std::uint32_t owner(const Vec3f& p) const { return owner_in(grid, cell_chunk, splits, p); }
 };
 
 static_assert(sizeof(Vec3f) == kPositionRecordBytes && sizeof(std::uint32_t) == kOwnerRecordBytes);
@@ -907,24 +947,97 @@ Status PartitionRun::plan() {
   const double owned_faces = std::max(0.75 * static_cast<double>(chunk_faces), 1.0);
   const double ratio = out_.faces > 0 ? static_cast<double>(out_.vertices) / static_cast<double>(out_.faces) : 1.0;
   const std::uint64_t target = std::max<std::uint64_t>(static_cast<std::uint64_t>(std::ceil(owned_faces * ratio)), 1);
-  // Cells in Morton order; cell of Morton code m is order[m].
+  // Split cells: a cell with more than a quarter of a chunk's vertices (dense input: the cells'
+  // size is fixed, so their counts grow with the input) gets 8^k sub-cells, k the least that
+  // brings a surface's share of it (a quarter per level) to an eighth of a chunk, at most
+  // kMaxSplitBits; one more scan of positions.bin counts their vertices. A chunk takes every
+  // cell that starts below its share, so it owns at most a chunk plus one cell. Without this
+  // the largest chunk grew with the input (100M triangles under 64M: a cell of 66k vertices,
+  // twice a chunk; the largest chunk owned 2.2 chunks' vertices, 1.23 with split cells).
+  // A cell whose vertices gather in a small part of it (a cluster, not a surface across the
+  // cell) leaves sub-cells above a quarter of a chunk: its k goes up by two and the sub-cells are
+  // counted again, at most twice. The sub-cell counts stay within an eighth of the budget: k is
+  // capped lower when many cells are dense, and not raised past it.
+  auto split_bits = [&](std::uint32_t vertices, std::uint32_t cap) {
+    std::uint32_t k = 1;
+    while (k < cap && (vertices >> (2 * k)) > target / 8) ++k;
+    return k;
+  };
+  const std::uint64_t max_entries = options_.memory_bytes / 8 / sizeof(std::uint32_t);
+  std::uint32_t cap = kMaxSplitBits;
+  for (;; --cap) {
+    std::uint64_t entries = 0;
+    for (std::uint32_t c = 0; c < cells; ++c)
+      if (histogram[c] > target / 4 && histogram[c] >= 2) entries += std::uint64_t{1} << (3 * split_bits(histogram[c], cap));
+    if (cap == 1 || entries <= max_entries) break;
+  }
+  p.cell_chunk.assign(cells, 0);
+  for (std::uint32_t c = 0; c < cells; ++c) {
+    if (histogram[c] <= target / 4 || histogram[c] < 2) continue;
+    p.cell_chunk[c] = Partition::kSplitCell | static_cast<std::uint32_t>(p.splits.size());
+    p.splits.push_back({split_bits(histogram[c], cap), 0, {}});
+  }
+  std::vector<std::uint32_t> split_offset, sub_histogram;
+  for (int round = 0; !p.splits.empty(); ++round) {
+    split_offset.assign(1, 0);
+    for (const Partition::SplitCell& split : p.splits) split_offset.push_back(split_offset.back() + (1u << (3 * split.k)));
+    sub_histogram.assign(split_offset.back(), 0);
+    GM_RETURN_IF_ERROR(scan_spill<Vec3f>(positions_path_, out_.vertices, std::size_t{1} << 20,
+                                         [&](std::uint64_t, std::span<const Vec3f> batch) {
+                                           for (const Vec3f& v : batch) {
+                                             const std::uint32_t entry = p.cell_chunk[p.grid.cell(v)];
+                                             if (!(entry & Partition::kSplitCell)) continue;
+                                             const std::uint32_t index = entry & ~Partition::kSplitCell;
+                                             ++sub_histogram[split_offset[index] + p.grid.sub_code(v, p.splits[index].k)];
+                                           }
+                                           return Status{};
+                                         }));
+    if (round == 2) break;
+    std::vector<std::uint32_t> raised(p.splits.size());
+    std::uint64_t entries = 0;
+    bool any_raised = false;
+    for (std::size_t i = 0; i < p.splits.size(); ++i) {
+      const std::uint32_t* first = sub_histogram.data() + split_offset[i];
+      const std::uint32_t* last = sub_histogram.data() + split_offset[i + 1];
+      const std::uint32_t heaviest = *std::max_element(first, last);
+      raised[i] = heaviest > target / 4 ? std::min(p.splits[i].k + 2, kMaxSplitBits) : p.splits[i].k;
+      any_raised |= raised[i] != p.splits[i].k;
+      entries += std::uint64_t{1} << (3 * raised[i]);
+    }
+    if (!any_raised || entries > max_entries) break;
+    for (std::size_t i = 0; i < p.splits.size(); ++i) p.splits[i].k = raised[i];
+  }
+  // Cells in Morton order (a split cell's sub-cells in theirs); cell of Morton code m is order[m].
   std::vector<std::uint32_t> order(cells);
   for (std::uint32_t c = 0; c < cells; ++c) order[p.grid.morton(c)] = c;
-  p.cell_chunk.assign(cells, 0);
   std::uint64_t before = 0, last_raw = ~std::uint64_t{0};
   std::uint32_t chunk = 0;
   bool any = false;
+  auto count = [&](std::uint32_t vertices) {
+    if (vertices == 0) return;
+    const std::uint64_t raw = before / target;
+    if (any && raw != last_raw) ++chunk;
+    if (!any || raw != last_raw) p.owned_vertices.push_back(0);
+    any = true;
+    last_raw = raw;
+    p.owned_vertices[chunk] += vertices;
+    before += vertices;
+  };
   for (std::uint32_t c : order) {
-    if (histogram[c] > 0) {
-      const std::uint64_t raw = before / target;
-      if (any && raw != last_raw) ++chunk;
-      if (!any || raw != last_raw) p.owned_vertices.push_back(0);
-      any = true;
-      last_raw = raw;
-      p.owned_vertices[chunk] += histogram[c];
-      before += histogram[c];
+    if (!(p.cell_chunk[c] & Partition::kSplitCell)) {
+      count(histogram[c]);
+      p.cell_chunk[c] = chunk;
+      continue;
     }
-    p.cell_chunk[c] = chunk;
+    const std::uint32_t index = p.cell_chunk[c] & ~Partition::kSplitCell;
+    Partition::SplitCell& split = p.splits[index];
+    const std::uint32_t* sub = sub_histogram.data() + split_offset[index];
+    for (std::uint32_t code = 0; code < (1u << (3 * split.k)); ++code) {
+      const std::uint32_t was = chunk;
+      count(sub[code]);
+      if (code == 0) split.first = chunk;
+      else if (chunk != was) split.starts.push_back(code);
+    }
   }
   p.chunks = any ? chunk + 1 : 0;
   // Owner pass: the owning chunk per vertex, so that no later scan recomputes cells. The scans
@@ -951,6 +1064,7 @@ Status PartitionRun::plan() {
     out_.owner_map.n[a] = p.grid.n[a];
   }
   out_.owner_map.cell_chunk = std::move(p.cell_chunk);
+  out_.owner_map.splits = std::move(p.splits);
   return {};
 }
 
@@ -1231,8 +1345,7 @@ std::uint32_t Partition::owner_of(const Vec3f& p) const {
     grid.scale[a] = owner_map.scale[a];
     grid.n[a] = owner_map.n[a];
   }
-  const std::uint32_t cell = grid.cell(p);
-  return cell < owner_map.cell_chunk.size() ? owner_map.cell_chunk[cell] : 0;
+  return owner_in(grid, owner_map.cell_chunk, owner_map.splits, p);
 }
 
 void Partition::remove_temp() {

@@ -101,11 +101,20 @@ struct Partition {
   // pass 1); 0 when there are no chunks.
   std::uint32_t owner_of(const format::Vec3f& p) const;
   // The map behind owner_of: the cell grid (origin, cells per unit, cells per axis) and the
-  // chunk of every cell (at most 2^18 cells: 1 MiB, whatever the input size).
+  // chunk of every cell (at most 2^18 cells: 1 MiB, whatever the input size). A cell holding
+  // more than a quarter of a chunk's vertices is split into 8^k sub-cells (docs/partition.md, "Split
+  // cells"): its entry is kSplitCell | index into `splits`, and its sub-cells, in Z-order, run
+  // from chunk `first`, the chunk going up by one at each of `starts` (ascending sub-cell codes).
+  static constexpr std::uint32_t kSplitCell = 0x80000000u;
+  struct SplitCell {
+    std::uint32_t k = 0, first = 0;
+    std::vector<std::uint32_t> starts;
+  };
   struct OwnerMap {
     double lo[3] = {0, 0, 0}, scale[3] = {0, 0, 0};
     std::uint32_t n[3] = {1, 1, 1};
     std::vector<std::uint32_t> cell_chunk;
+    std::vector<SplitCell> splits;
   } owner_map;
 
   int temp_slot = -1;  // format::register_temp_path slot of dir

@@ -348,6 +348,38 @@ TEST(ChunkPartition, ScatteredIdsTakeTheSortAndGiveExactChunks) {
   check_exact(spread, "sphere, ids 400 apart", 100, 3, 10);
 }
 
+TEST(ChunkPartition, DenseCellsAreSplitAndChunksStayBounded) {
+  // A sphere with a small, dense one beside it: 20k vertices in a ball of diameter 0.02, inside
+  // one or a few of the grid's cells (about 0.03 across here), each cell holding many chunks'
+  // worth. Split cells keep every chunk near its share, and the chunks stay exact.
+  testing::ShapeOptions o;
+  o.vertices = 10000;
+  o.seed = 3;
+  Mesh mesh = testing::make_sphere(o);
+  o.vertices = 20000;
+  o.seed = 4;
+  const Mesh dense = testing::make_sphere(o);
+  const std::uint32_t base = static_cast<std::uint32_t>(mesh.positions.size());
+  for (const format::Vec3f& p : dense.positions) mesh.positions.push_back({0.3f + 0.01f * p.x, 0.2f + 0.01f * p.y, 0.1f + 0.01f * p.z});
+  for (const format::Triangle& t : dense.triangles) mesh.triangles.push_back({{t.v[0] + base, t.v[1] + base, t.v[2] + base}});
+  constexpr std::uint64_t kChunkFaces = 2000;
+  check_exact(mesh, "sphere with a dense ball", kChunkFaces, 3, 10);
+
+  testing::ScratchDir dir;
+  write_mesh(dir.file("in.ply"), mesh);
+  PartitionOptions options;
+  options.max_chunk_faces = kChunkFaces;
+  options.tmp_dir = dir.path().string();
+  auto partition = partition_mesh(dir.file("in.ply"), {}, options);
+  ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
+  EXPECT_FALSE(partition->owner_map.splits.empty());
+  // The planner's share: 3/4 of a chunk's faces, in vertices.
+  const double share = 0.75 * kChunkFaces * double(mesh.positions.size()) / double(mesh.triangles.size());
+  std::uint64_t largest = 0;
+  for (const ChunkInfo& info : partition->chunks) largest = std::max(largest, info.owned_vertices);
+  EXPECT_LE(double(largest), 1.5 * share) << "largest chunk owns " << largest << " vertices, share " << share;
+}
+
 TEST(ChunkPartition, HighValenceVertexKeepsEveryChunk) {
   // A fan of 2000 triangles around one centre vertex, ringed by a strip: the centre touches
   // every chunk on the rim, so its chunk set and its neighbours' go far past the inline slots.
