@@ -508,7 +508,8 @@ struct Grid {
   }
   // Z-order code of p's sub-cell when its cell is split into 2^k parts per axis (axes of zero
   // extent stay whole). The fine coordinate is floor(t * 2^k) on the cell's own t: scaling by a
-  // power of two is exact, so it always lies inside the cell that cell(p) names.
+  // power of two is exact (a multiplication, not std::ldexp, which is a libm call per vertex),
+  // so it always lies inside the cell that cell(p) names.
   std::uint32_t sub_code(const Vec3f& p, std::uint32_t k) const {
     const float c[3] = {p.x, p.y, p.z};
     std::uint32_t local[3] = {0, 0, 0};
@@ -520,7 +521,7 @@ struct Grid {
       if (t >= n[a]) {
         fine = std::uint64_t{n[a]} * parts - 1;
       } else if (t >= 0) {
-        fine = std::min<std::uint64_t>(static_cast<std::uint64_t>(std::ldexp(t, static_cast<int>(k))), std::uint64_t{n[a]} * parts - 1);
+        fine = std::min<std::uint64_t>(static_cast<std::uint64_t>(t * static_cast<double>(parts)), std::uint64_t{n[a]} * parts - 1);
       }
       local[a] = static_cast<std::uint32_t>(fine - (std::uint64_t{axis(a, c[a])} << k));
     }
