@@ -1,5 +1,6 @@
 // Signal-time cleanup of temporary files and directories. Everything the handler touches is
-// preallocated and every call it makes is async-signal-safe (open, getdents64, unlinkat, rmdir).
+// preallocated and every call it makes is async-signal-safe (open, getdents64, unlinkat, rename,
+// rmdir; strlen and memcpy on its own buffers).
 #include "format/temp_registry.h"
 
 #include <dirent.h>
@@ -9,6 +10,8 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <mutex>
 
@@ -50,16 +53,35 @@ void remove_directory_contents(const char* path) {
   ::close(dir);
 }
 
+// The signal arrives while other threads of the run keep working, and they create files (a
+// chunk pass spills a record file per chunk): one listing can miss a file made after it, and the
+// directory stays. So the directory is renamed first — creating a file by its old path fails
+// from then on — then emptied and removed, again while files made during the rename remain.
+char g_dying_path[kPathMax + 8];
+void remove_directory(const char* path) {
+  const std::size_t n = std::strlen(path);
+  if (n + sizeof ".dying" <= sizeof g_dying_path) {
+    std::memcpy(g_dying_path, path, n);
+    std::memcpy(g_dying_path + n, ".dying", sizeof ".dying");
+    if (::rename(path, g_dying_path) == 0) path = g_dying_path;
+  }
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    remove_directory_contents(path);
+    if (::rmdir(path) == 0 || errno != ENOTEMPTY) break;
+  }
+}
+
 void remove_all_registered() {
+  const int saved_errno = errno;
   for (Slot& slot : g_slots) {
     int state = slot.state.load();
     if (state == 2) {
       ::unlink(slot.path);
     } else if (state == 3) {
-      remove_directory_contents(slot.path);
-      ::rmdir(slot.path);
+      remove_directory(slot.path);
     }
   }
+  errno = saved_errno;
 }
 
 void on_signal(int sig) {
