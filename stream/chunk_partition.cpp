@@ -141,6 +141,17 @@ class SpillWriter {
 // spatially ordered input the hit rate is ~99.9 % at any size (docs/partition.md).
 constexpr std::size_t kSlotBytes = 3072;
 
+// Asks for transparent huge pages on the whole 2 MiB pages inside [data, data + bytes). The
+// scans touch the cache's blocks at random: with 4 KiB pages the TLB misses on this VM cost a
+// seventh of the 10M partition (1.03 -> 0.87 s with huge pages). Advice only: without THP, or
+// with THP off, nothing changes.
+void advise_huge_pages(void* data, std::size_t bytes) {
+  constexpr std::uintptr_t kHuge = std::uintptr_t{1} << 21;
+  const auto start = reinterpret_cast<std::uintptr_t>(data);
+  const std::uintptr_t lo = (start + kHuge - 1) & ~(kHuge - 1), hi = (start + bytes) & ~(kHuge - 1);
+  if (hi > lo) ::madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_HUGEPAGE);
+}
+
 // Blocks of several files in a fixed arena of budget bytes. Accessors copy values in and out
 // (never hold a block pointer across another access: the next miss may evict it). Blocks never
 // written read as zeros. I/O errors are sticky: accessors then see a zero block and status()
@@ -150,12 +161,7 @@ class BlockCache {
   explicit BlockCache(std::size_t budget_bytes) {
     slot_count_ = std::max<std::size_t>(budget_bytes / kSlotBytes, 16);
     arena_.reset(new std::byte[slot_count_ * kSlotBytes]);  // untouched until used
-    {
-      std::uintptr_t a = reinterpret_cast<std::uintptr_t>(arena_.get());
-      std::uintptr_t lo = (a + (std::uintptr_t{1} << 21) - 1) & ~((std::uintptr_t{1} << 21) - 1);
-      std::uintptr_t hi = (a + slot_count_ * kSlotBytes) & ~((std::uintptr_t{1} << 21) - 1);
-      if (hi > lo) ::madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_HUGEPAGE);
-    }
+    advise_huge_pages(arena_.get(), slot_count_ * kSlotBytes);
     slots_.assign(slot_count_, Slot{});
     std::size_t capacity = 1;
     while (capacity < 2 * slot_count_) capacity *= 2;
