@@ -577,11 +577,15 @@ class FaceSpill {
   std::unique_ptr<format::RecordWriter> writer_;
 };
 
-// Reads the frames of a face spill on its own thread, one frame ahead of the caller.
+// Reads the frames of a face spill, one frame ahead of the caller on its own thread when
+// `ahead` (a run of --threads 1 reads in the caller's thread).
 class FrameReadAhead {
  public:
-  explicit FrameReadAhead(format::RecordReader& reader) : reader_(reader), thread_([this] { run(); }) {}
+  FrameReadAhead(format::RecordReader& reader, bool ahead) : reader_(reader) {
+    if (ahead) thread_ = std::thread([this] { run(); });
+  }
   ~FrameReadAhead() {
+    if (!thread_.joinable()) return;
     {
       std::lock_guard lock(mutex_);
       stopping_ = true;
@@ -593,6 +597,7 @@ class FrameReadAhead {
   FrameReadAhead& operator=(const FrameReadAhead&) = delete;
   // The next frame's faces into out (empty at the end), or the reader's error.
   Status next(std::vector<Triangle>& out) {
+    if (!thread_.joinable()) return read(out);
     std::unique_lock lock(mutex_);
     changed_.wait(lock, [&] { return full_; });
     out.swap(ready_);
@@ -603,18 +608,18 @@ class FrameReadAhead {
   }
 
  private:
+  Status read(std::vector<Triangle>& frame) {
+    auto got = reader_.next();
+    frame.clear();
+    if (!got) return got.status();
+    frame.resize(got->size() / sizeof(Triangle));
+    if (!got->empty()) std::memcpy(frame.data(), got->data(), got->size());
+    return {};
+  }
   void run() {
     std::vector<Triangle> frame;
     for (bool more = true; more;) {
-      Status status;
-      auto got = reader_.next();
-      if (!got) {
-        status = got.status();
-        frame.clear();
-      } else {
-        frame.resize(got->size() / sizeof(Triangle));
-        if (!got->empty()) std::memcpy(frame.data(), got->data(), got->size());
-      }
+      Status status = read(frame);
       more = status.is_ok() && !frame.empty();
       std::unique_lock lock(mutex_);
       changed_.wait(lock, [&] { return !full_ || stopping_; });
@@ -632,7 +637,7 @@ class FrameReadAhead {
   std::vector<Triangle> ready_;
   Status status_;
   bool full_ = false, stopping_ = false;
-  std::thread thread_;  // last: starts once the rest is built
+  std::thread thread_;  // last: starts once the rest is built (none when not reading ahead)
 };
 
 class IngestSink final : public format::MeshSink {
@@ -1086,7 +1091,7 @@ Status PartitionRun::scan_faces(Fn&& fn, Stop&& stop) {
   }
   // Frames are read and decompressed one ahead on another thread (the scan's thread is the
   // partition's bottleneck; the other core is idle in the ring rounds).
-  FrameReadAhead ahead(**reader);
+  FrameReadAhead ahead(**reader, options_.threads > 1);
   std::vector<Triangle> batch;
   std::uint64_t first = 0;
   for (;;) {
