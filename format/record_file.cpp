@@ -24,6 +24,7 @@ constexpr std::size_t kFrameHeaderBytes = 8;
 // small frames, would otherwise hold 8 bytes per frame each until the end).
 constexpr std::size_t kOffsetsInMemory = 256;
 constexpr std::size_t kFooterBytes = 24;
+constexpr std::uint64_t kReadAheadBytes = std::uint64_t{256} << 10;  // a reader's read buffer
 
 template <class T>
 void put(std::byte* at, T value) {
@@ -414,6 +415,21 @@ RecordReader::~RecordReader() {
   ZSTD_freeDCtx(static_cast<ZSTD_DCtx*>(dctx_));
 }
 
+// Bytes [at, at + size) of the file, from a buffer refilled kReadAheadBytes at a time (or the
+// whole range when larger): one pread per many small frames instead of two per frame — the
+// partition's chunk files have frames of a few KB when there are many chunks.
+const std::byte* RecordReader::fetch(std::uint64_t at, std::uint64_t size) {
+  if (at >= buffer_at_ && at + size <= buffer_at_ + buffer_.size()) return buffer_.data() + (at - buffer_at_);
+  const std::uint64_t want = std::max<std::uint64_t>(size, std::min<std::uint64_t>(kReadAheadBytes, data_end_ - at));
+  buffer_.resize(static_cast<std::size_t>(want));
+  buffer_at_ = at;
+  if (!pread_all(fd_, buffer_.data(), buffer_.size(), at)) {
+    buffer_.clear();
+    return nullptr;
+  }
+  return buffer_.data();
+}
+
 Result<std::span<const std::byte>> RecordReader::next() {
   if (next_frame_ >= frame_offsets_.size()) {
     if (records_read_ != records_) {
@@ -424,24 +440,23 @@ Result<std::span<const std::byte>> RecordReader::next() {
   }
   const std::uint64_t at = frame_offsets_[next_frame_];
   const std::uint64_t end = next_frame_ + 1 < frame_offsets_.size() ? frame_offsets_[next_frame_ + 1] : data_end_;
-  std::byte frame_header[kFrameHeaderBytes];
-  if (!pread_all(fd_, frame_header, sizeof frame_header, at)) return fail(at, "cannot read frame header");
-  const std::uint64_t compressed = get<std::uint32_t>(frame_header);
-  const std::uint64_t plain = get<std::uint32_t>(frame_header + 4);
-  const std::string frame = "frame " + std::to_string(next_frame_) + ": ";
-  if (at + kFrameHeaderBytes + compressed != end) return fail(at, frame + "compressed size does not match the seek table");
+  auto frame = [&] { return "frame " + std::to_string(next_frame_) + ": "; };  // built only on failure
+  // The seek table bounds the frame before anything is read (open() checked end > at).
+  if (end - at > kFrameHeaderBytes + ZSTD_compressBound(kMaxRecordFrameBytes)) return fail(at, frame() + "compressed size out of range");
+  const std::byte* bytes = fetch(at, end - at);
+  if (bytes == nullptr) return fail(at, frame() + "cannot read frame");
+  const std::uint64_t compressed = get<std::uint32_t>(bytes);
+  const std::uint64_t plain = get<std::uint32_t>(bytes + 4);
+  if (at + kFrameHeaderBytes + compressed != end) return fail(at, frame() + "compressed size does not match the seek table");
   if (plain == 0 || plain > kMaxRecordFrameBytes || plain % record_size_ != 0) {
-    return fail(at + 4, frame + "uncompressed size " + std::to_string(plain) + " is not a whole number of records within the limit");
+    return fail(at + 4, frame() + "uncompressed size " + std::to_string(plain) + " is not a whole number of records within the limit");
   }
-  if (compressed > ZSTD_compressBound(kMaxRecordFrameBytes)) return fail(at, frame + "compressed size out of range");
-  compressed_.resize(compressed);
-  if (!pread_all(fd_, compressed_.data(), compressed, at + kFrameHeaderBytes)) return fail(at, frame + "cannot read frame");
   plain_.resize(plain);
   std::vector<std::byte>& target = columns_.empty() ? plain_ : column_buffer_;
   target.resize(plain);
-  std::size_t got = ZSTD_decompressDCtx(static_cast<ZSTD_DCtx*>(dctx_), target.data(), target.size(), compressed_.data(), compressed_.size());
-  if (ZSTD_isError(got)) return fail(at + kFrameHeaderBytes, frame + "corrupt (" + ZSTD_getErrorName(got) + ")");
-  if (got != plain) return fail(at + kFrameHeaderBytes, frame + "decompressed to " + std::to_string(got) + " bytes, expected " + std::to_string(plain));
+  std::size_t got = ZSTD_decompressDCtx(static_cast<ZSTD_DCtx*>(dctx_), target.data(), target.size(), bytes + kFrameHeaderBytes, compressed);
+  if (ZSTD_isError(got)) return fail(at + kFrameHeaderBytes, frame() + "corrupt (" + ZSTD_getErrorName(got) + ")");
+  if (got != plain) return fail(at + kFrameHeaderBytes, frame() + "decompressed to " + std::to_string(got) + " bytes, expected " + std::to_string(plain));
   if (!columns_.empty()) from_columns(columns_, column_buffer_.data(), record_size_, plain_);
   ++next_frame_;
   records_read_ += plain / record_size_;

@@ -129,6 +129,7 @@ class RecordReader {
  private:
   RecordReader() = default;
   Status fail(std::uint64_t offset, const std::string& message) const;
+  const std::byte* fetch(std::uint64_t at, std::uint64_t size);
 
   int fd_ = -1;
   std::string path_;
@@ -138,7 +139,8 @@ class RecordReader {
   std::vector<std::uint64_t> frame_offsets_;
   std::uint64_t data_end_ = 0, records_ = 0, records_read_ = 0;
   std::size_t next_frame_ = 0;
-  std::vector<std::byte> compressed_, plain_, column_buffer_;
+  std::vector<std::byte> buffer_, plain_, column_buffer_;  // buffer_: file bytes from buffer_at_
+  std::uint64_t buffer_at_ = 0;
 };
 
 }  // namespace gaussmesh::format
