@@ -1545,7 +1545,8 @@ Status read_chunk_positions(const ChunkInfo& info, ChunkMesh& mesh) {
   mesh.positions.resize(ids.size());
   GM_RETURN_IF_ERROR(read_vertex_records(info.positions, kPositionRecordBytes, ids, info.path,
                                          reinterpret_cast<std::byte*>(mesh.positions.data())));
-  std::vector<std::uint32_t> owners(ids.size());
+  std::vector<std::uint32_t>& owners = mesh.vertex_owner;
+  owners.resize(ids.size());
   GM_RETURN_IF_ERROR(read_vertex_records(info.owners, kOwnerRecordBytes, ids, info.path, reinterpret_cast<std::byte*>(owners.data())));
   for (std::size_t i = 0; i < ids.size(); ++i) {
     if ((owners[i] == info.id) != static_cast<bool>(mesh.owned_vertex[i])) {

@@ -142,6 +142,9 @@ struct ChunkMesh {
   std::vector<std::uint64_t> global_face;    // per local face, strictly ascending
   std::vector<std::uint8_t> owned_vertex;    // per local vertex: 1 if the chunk owns it
   std::vector<std::uint8_t> owned_face;      // per local face: 1 if the chunk owns it
+  // Per local vertex: its owning chunk, from owners.bin (load_chunk checks it against
+  // owned_vertex); empty for a mesh made another way (owner_of answers then).
+  std::vector<std::uint32_t> vertex_owner;
   format::MeshView view() const { return {positions, triangles}; }
 };
 
@@ -151,7 +154,7 @@ struct ChunkMesh {
 // info.owned_faces, face ids not ascending, flag bits, one vertex id with two ownerships, a face
 // owned though its lowest-id vertex is not, a vertex id beyond a vertex file, an owned flag
 // that disagrees with owners.bin) is a kBadInput error naming the file.
-// Memory: about 75 B per face of the chunk.
+// Memory: about 77 B per face of the chunk.
 format::Result<ChunkMesh> load_chunk(const ChunkInfo& info);
 
 }  // namespace gaussmesh::stream

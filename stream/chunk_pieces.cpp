@@ -22,7 +22,9 @@ format::Status damaged(const std::string& what) {
 std::uint32_t face_owner(const Partition& partition, const ChunkMesh& chunk, std::uint32_t f) {
   if (chunk.owned_face[f]) return chunk.chunk;
   const auto& v = chunk.triangles[f].v;
-  return partition.owner_of(chunk.positions[std::min({v[0], v[1], v[2]})]);
+  const std::uint32_t lowest = std::min({v[0], v[1], v[2]});
+  if (lowest < chunk.vertex_owner.size()) return chunk.vertex_owner[lowest];
+  return partition.owner_of(chunk.positions[lowest]);
 }
 
 void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const MeshAdjacency& adjacency,

@@ -116,8 +116,8 @@ struct ChunkPieces {
 };
 
 // The chunk owning local face f of chunk: chunk.chunk for an owned face, else the owner of its
-// lowest-id vertex (its lowest local index: local vertices ascend in global id), from the
-// partition's cell map (Partition::owner_of).
+// lowest-id vertex (its lowest local index: local vertices ascend in global id), as load_chunk
+// read it from owners.bin (else from the partition's cell map, Partition::owner_of).
 std::uint32_t face_owner(const Partition& partition, const ChunkMesh& chunk, std::uint32_t f);
 
 // Pieces of one chunk of `partition` from its adjacency, labels and feature bits (stream/sampler.h,
