@@ -553,8 +553,9 @@ struct Grid {
 
 // The face spill: faces in input order as a record file (kFaceSpillRecordKind) with column frames,
 // the three vertex ids as differences from the previous face's. Neighbouring faces share
-// vertices, so the ids compress to about a sixth (1.2 GB at 100M triangles as plain triangles);
-// on this VM writing temporary files runs at 0.3-0.6 GB/s, and the scans read it k times.
+// vertices, so the ids compress to a few percent (1.2 GB at 100M triangles as plain triangles,
+// ~21 MB as a spill); on this VM writing temporary files runs at 0.3-0.6 GB/s, and the scans
+// read it k times.
 constexpr std::uint32_t kFaceSpillRecordKind = 0x53464D47u;  // "GMFS"
 constexpr std::size_t kFaceSpillFrameBytes = std::size_t{1} << 20;
 
