@@ -443,7 +443,9 @@ Result<std::span<const std::byte>> RecordReader::next() {
   auto frame = [&] { return "frame " + std::to_string(next_frame_) + ": "; };  // built only on failure
   // The seek table bounds the frame before anything is read (open() checked end > at).
   if (end - at > kFrameHeaderBytes + ZSTD_compressBound(kMaxRecordFrameBytes)) return fail(at, frame() + "compressed size out of range");
-  const std::byte* bytes = fetch(at, end - at);
+  // At least the 8-byte frame header (open() checked at + 8 <= data_end): a damaged seek table
+  // can put the next frame closer than that, and the header is read before it is checked.
+  const std::byte* bytes = fetch(at, std::max<std::uint64_t>(end - at, kFrameHeaderBytes));
   if (bytes == nullptr) return fail(at, frame() + "cannot read frame");
   const std::uint64_t compressed = get<std::uint32_t>(bytes);
   const std::uint64_t plain = get<std::uint32_t>(bytes + 4);
