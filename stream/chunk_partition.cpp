@@ -986,6 +986,7 @@ Status PartitionRun::plan() {
   // cell) leaves sub-cells above a quarter of a chunk: its k goes up by two and the sub-cells are
   // counted again, at most twice. The sub-cell counts stay within an eighth of the budget: k is
   // capped lower when many cells are dense, and not raised past it.
+  auto dense = [&](std::uint32_t vertices) { return vertices > target / 4 && vertices >= 2; };
   auto split_bits = [&](std::uint32_t vertices, std::uint32_t cap) {
     std::uint32_t k = 1;
     while (k < cap && (vertices >> (2 * k)) > target / 8) ++k;
@@ -996,12 +997,12 @@ Status PartitionRun::plan() {
   for (;; --cap) {
     std::uint64_t entries = 0;
     for (std::uint32_t c = 0; c < cells; ++c)
-      if (histogram[c] > target / 4 && histogram[c] >= 2) entries += std::uint64_t{1} << (3 * split_bits(histogram[c], cap));
+      if (dense(histogram[c])) entries += std::uint64_t{1} << (3 * split_bits(histogram[c], cap));
     if (cap == 1 || entries <= max_entries) break;
   }
   p.cell_chunk.assign(cells, 0);
   for (std::uint32_t c = 0; c < cells; ++c) {
-    if (histogram[c] <= target / 4 || histogram[c] < 2) continue;
+    if (!dense(histogram[c])) continue;
     p.cell_chunk[c] = Partition::kSplitCell | static_cast<std::uint32_t>(p.splits.size());
     p.splits.push_back({split_bits(histogram[c], cap), 0, {}});
   }

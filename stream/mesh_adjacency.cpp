@@ -63,7 +63,6 @@ std::size_t build_star(const Triangle* tris, std::uint32_t begin, std::uint32_t 
   // prev == p and exactly one d has next == p, and then partner[d] == r — the same two counts.
   std::size_t breaks = 0;
   if (degree <= 24) {
-    for (std::uint32_t r = 0; r < degree; ++r) next_slot[r] = kNone;
     for (std::uint32_t r = 0; r < degree; ++r) {
       const std::uint32_t a = next[r];
       std::uint32_t out = 0, in = 0, in_slot = kNone;
@@ -75,8 +74,6 @@ std::size_t build_star(const Triangle* tris, std::uint32_t begin, std::uint32_t 
         }
       }
       partner[r] = out == 1 && in == 1 ? in_slot : kNone;
-      breaks += partner[r] == kNone;
-      if (partner[r] != kNone) next_slot[partner[r]] = r;
     }
   } else {
     // Large stars (fan apexes): sorted slot lists instead of the quadratic scan.
@@ -93,15 +90,16 @@ std::size_t build_star(const Triangle* tris, std::uint32_t begin, std::uint32_t 
       return static_cast<std::uint32_t>(hi - lo);
     };
     for (std::uint32_t r = 0; r < degree; ++r) {
-      std::uint32_t in_slot = kNone, p_slot = kNone, ignore = kNone;
+      std::uint32_t in_slot = kNone, ignore = kNone;
       const std::uint32_t out = count_slots(s.by_next, next, next[r], ignore);
       const std::uint32_t in = count_slots(s.by_prev, prev, next[r], in_slot);
       partner[r] = out == 1 && in == 1 ? in_slot : kNone;
-      breaks += partner[r] == kNone;
-      const std::uint32_t p_in = count_slots(s.by_prev, prev, prev[r], ignore);
-      const std::uint32_t p_out = count_slots(s.by_next, next, prev[r], p_slot);
-      next_slot[r] = p_in == 1 && p_out == 1 ? p_slot : kNone;
     }
+  }
+  for (std::uint32_t r = 0; r < degree; ++r) next_slot[r] = kNone;
+  for (std::uint32_t r = 0; r < degree; ++r) {
+    breaks += partner[r] == kNone;
+    if (partner[r] != kNone) next_slot[partner[r]] = r;
   }
   for (std::uint32_t r = 0; r < degree; ++r)
     edge_neighbor[corner[r]] = partner[r] == kNone ? kNone : corner[partner[r]] / 3;
