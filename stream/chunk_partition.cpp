@@ -25,6 +25,7 @@
 #include <filesystem>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <span>
 #include <system_error>
 #include <thread>
@@ -1465,6 +1466,46 @@ std::vector<std::uint64_t> sorted_corner_keys(const std::vector<std::uint32_t>& 
   return keys;
 }
 
+// number_chunk_vertices for a span of ids [lo, lo + span): returns the global id of a vertex
+// whose corners disagree on ownership, if any. Cloned for CPUs with POPCNT (x86-64-v2 and
+// later); the baseline build would call libgcc's bit-twiddling popcount for every corner.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("popcnt", "default")))
+#endif
+std::optional<std::uint32_t> number_by_bitmap(const std::vector<std::uint32_t>& ids, const std::vector<std::uint8_t>& owned,
+                               std::uint32_t lo, std::size_t span, std::uint32_t* corners, ChunkMesh& mesh) {
+  const std::size_t n = ids.size();
+  const std::size_t words = (span + 63) / 64;
+  std::vector<std::uint64_t> bits(words, 0);
+  for (std::uint32_t id : ids) bits[(id - lo) >> 6] |= std::uint64_t{1} << ((id - lo) & 63);
+  std::vector<std::uint32_t> rank(words);
+  std::uint32_t distinct = 0;
+  for (std::size_t w = 0; w < words; ++w) {
+    rank[w] = distinct;
+    distinct += static_cast<std::uint32_t>(std::popcount(bits[w]));
+  }
+  mesh.global_vertex.resize(distinct);
+  std::uint32_t* next = mesh.global_vertex.data();
+  for (std::size_t w = 0; w < words; ++w)
+    for (std::uint64_t word = bits[w]; word != 0; word &= word - 1)
+      *next++ = lo + static_cast<std::uint32_t>(64 * w) + static_cast<std::uint32_t>(std::countr_zero(word));
+  // Ownership per vertex: bit 0 a corner said owned, bit 1 a corner said not owned.
+  std::vector<std::uint8_t> said(distinct, 0);
+  for (std::size_t c = 0; c < n; ++c) {
+    const std::uint32_t offset = ids[c] - lo;
+    const std::uint64_t below = bits[offset >> 6] & ((std::uint64_t{1} << (offset & 63)) - 1);
+    const std::uint32_t local = rank[offset >> 6] + static_cast<std::uint32_t>(std::popcount(below));
+    corners[c] = local;
+    said[local] |= owned[c] ? 1 : 2;
+  }
+  mesh.owned_vertex.resize(distinct);
+  for (std::uint32_t v = 0; v < distinct; ++v) {
+    if (said[v] == 3) return mesh.global_vertex[v];
+    mesh.owned_vertex[v] = said[v] == 1;
+  }
+  return std::nullopt;
+}
+
 // Local vertex ids in ascending global id for a chunk's corners (global ids, owned flags):
 // fills mesh.global_vertex, owned_vertex and triangles; a vertex whose corners disagree on
 // ownership is bad(). Ids within a span of at most 256 per face (any spatially ordered input):
@@ -1483,34 +1524,8 @@ Status number_chunk_vertices(const std::vector<std::uint32_t>& ids, const std::v
   auto* corners = reinterpret_cast<std::uint32_t*>(mesh.triangles.data());
   static_assert(sizeof(format::Triangle) == 3 * sizeof(std::uint32_t));
   if (span <= std::uint64_t{256} * (n / 3 + 1)) {
-    const std::size_t words = static_cast<std::size_t>((span + 63) / 64);
-    std::vector<std::uint64_t> bits(words, 0);
-    for (std::uint32_t id : ids) bits[(id - lo) >> 6] |= std::uint64_t{1} << ((id - lo) & 63);
-    std::vector<std::uint32_t> rank(words);
-    std::uint32_t distinct = 0;
-    for (std::size_t w = 0; w < words; ++w) {
-      rank[w] = distinct;
-      distinct += static_cast<std::uint32_t>(std::popcount(bits[w]));
-    }
-    mesh.global_vertex.resize(distinct);
-    std::uint32_t* next = mesh.global_vertex.data();
-    for (std::size_t w = 0; w < words; ++w)
-      for (std::uint64_t word = bits[w]; word != 0; word &= word - 1)
-        *next++ = lo + static_cast<std::uint32_t>(64 * w) + static_cast<std::uint32_t>(std::countr_zero(word));
-    // Ownership per vertex: bit 0 a corner said owned, bit 1 a corner said not owned.
-    std::vector<std::uint8_t> said(distinct, 0);
-    for (std::size_t c = 0; c < n; ++c) {
-      const std::uint32_t offset = ids[c] - lo;
-      const std::uint64_t below = bits[offset >> 6] & ((std::uint64_t{1} << (offset & 63)) - 1);
-      const std::uint32_t local = rank[offset >> 6] + static_cast<std::uint32_t>(std::popcount(below));
-      corners[c] = local;
-      said[local] |= owned[c] ? 1 : 2;
-    }
-    mesh.owned_vertex.resize(distinct);
-    for (std::uint32_t v = 0; v < distinct; ++v) {
-      if (said[v] == 3) return bad("vertex " + std::to_string(mesh.global_vertex[v]) + " is both owned and not owned");
-      mesh.owned_vertex[v] = said[v] == 1;
-    }
+    const auto twice = number_by_bitmap(ids, owned, lo, static_cast<std::size_t>(span), corners, mesh);
+    if (twice) return bad("vertex " + std::to_string(*twice) + " is both owned and not owned");
     return {};
   }
   const std::vector<std::uint64_t> keys = sorted_corner_keys(ids);
