@@ -1466,18 +1466,49 @@ std::vector<std::uint64_t> sorted_corner_keys(const std::vector<std::uint32_t>& 
   return keys;
 }
 
-// number_chunk_vertices for a span of ids [lo, lo + span): returns the global id of a vertex
-// whose corners disagree on ownership, if any. Cloned for CPUs with POPCNT (x86-64-v2 and
-// later); the baseline build would call libgcc's bit-twiddling popcount for every corner.
+// Ids are numbered through a two-level bitmap: the span cut into blocks of 2^13 ids, a bit per
+// block that holds an id, and 2^13 bits (1 KiB) plus 128 word ranks (512 bytes) per such block.
+constexpr unsigned kIdBlockBits = 13;
+constexpr std::size_t kIdBlockWords = std::size_t{1} << (kIdBlockBits - 6);
+constexpr std::size_t kIdBlockBytes = kIdBlockWords * (sizeof(std::uint64_t) + sizeof(std::uint32_t));
+
+enum class Numbered { kDone, kTooSparse, kDisagree };
+
+// number_chunk_vertices through the two-level bitmap for ids in [lo, lo + span), span < 2^32:
+// kTooSparse (nothing written) when the blocks would take more than max_block_bytes; kDisagree
+// with *disagree set to the global id of a vertex whose corners disagree on ownership. Cloned for
+// CPUs with POPCNT (x86-64-v2 and later): the baseline build would call libgcc's bit-twiddling
+// popcount three times a corner.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("popcnt", "default")))
 #endif
-std::optional<std::uint32_t> number_by_bitmap(const std::vector<std::uint32_t>& ids, const std::vector<std::uint8_t>& owned,
-                               std::uint32_t lo, std::size_t span, std::uint32_t* corners, ChunkMesh& mesh) {
+Numbered number_by_bitmap(const std::vector<std::uint32_t>& ids, const std::vector<std::uint8_t>& owned, std::uint32_t lo,
+                          std::uint64_t span, std::size_t max_block_bytes, std::uint32_t* corners, ChunkMesh& mesh,
+                          std::uint32_t* disagree) {
   const std::size_t n = ids.size();
-  const std::size_t words = (span + 63) / 64;
+  // The blocks that hold an id, and each block's slot: its rank among them.
+  const std::size_t top_words = static_cast<std::size_t>(((span >> kIdBlockBits) >> 6) + 1);
+  std::vector<std::uint64_t> top(top_words, 0);
+  for (std::uint32_t id : ids) {
+    const std::uint32_t block = (id - lo) >> kIdBlockBits;
+    top[block >> 6] |= std::uint64_t{1} << (block & 63);
+  }
+  std::vector<std::uint32_t> top_rank(top_words);
+  std::size_t blocks = 0;
+  for (std::size_t w = 0; w < top_words; ++w) {
+    top_rank[w] = static_cast<std::uint32_t>(blocks);
+    blocks += static_cast<std::size_t>(std::popcount(top[w]));
+  }
+  if (blocks * kIdBlockBytes > max_block_bytes) return Numbered::kTooSparse;
+  auto word_of = [&](std::uint32_t offset) {  // the id's word among the blocks' words
+    const std::uint32_t block = offset >> kIdBlockBits;
+    const std::uint64_t below = top[block >> 6] & ((std::uint64_t{1} << (block & 63)) - 1);
+    const std::size_t slot = top_rank[block >> 6] + static_cast<std::size_t>(std::popcount(below));
+    return slot * kIdBlockWords + ((offset >> 6) & (kIdBlockWords - 1));
+  };
+  const std::size_t words = blocks * kIdBlockWords;
   std::vector<std::uint64_t> bits(words, 0);
-  for (std::uint32_t id : ids) bits[(id - lo) >> 6] |= std::uint64_t{1} << ((id - lo) & 63);
+  for (std::uint32_t id : ids) bits[word_of(id - lo)] |= std::uint64_t{1} << ((id - lo) & 63);
   std::vector<std::uint32_t> rank(words);
   std::uint32_t distinct = 0;
   for (std::size_t w = 0; w < words; ++w) {
@@ -1486,32 +1517,44 @@ std::optional<std::uint32_t> number_by_bitmap(const std::vector<std::uint32_t>& 
   }
   mesh.global_vertex.resize(distinct);
   std::uint32_t* next = mesh.global_vertex.data();
-  for (std::size_t w = 0; w < words; ++w)
-    for (std::uint64_t word = bits[w]; word != 0; word &= word - 1)
-      *next++ = lo + static_cast<std::uint32_t>(64 * w) + static_cast<std::uint32_t>(std::countr_zero(word));
+  std::size_t slot = 0;
+  for (std::size_t t = 0; t < top_words; ++t) {
+    for (std::uint64_t block_bits = top[t]; block_bits != 0; block_bits &= block_bits - 1, ++slot) {
+      const std::uint64_t first = ((std::uint64_t{t} << 6) + static_cast<unsigned>(std::countr_zero(block_bits))) << kIdBlockBits;
+      for (std::size_t w = 0; w < kIdBlockWords; ++w)
+        for (std::uint64_t word = bits[slot * kIdBlockWords + w]; word != 0; word &= word - 1)
+          *next++ = lo + static_cast<std::uint32_t>(first + 64 * w + static_cast<unsigned>(std::countr_zero(word)));
+    }
+  }
   // Ownership per vertex: bit 0 a corner said owned, bit 1 a corner said not owned.
   std::vector<std::uint8_t> said(distinct, 0);
   for (std::size_t c = 0; c < n; ++c) {
     const std::uint32_t offset = ids[c] - lo;
-    const std::uint64_t below = bits[offset >> 6] & ((std::uint64_t{1} << (offset & 63)) - 1);
-    const std::uint32_t local = rank[offset >> 6] + static_cast<std::uint32_t>(std::popcount(below));
+    const std::size_t w = word_of(offset);
+    const std::uint64_t below = bits[w] & ((std::uint64_t{1} << (offset & 63)) - 1);
+    const std::uint32_t local = rank[w] + static_cast<std::uint32_t>(std::popcount(below));
     corners[c] = local;
     said[local] |= owned[c] ? 1 : 2;
   }
   mesh.owned_vertex.resize(distinct);
   for (std::uint32_t v = 0; v < distinct; ++v) {
-    if (said[v] == 3) return mesh.global_vertex[v];
+    if (said[v] == 3) {
+      *disagree = mesh.global_vertex[v];
+      return Numbered::kDisagree;
+    }
     mesh.owned_vertex[v] = said[v] == 1;
   }
-  return std::nullopt;
+  return Numbered::kDone;
 }
 
 // Local vertex ids in ascending global id for a chunk's corners (global ids, owned flags):
 // fills mesh.global_vertex, owned_vertex and triangles; a vertex whose corners disagree on
-// ownership is bad(). Ids within a span of at most 256 per face (any spatially ordered input):
-// a bitmap of the span and a popcount rank per 64-bit word number them, in two sequential
-// passes over the corners and no sort; the bitmap and ranks (3 span / 16 bytes) are at most the
-// sort's keys (48 bytes a face). Wider spans (scattered ids): one sort of (global id, corner).
+// ownership is bad(). Ids that fill their 2^13-id blocks well enough (any spatially ordered
+// input, where a chunk's ids lie in a few ranges, one per stretch of the input's order): the
+// two-level bitmap numbers them in sequential passes over the corners and no sort, in at most
+// the sort's 48 bytes a face. Scattered ids: one sort of (global id, corner). At 100M refined
+// triangles a chunk's ids span most of the 50M ids (one range per refinement level), and the
+// sort, a one-level bitmap's fallback there, was 10 % of the whole run.
 template <class Bad>
 Status number_chunk_vertices(const std::vector<std::uint32_t>& ids, const std::vector<std::uint8_t>& owned,
                              ChunkMesh& mesh, Bad&& bad) {
@@ -1523,10 +1566,11 @@ Status number_chunk_vertices(const std::vector<std::uint32_t>& ids, const std::v
   const std::uint64_t span = std::uint64_t{*hi_it} - lo + 1;
   auto* corners = reinterpret_cast<std::uint32_t*>(mesh.triangles.data());
   static_assert(sizeof(format::Triangle) == 3 * sizeof(std::uint32_t));
-  if (span <= std::uint64_t{256} * (n / 3 + 1)) {
-    const auto twice = number_by_bitmap(ids, owned, lo, static_cast<std::size_t>(span), corners, mesh);
-    if (twice) return bad("vertex " + std::to_string(*twice) + " is both owned and not owned");
-    return {};
+  std::uint32_t disagree = 0;
+  switch (number_by_bitmap(ids, owned, lo, span, 48 * (n / 3 + 1), corners, mesh, &disagree)) {
+    case Numbered::kDone: return {};
+    case Numbered::kDisagree: return bad("vertex " + std::to_string(disagree) + " is both owned and not owned");
+    case Numbered::kTooSparse: break;
   }
   const std::vector<std::uint64_t> keys = sorted_corner_keys(ids);
   std::size_t first_corner = 0;

@@ -14,8 +14,8 @@
 #include <cstring>
 #include <filesystem>
 #include <functional>
-#include <numeric>
 #include <map>
+#include <numeric>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -331,21 +331,32 @@ TEST(ChunkPartition, ShuffledIdsGiveTheSameChunks) {
 }
 
 TEST(ChunkPartition, ScatteredIdsTakeTheSortAndGiveExactChunks) {
-  // load_chunk numbers a chunk's vertices with a bitmap over its id span when the span is at most
-  // 256 ids a face (every mesh above), else by sorting. Ids spread 400 apart, with unused vertices
-  // between them, make every chunk's span far wider: the same exact chunks must come out.
+  // load_chunk numbers a chunk's vertices through a two-level bitmap (the blocks of 2^13 ids that
+  // hold one) when those blocks take at most 48 bytes a face, else by sorting. Two halves of the
+  // ids 300,000 apart, with unused vertices between them, put chunks on the seam over two far
+  // blocks: still the bitmap. The ids shuffled over the same range leave about one id a block:
+  // the sort. Both must give exact chunks.
   testing::ShapeOptions o;
   o.vertices = 1500;
   o.seed = 9;
   const Mesh compact = testing::make_sphere(o);
-  constexpr std::uint32_t kSpread = 400;
-  Mesh spread;
-  spread.positions.reserve(compact.positions.size() * kSpread);
-  for (const format::Vec3f& p : compact.positions)
-    for (std::uint32_t k = 0; k < kSpread; ++k) spread.positions.push_back(p);
-  for (const format::Triangle& t : compact.triangles)
-    spread.triangles.push_back({{t.v[0] * kSpread, t.v[1] * kSpread, t.v[2] * kSpread}});
-  check_exact(spread, "sphere, ids 400 apart", 100, 3, 10);
+  const std::size_t n = compact.positions.size();
+  constexpr std::uint32_t kGap = 300000;
+  std::vector<std::uint32_t> halves(n), shuffled(n);
+  for (std::uint32_t v = 0; v < n; ++v) halves[v] = v < n / 2 ? v : v + kGap;
+  std::vector<std::uint32_t> slots(n + kGap);
+  std::iota(slots.begin(), slots.end(), 0u);
+  std::mt19937 random(17);
+  std::shuffle(slots.begin(), slots.end(), random);
+  std::copy_n(slots.begin(), n, shuffled.begin());
+  for (const auto& [ids, what] : {std::pair{halves, "sphere, two far halves"}, std::pair{shuffled, "sphere, ids shuffled"}}) {
+    Mesh spread;
+    spread.positions.resize(n + kGap);
+    for (std::size_t k = 0; k < spread.positions.size(); ++k) spread.positions[k] = compact.positions[k % n];
+    for (std::uint32_t v = 0; v < n; ++v) spread.positions[ids[v]] = compact.positions[v];
+    for (const format::Triangle& t : compact.triangles) spread.triangles.push_back({{ids[t.v[0]], ids[t.v[1]], ids[t.v[2]]}});
+    check_exact(spread, what, 100, 3, 10);
+  }
 }
 
 TEST(ChunkPartition, DenseCellsAreSplitAndChunksStayBounded) {
