@@ -1466,47 +1466,41 @@ std::vector<std::uint64_t> sorted_corner_keys(const std::vector<std::uint32_t>& 
   return keys;
 }
 
-// Ids are numbered through a two-level bitmap: the span cut into blocks of 2^13 ids, a bit per
-// block that holds an id, and 2^13 bits (1 KiB) plus 128 word ranks (512 bytes) per such block.
+// Ids are numbered through a two-level bitmap: the span cut into blocks of 2^13 ids, a slot per
+// block that holds an id (a 4-byte table entry per block of the span), and 2^13 bits (1 KiB)
+// plus 128 word ranks (512 bytes) per slot.
 constexpr unsigned kIdBlockBits = 13;
 constexpr std::size_t kIdBlockWords = std::size_t{1} << (kIdBlockBits - 6);
 constexpr std::size_t kIdBlockBytes = kIdBlockWords * (sizeof(std::uint64_t) + sizeof(std::uint32_t));
+constexpr std::uint32_t kNoIdBlock = 0xFFFFFFFFu;
 
 enum class Numbered { kDone, kTooSparse, kDisagree };
 
 // number_chunk_vertices through the two-level bitmap for ids in [lo, lo + span), span < 2^32:
-// kTooSparse (nothing written) when the blocks would take more than max_block_bytes; kDisagree
-// with *disagree set to the global id of a vertex whose corners disagree on ownership. Cloned for
-// CPUs with POPCNT (x86-64-v2 and later): the baseline build would call libgcc's bit-twiddling
-// popcount three times a corner.
+// kTooSparse (nothing written) when the table and the slots would take more than
+// max_bytes; kDisagree with *disagree set to the global id of a vertex whose corners disagree
+// on ownership. Cloned for CPUs with POPCNT (x86-64-v2 and later): the baseline build would
+// call libgcc's bit-twiddling popcount for every corner.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("popcnt", "default")))
 #endif
 Numbered number_by_bitmap(const std::vector<std::uint32_t>& ids, const std::vector<std::uint8_t>& owned, std::uint32_t lo,
-                          std::uint64_t span, std::size_t max_block_bytes, std::uint32_t* corners, ChunkMesh& mesh,
+                          std::uint64_t span, std::size_t max_bytes, std::uint32_t* corners, ChunkMesh& mesh,
                           std::uint32_t* disagree) {
   const std::size_t n = ids.size();
-  // The blocks that hold an id, and each block's slot: its rank among them.
-  const std::size_t top_words = static_cast<std::size_t>(((span >> kIdBlockBits) >> 6) + 1);
-  std::vector<std::uint64_t> top(top_words, 0);
-  for (std::uint32_t id : ids) {
-    const std::uint32_t block = (id - lo) >> kIdBlockBits;
-    top[block >> 6] |= std::uint64_t{1} << (block & 63);
-  }
-  std::vector<std::uint32_t> top_rank(top_words);
-  std::size_t blocks = 0;
-  for (std::size_t w = 0; w < top_words; ++w) {
-    top_rank[w] = static_cast<std::uint32_t>(blocks);
-    blocks += static_cast<std::size_t>(std::popcount(top[w]));
-  }
-  if (blocks * kIdBlockBytes > max_block_bytes) return Numbered::kTooSparse;
-  auto word_of = [&](std::uint32_t offset) {  // the id's word among the blocks' words
-    const std::uint32_t block = offset >> kIdBlockBits;
-    const std::uint64_t below = top[block >> 6] & ((std::uint64_t{1} << (block & 63)) - 1);
-    const std::size_t slot = top_rank[block >> 6] + static_cast<std::size_t>(std::popcount(below));
-    return slot * kIdBlockWords + ((offset >> 6) & (kIdBlockWords - 1));
+  const std::size_t table_size = static_cast<std::size_t>((span - 1) >> kIdBlockBits) + 1;
+  if (table_size * sizeof(std::uint32_t) > max_bytes) return Numbered::kTooSparse;
+  // The blocks that hold an id get slots in ascending order.
+  std::vector<std::uint32_t> slot_of(table_size, kNoIdBlock);
+  for (std::uint32_t id : ids) slot_of[(id - lo) >> kIdBlockBits] = 0;
+  std::uint32_t blocks = 0;
+  for (std::uint32_t& slot : slot_of)
+    if (slot == 0) slot = blocks++;
+  if (table_size * sizeof(std::uint32_t) + std::size_t{blocks} * kIdBlockBytes > max_bytes) return Numbered::kTooSparse;
+  auto word_of = [&](std::uint32_t offset) {  // the id's word among the slots' words
+    return std::size_t{slot_of[offset >> kIdBlockBits]} * kIdBlockWords + ((offset >> 6) & (kIdBlockWords - 1));
   };
-  const std::size_t words = blocks * kIdBlockWords;
+  const std::size_t words = std::size_t{blocks} * kIdBlockWords;
   std::vector<std::uint64_t> bits(words, 0);
   for (std::uint32_t id : ids) bits[word_of(id - lo)] |= std::uint64_t{1} << ((id - lo) & 63);
   std::vector<std::uint32_t> rank(words);
@@ -1517,14 +1511,13 @@ Numbered number_by_bitmap(const std::vector<std::uint32_t>& ids, const std::vect
   }
   mesh.global_vertex.resize(distinct);
   std::uint32_t* next = mesh.global_vertex.data();
-  std::size_t slot = 0;
-  for (std::size_t t = 0; t < top_words; ++t) {
-    for (std::uint64_t block_bits = top[t]; block_bits != 0; block_bits &= block_bits - 1, ++slot) {
-      const std::uint64_t first = ((std::uint64_t{t} << 6) + static_cast<unsigned>(std::countr_zero(block_bits))) << kIdBlockBits;
-      for (std::size_t w = 0; w < kIdBlockWords; ++w)
-        for (std::uint64_t word = bits[slot * kIdBlockWords + w]; word != 0; word &= word - 1)
-          *next++ = lo + static_cast<std::uint32_t>(first + 64 * w + static_cast<unsigned>(std::countr_zero(word)));
-    }
+  for (std::size_t block = 0; block < table_size; ++block) {
+    if (slot_of[block] == kNoIdBlock) continue;
+    const std::uint64_t first = std::uint64_t{lo} + (std::uint64_t{block} << kIdBlockBits);
+    const std::uint64_t* block_bits = bits.data() + std::size_t{slot_of[block]} * kIdBlockWords;
+    for (std::size_t w = 0; w < kIdBlockWords; ++w)
+      for (std::uint64_t word = block_bits[w]; word != 0; word &= word - 1)
+        *next++ = static_cast<std::uint32_t>(first + 64 * w + static_cast<unsigned>(std::countr_zero(word)));
   }
   // Ownership per vertex: bit 0 a corner said owned, bit 1 a corner said not owned.
   std::vector<std::uint8_t> said(distinct, 0);
