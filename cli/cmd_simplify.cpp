@@ -134,6 +134,8 @@ int run_simplify_out_of_core(const SimplifyArgs& args, OutputKind kind, const st
     report["stitch_vertices"] = result->stitch_vertices;
     report["fetched_patches"] = result->fetched_patches;
     report["fetched_faces"] = result->fetched_faces;
+    report["loop_chunks"] = result->loop_chunks;
+    report["loop_faces"] = result->loop_faces;
     report["peak_rss_bytes"] = peak_rss_bytes();
     report["peak_rss_after_partition_bytes"] = result->peak_rss_after_partition;
     report["peak_rss_after_pieces_bytes"] = result->peak_rss_after_pieces;

@@ -1629,7 +1629,8 @@ Status read_chunk_positions(const ChunkInfo& info, ChunkMesh& mesh) {
 }  // namespace
 
 format::Result<ChunkMesh> load_chunk(const ChunkInfo& info) {
-  auto opened = format::RecordReader::open(info.path, kChunkFaceRecordKind, kChunkFaceRecordBytes);
+  const std::uint32_t record_bytes = info.loop ? kLoopChunkRecordBytes : kChunkFaceRecordBytes;
+  auto opened = format::RecordReader::open(info.path, info.loop ? kLoopChunkRecordKind : kChunkFaceRecordKind, record_bytes);
   if (!opened) return opened.status();
   format::RecordReader& reader = **opened;
   auto bad = [&](const std::string& message) { return Status::error(Code::kBadInput, info.path, message); };
@@ -1642,14 +1643,14 @@ format::Result<ChunkMesh> load_chunk(const ChunkInfo& info) {
   mesh.global_face.reserve(faces);
   mesh.owned_face.reserve(faces);
   std::vector<std::uint32_t> corner_ids;
-  std::vector<std::uint8_t> corner_owned;
+  std::vector<std::uint8_t> corner_owned, corner_loop;  // corner_loop: loop chunks only
   corner_ids.reserve(3 * faces);
   corner_owned.reserve(3 * faces);
   for (;;) {
     auto block = reader.next();
     if (!block) return block.status();
     if (block->empty()) break;
-    for (std::size_t at = 0; at < block->size(); at += kChunkFaceRecordBytes) {
+    for (std::size_t at = 0; at < block->size(); at += record_bytes) {
       const std::byte* r = block->data() + at;
       std::uint64_t face;
       std::uint32_t v[3];
@@ -1660,7 +1661,7 @@ format::Result<ChunkMesh> load_chunk(const ChunkInfo& info) {
       auto where = [&] { return "face record " + std::to_string(mesh.global_face.size()) + ": "; };
       if (mesh.global_face.size() >= faces) return bad(where() + "more records than the file claims");
       if (!mesh.global_face.empty() && face <= mesh.global_face.back()) return bad(where() + "face ids not ascending");
-      if (flags & 0xF0) return bad(where() + "reserved flag bits set");
+      if (!info.loop && (flags & 0xF0)) return bad(where() + "reserved flag bits set");
       int lowest = 0;
       for (int j = 1; j < 3; ++j)
         if (v[j] < v[lowest]) lowest = j;
@@ -1670,6 +1671,14 @@ format::Result<ChunkMesh> load_chunk(const ChunkInfo& info) {
       }
       mesh.global_face.push_back(face);
       mesh.owned_face.push_back(owns_face);
+      if (info.loop) {
+        std::uint32_t piece;
+        std::memcpy(&piece, r + kChunkFaceRecordBytes, 4);
+        if (owns_face == (piece == 0xFFFFFFFFu)) return bad(where() + "a piece for a face the chunk does not own, or none for one it owns");
+        mesh.loop_piece.push_back(piece);
+        mesh.core_face.push_back((flags & kCoreFace) != 0);
+        for (int j = 0; j < 3; ++j) corner_loop.push_back((flags >> (5 + j)) & 1);
+      }
       for (int j = 0; j < 3; ++j) {
         corner_ids.push_back(v[j]);
         corner_owned.push_back((flags >> j) & 1);
@@ -1678,6 +1687,15 @@ format::Result<ChunkMesh> load_chunk(const ChunkInfo& info) {
   }
   if (mesh.global_face.size() != faces) return bad("fewer face records than the file claims");
   GM_RETURN_IF_ERROR(number_chunk_vertices(corner_ids, corner_owned, mesh, bad));
+  if (info.loop) {  // a vertex's corners agree on its loop bit: bit 0 said yes, bit 1 said no
+    mesh.loop_vertex.assign(mesh.global_vertex.size(), 0);
+    const auto* corners = reinterpret_cast<const std::uint32_t*>(mesh.triangles.data());
+    for (std::size_t c = 0; c < corner_loop.size(); ++c) mesh.loop_vertex[corners[c]] |= corner_loop[c] ? 1 : 2;
+    for (std::uint32_t v = 0; v < mesh.loop_vertex.size(); ++v) {
+      if (mesh.loop_vertex[v] == 3) return bad("vertex " + std::to_string(mesh.global_vertex[v]) + " is both a loop vertex and not");
+      mesh.loop_vertex[v] = mesh.loop_vertex[v] == 1;
+    }
+  }
   std::uint64_t owned_faces = 0, owned_vertices = 0;
   for (std::uint8_t o : mesh.owned_face) owned_faces += o;
   for (std::uint8_t o : mesh.owned_vertex) owned_vertices += o;

@@ -32,6 +32,15 @@ inline constexpr std::uint32_t kChunkFaceRecordBytes = 21;
 inline constexpr std::uint32_t kPositionRecordBytes = 12;
 inline constexpr std::uint32_t kOwnerRecordBytes = 4;
 inline constexpr std::uint8_t kOwnsFace = 8;
+// Loop chunk files ("GMLC"), written by simplify's pass A for pass C: the faces of a chunk near
+// its piece borders (stream/chunk_simplify.h, write_loop_chunk). A chunk face record, then
+//   21 u32  the index of the face's piece in the chunk (owned faces), all ones otherwise
+// and flag bit 4 (kCoreFace): every edge of the face has all its faces in the file; bit 5 + j
+// (kLoopCornerVertex << j): corner j's vertex is one whose every face is a core face.
+inline constexpr std::uint32_t kLoopChunkRecordKind = 0x434C4D47u;
+inline constexpr std::uint32_t kLoopChunkRecordBytes = 25;
+inline constexpr std::uint8_t kCoreFace = 16;
+inline constexpr std::uint8_t kLoopCornerVertex = 32;
 
 // Working memory of a chunk in pass 2, per face (adjacency, normals, labels, records):
 // the chunk size follows from it when max_chunk_faces is 0.
@@ -71,6 +80,7 @@ struct ChunkInfo {
   std::uint64_t owned_faces = 0;     // faces whose lowest-id vertex it owns
   std::uint64_t faces = 0;           // records in its file: F_k(C), owned faces included
   std::string path;                  // its chunk face record file
+  bool loop = false;                 // path is a loop chunk file (kLoopChunkRecordKind)
   std::string positions, owners;     // the partition's vertex files (positions.bin, owners.bin)
 };
 
@@ -145,6 +155,12 @@ struct ChunkMesh {
   // Per local vertex: its owning chunk, from owners.bin (load_chunk checks it against
   // owned_vertex); empty for a mesh made another way (owner_of answers then).
   std::vector<std::uint32_t> vertex_owner;
+  // From a loop chunk file only (else empty), per local face: its piece's index in the chunk
+  // (owned faces; all ones for the others), and whether it is a core face; per local vertex:
+  // whether it is a loop vertex (all its faces are core faces).
+  std::vector<std::uint32_t> loop_piece;
+  std::vector<std::uint8_t> core_face;
+  std::vector<std::uint8_t> loop_vertex;
   format::MeshView view() const { return {positions, triangles}; }
 };
 

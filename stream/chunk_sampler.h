@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -76,6 +77,10 @@ std::uint64_t pass_two_chunk_faces(std::uint64_t memory_bytes, std::uint32_t thr
 // release after every chunk made pass A 4x slower at 100M).
 using ChunkBody = std::function<format::Status(std::size_t, const ChunkMesh&, ChunkSamplerWorkspace&)>;
 format::Status for_each_chunk(const Partition& partition, std::uint32_t threads, const ChunkBody& body,
+                              const std::function<void(std::size_t, std::size_t)>& progress,
+                              std::uint64_t memory_bytes = 0);
+// The same over another list of chunk files (simplify's loop chunks), chunk i for index i.
+format::Status for_each_chunk(std::span<const ChunkInfo> chunks, std::uint32_t threads, const ChunkBody& body,
                               const std::function<void(std::size_t, std::size_t)>& progress,
                               std::uint64_t memory_bytes = 0);
 

@@ -42,6 +42,16 @@ format::Status for_each_chunk(const Partition& partition, std::uint32_t threads,
       options.partition.memory_bytes);
 }
 
+format::Status for_each_chunk(std::span<const ChunkInfo> chunks, std::uint64_t faces, std::uint32_t threads, const char* pass,
+                              const OutOfCoreSimplifyOptions& options, const ChunkBody& body) {
+  return stream::for_each_chunk(
+      chunks, threads, body,
+      [&](std::size_t done, std::size_t total) {
+        if (options.progress) options.progress(pass, done, total, faces);
+      },
+      options.partition.memory_bytes);
+}
+
 }  // namespace
 
 format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& sampler_adjacency,
@@ -80,8 +90,10 @@ format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& sam
   };
   std::vector<Half> halves;
   std::vector<std::uint32_t> half_of(3 * nf, kNone);
+  const bool loop_chunk = !chunk.core_face.empty();
+  if (loop_chunk && chunk.core_face.size() != nf) return format::Status::error(format::Code::kProcessing, "pass C", "one core flag per chunk face expected");
   for (std::uint32_t f = 0; f < nf; ++f) {
-    if (!chunk.owned_face[f] || skip[f]) continue;
+    if (!chunk.owned_face[f] || skip[f] || (loop_chunk && !chunk.core_face[f])) continue;
     for (int i = 0; i < 3; ++i) {
       if (!border(f, i)) continue;
       const auto [g, j] = next_loop_half_edge(adjacency, tris.data(), f, i, border);
@@ -133,9 +145,12 @@ format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& sam
     if (!has_pred[k] && !taken[k]) emit_run(k);
   for (std::uint32_t k = 0; k < halves.size(); ++k)
     if (!taken[k]) emit_run(k);
-  // Owned vertices with feature edges, and owned samples.
+  // Owned vertices with feature edges, and owned samples: in a loop chunk, its loop vertices
+  // (their stars are whole there; the others have no feature edge and are no samples).
+  if (loop_chunk && chunk.loop_vertex.size() != chunk.positions.size())
+    return format::Status::error(format::Code::kProcessing, "pass C", "one loop flag per chunk vertex expected");
   for (std::uint32_t v = 0; v < chunk.positions.size(); ++v) {
-    if (!chunk.owned_vertex[v]) continue;
+    if (!chunk.owned_vertex[v] || (loop_chunk && !chunk.loop_vertex[v])) continue;
     const std::uint32_t gv = chunk.global_vertex[v];
     std::uint32_t degree = 0, out_breaks = 0, in_breaks = 0, w = 0, u = 0;
     for (std::uint32_t k = adjacency.star_begin(v); k < adjacency.star_end(v); ++k) {
@@ -176,6 +191,7 @@ format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& sam
   // Vector areas of the merged patches, over owned faces. Neighbouring faces mostly share a patch:
   // the last patch's sum is kept at hand (a map lookup per face cost a quarter of this function).
   // Each patch still sums its faces in face order.
+  if (loop_chunk) return format::Status();
   std::map<std::uint32_t, std::array<double, 3>> areas;
   std::uint32_t last_patch = kNone;
   std::array<double, 3>* last_sum = nullptr;
@@ -197,6 +213,119 @@ format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& sam
   }
   for (const auto& [p, sum] : areas) out.areas.emplace_back(p, sum);
   return format::Status();
+}
+
+format::Result<bool> write_loop_chunk(const ChunkMesh& chunk, const ChunkInfo& info, const MeshAdjacency& adjacency,
+                                      const std::vector<std::uint32_t>& piece_index,
+                                      const std::vector<GlobalSample>& samples, const std::string& path,
+                                      ChunkInfo& loop_info, std::vector<std::array<double, 3>>& piece_area) {
+  const std::size_t nf = chunk.triangles.size(), nv = chunk.positions.size();
+  const auto& tris = chunk.triangles;
+  const std::uint32_t* nb = adjacency.edge_neighbor.data();
+  if (piece_index.size() != nf) return format::Status::error(format::Code::kProcessing, "pass A", "one piece index per chunk face expected");
+  piece_area.clear();
+  if (nf == 0) return false;
+  bool any_repeat = false;
+  const std::vector<std::uint8_t> skip = faces_the_mesher_skips(tris, adjacency, &any_repeat);
+  if (any_repeat || std::find(skip.begin(), skip.end(), 1) != skip.end()) return false;
+  // R: vertices on piece borders of owned faces (other pieces, other owners, the boundary), owned
+  // vertices with a face of another owner, owned samples.
+  std::vector<std::uint8_t> in_r(nv, 0);
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    const auto& t = tris[f].v;
+    if (!chunk.owned_face[f]) {
+      for (std::uint32_t v : t)
+        if (chunk.owned_vertex[v]) in_r[v] = 1;
+      continue;
+    }
+    for (int i = 0; i < 3; ++i) {
+      const std::uint32_t g = nb[3 * std::size_t{f} + i];
+      if (g == MeshAdjacency::kNoFace || !chunk.owned_face[g] || piece_index[g] != piece_index[f]) {
+        in_r[t[i]] = 1;
+        in_r[t[(i + 1) % 3]] = 1;
+      }
+    }
+  }
+  for (const GlobalSample& s : samples) {
+    const auto it = std::lower_bound(chunk.global_vertex.begin(), chunk.global_vertex.end(), s.vertex);
+    if (it == chunk.global_vertex.end() || *it != s.vertex) return format::Status::error(format::Code::kProcessing, "pass A", "a sample the chunk does not hold");
+    in_r[static_cast<std::size_t>(it - chunk.global_vertex.begin())] = 1;
+  }
+  // Core faces touch R; the file holds them and every face on an edge of theirs: an edge with
+  // an end in R has its faces in that end's star, all core; the faces on the others are found
+  // in the star of one end.
+  std::vector<std::uint8_t> keep(nf, 0);
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    const auto& t = tris[f].v;
+    if (in_r[t[0]] || in_r[t[1]] || in_r[t[2]]) keep[f] = 2;
+  }
+  const std::uint32_t* corners = adjacency.vertex_corners.data();
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    if (keep[f] != 2) continue;
+    const auto& t = tris[f].v;
+    for (int i = 0; i < 3; ++i) {
+      const std::uint32_t a = t[i], b = t[(i + 1) % 3];
+      if (in_r[a] || in_r[b]) continue;
+      for (std::uint32_t k = adjacency.star_begin(a); k < adjacency.star_end(a); ++k) {
+        const std::uint32_t g = corners[k] / 3;
+        const auto& u = tris[g].v;
+        if (keep[g] == 0 && (u[0] == b || u[1] == b || u[2] == b)) keep[g] = 1;
+      }
+    }
+  }
+  std::vector<std::uint32_t> kept;
+  for (std::uint32_t f = 0; f < nf; ++f)
+    if (keep[f]) kept.push_back(f);
+  if (4 * kept.size() > 3 * nf) return false;
+  // Each piece's vector area, over its faces in face order (as find_chunk_loops sums a patch's).
+  std::uint32_t pieces = 0;
+  for (std::uint32_t f = 0; f < nf; ++f)
+    if (chunk.owned_face[f]) pieces = std::max(pieces, piece_index[f] + 1);
+  piece_area.assign(pieces, {0, 0, 0});
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    if (!chunk.owned_face[f]) continue;
+    const auto& a = chunk.positions[tris[f].v[0]];
+    const auto& b = chunk.positions[tris[f].v[1]];
+    const auto& c = chunk.positions[tris[f].v[2]];
+    const double ux = double(b.x) - a.x, uy = double(b.y) - a.y, uz = double(b.z) - a.z;
+    const double vx = double(c.x) - a.x, vy = double(c.y) - a.y, vz = double(c.z) - a.z;
+    auto& sum = piece_area[piece_index[f]];
+    sum[0] += uy * vz - uz * vy;
+    sum[1] += uz * vx - ux * vz;
+    sum[2] += ux * vy - uy * vx;
+  }
+  format::RecordWriterOptions options;
+  options.columns = {{8, true}, {4, true}, {4, true}, {4, true}, {1, false}, {4, false}};
+  auto writer = format::RecordWriter::create(path, kLoopChunkRecordKind, kLoopChunkRecordBytes, options);
+  if (!writer) return writer.status();
+  std::vector<std::byte> records(kept.size() * kLoopChunkRecordBytes);
+  loop_info = info;
+  loop_info.path = path;
+  loop_info.loop = true;
+  loop_info.faces = kept.size();
+  loop_info.owned_faces = 0;
+  for (std::size_t k = 0; k < kept.size(); ++k) {
+    const std::uint32_t f = kept[k];
+    std::byte* r = records.data() + k * kLoopChunkRecordBytes;
+    std::uint32_t v[3];
+    std::uint8_t flags = 0;
+    for (int j = 0; j < 3; ++j) {
+      v[j] = chunk.global_vertex[tris[f].v[j]];
+      flags |= static_cast<std::uint8_t>(chunk.owned_vertex[tris[f].v[j]] << j);
+      if (in_r[tris[f].v[j]]) flags |= static_cast<std::uint8_t>(kLoopCornerVertex << j);
+    }
+    if (chunk.owned_face[f]) flags |= kOwnsFace;
+    if (keep[f] == 2) flags |= kCoreFace;
+    const std::uint32_t piece = chunk.owned_face[f] ? piece_index[f] : 0xFFFFFFFFu;
+    loop_info.owned_faces += chunk.owned_face[f];
+    std::memcpy(r, &chunk.global_face[f], 8);
+    std::memcpy(r + 8, v, 12);
+    r[20] = std::byte{flags};
+    std::memcpy(r + 21, &piece, 4);
+  }
+  GM_RETURN_IF_ERROR((*writer)->append(records));
+  GM_RETURN_IF_ERROR((*writer)->finish());
+  return true;
 }
 
 format::Result<ChunkLoopSummary> spill_chunk_loops(ChunkLoops&& loops, const std::string& path) {
@@ -519,10 +648,19 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   auto joins = PieceJoinFiles::create(partition->dir, nc, border_bucket_count(expected_border, options.partition.memory_bytes),
                                       options.partition.memory_bytes);
   if (!joins) return joins.status();
-  auto find_pieces = [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
+  // Pass C reads loop chunks where pass A could write them (write_loop_chunk), else the chunk.
+  std::vector<ChunkInfo> loop_chunks(partition->chunks);
+  std::vector<std::vector<std::array<double, 3>>> piece_areas(nc);
+  auto find_pieces = [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws,
+                         const std::vector<GlobalSample>& chunk_samples) {
     std::vector<std::uint32_t> piece_index;
     find_chunk_pieces(*partition, chunk, ws.adjacency, ws.labels, ws.feature, pieces[c], &piece_index);
     GM_RETURN_IF_ERROR((*joins)->write_face_pieces(static_cast<std::uint32_t>(c), chunk, piece_index));
+    ChunkInfo loop_info;
+    auto written = write_loop_chunk(chunk, partition->chunks[c], ws.adjacency, piece_index, chunk_samples,
+                                    partition->dir + "/loop-chunk-" + std::to_string(c) + ".gmr", loop_info, piece_areas[c]);
+    if (!written) return written.status();
+    if (*written) loop_chunks[c] = std::move(loop_info);
     return (*joins)->spill(static_cast<std::uint32_t>(c), pieces[c]);
   };
   GM_RETURN_IF_ERROR(for_each_chunk(*partition, options.threads, "sample", options,
@@ -532,7 +670,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
                                         GM_RETURN_IF_ERROR(sample_chunk(chunk, spheres[k], options.sampler, ws,
                                                                         samples[c * no + k], stats));
                                       }
-                                      if (no == 1) return find_pieces(c, chunk, ws);
+                                      if (no == 1) return find_pieces(c, chunk, ws, samples[c]);
                                       return format::Status();
                                     }));
   for (std::size_t k = 0; k < no; ++k) {
@@ -554,7 +692,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
                                         std::vector<GlobalSample> unused;
                                         ChunkSamplingStats stats;
                                         GM_RETURN_IF_ERROR(sample_chunk(chunk, gauss, options.sampler, ws, unused, stats));
-                                        return find_pieces(c, chunk, ws);
+                                        return find_pieces(c, chunk, ws, chosen[c]);
                                       }));
   }
   GM_RETURN_IF_ERROR((*joins)->finish());
@@ -608,22 +746,48 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     return format::Status();
   };
 
-  // Pass C: loops under the merged patches; each chunk's run vertices go to a file.
+  // Pass C: loops under the merged patches; each chunk's run vertices go to a file. A loop chunk
+  // carries its owned faces' pieces, and its areas come from pass A's per-piece sums.
   std::vector<ChunkLoopSummary> loops(nc);
   GM_RETURN_IF_ERROR(for_each_chunk(
-      *partition, options.threads, "loops", options,
+      loop_chunks, partition->faces, options.threads, "loops", options,
       [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
         std::vector<std::uint32_t> patch;
-        GM_RETURN_IF_ERROR(merged_patches_of_chunk(chunk, ws, patch));
+        const bool loop_chunk = !chunk.core_face.empty();
+        if (loop_chunk) {
+          for (std::size_t f = 0; f < chunk.loop_piece.size(); ++f)
+            if (chunk.owned_face[f] && chunk.loop_piece[f] >= piece_areas[c].size())
+              return damaged(loop_chunks[c].path + ": a face names a piece the chunk does not have");
+          GM_RETURN_IF_ERROR(build_mesh_adjacency(chunk.view(), ws.adjacency));
+          std::vector<PieceId> face_piece;
+          GM_RETURN_IF_ERROR(chunk_face_pieces(*partition, chunk, chunk.loop_piece, **joins, face_piece));
+          patch.resize(chunk.triangles.size());
+          for (std::uint32_t f = 0; f < patch.size(); ++f) patch[f] = merged_patch_of_piece(face_piece[f]);
+        } else {
+          GM_RETURN_IF_ERROR(merged_patches_of_chunk(chunk, ws, patch));
+        }
         auto is_corner = [&](std::uint32_t v) { return std::binary_search(corners.begin(), corners.end(), v); };
         ChunkLoops found;
         GM_RETURN_IF_ERROR(find_chunk_loops(chunk, ws.adjacency, patch, is_corner, chosen[c], found));
+        if (loop_chunk) {
+          std::map<std::uint32_t, std::array<double, 3>> areas;
+          for (std::uint32_t k = 0; k < piece_areas[c].size(); ++k) {
+            auto& sum = areas[merged_patch_of_piece(PieceId{c} << 32 | k)];
+            for (int i = 0; i < 3; ++i) sum[i] += piece_areas[c][k][i];
+          }
+          for (const auto& [p, sum] : areas) found.areas.emplace_back(p, sum);
+          std::vector<std::array<double, 3>>().swap(piece_areas[c]);
+        }
         auto summary = spill_chunk_loops(std::move(found), partition->dir + "/loops-" + std::to_string(c) + ".gmr");
         if (!summary) return summary.status();
         loops[c] = std::move(summary).value();
         return format::Status();
       }));
   out.peak_rss_after_loops = peak_rss();
+  for (const ChunkInfo& info : loop_chunks) {
+    out.loop_chunks += info.loop;
+    out.loop_faces += info.faces;
+  }
   out.bytes_spilled = partition->bytes_spilled;
   for (const ChunkLoopSummary& l : loops) out.bytes_spilled += l.bytes;
   std::vector<format::Vec3f> plane(merged.patch_label.size());

@@ -74,10 +74,29 @@ struct ChunkLoops {
 // samples are the chunk's owned samples (ascending). Appends to out (offsets count from the
 // run vertices already there). Collapsed faces and repeats of a face's vertex set take no part
 // (faces_the_mesher_skips). Errors: the adjacency's, when repeats force a second one.
+// A loop chunk (chunk.core_face not empty, write_loop_chunk): only core faces' half-edges and
+// core faces' owned vertices are looked at, and no areas are summed (the caller adds them from
+// loop_piece_areas).
 format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
                       std::span<const std::uint32_t> patch,
                       const std::function<bool(std::uint32_t)>& is_corner, const std::vector<GlobalSample>& samples,
                       ChunkLoops& out);
+
+// Pass A's share of pass C: pass C needs only the faces near the chunk's piece borders, since
+// the merged patches' borders are piece borders. R is the set of vertices on a piece border or
+// the boundary of an owned face, the owned vertices with a face of another owner in their star,
+// and the owned samples; core faces are the faces with a vertex in R, and the file holds every
+// face with a vertex on a core face (so every edge of a core face has all its faces), with the
+// piece of each owned face. find_chunk_loops on it finds the same runs and vertex records as on
+// the whole chunk. Writes it to path and sets loop_info (a copy of info for it), and returns
+// false (nothing written) when the chunk has faces the mesher skips (collapsed faces, repeats:
+// their adjacency differs) or the file would hold more than 3/4 of the chunk's faces.
+// piece_index: find_chunk_pieces's, per local face. piece_area gets each piece's vector area
+// (its owned faces' cross products summed in face order), which pass C sums per merged patch.
+format::Result<bool> write_loop_chunk(const ChunkMesh& chunk, const ChunkInfo& info, const MeshAdjacency& adjacency,
+                                      const std::vector<std::uint32_t>& piece_index,
+                                      const std::vector<GlobalSample>& samples, const std::string& path,
+                                      ChunkInfo& loop_info, std::vector<std::array<double, 3>>& piece_area);
 
 // What the stitch keeps of a chunk's pass C: its run vertices go to a file, the rest stays.
 struct ChunkLoopSummary {
@@ -134,6 +153,9 @@ struct OutOfCoreSimplify {
   std::size_t stitch_runs = 0;        // run summaries the stitch joined
   std::size_t stitch_vertices = 0;    // loop vertices (positions on disk, 5 bytes each in memory)
   std::size_t fetched_patches = 0, fetched_faces = 0;  // input faces fetched for the mesher's last steps
+  // Pass C: chunks it read as loop chunks (write_loop_chunk), and the faces it loaded in all.
+  std::size_t loop_chunks = 0;
+  std::uint64_t loop_faces = 0;
   double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0, seconds_stitch = 0, seconds_mesh = 0;
   // The process's peak RSS (getrusage) after passes 0-1, after pass A/B, after the piece stitch
   // and merge, and after pass C: which stage sets the peak.
