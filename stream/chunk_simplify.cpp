@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <iterator>
 #include <map>
 #include <numbers>
@@ -784,11 +785,14 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
         return format::Status();
       }));
   out.peak_rss_after_loops = peak_rss();
+  out.bytes_spilled = partition->bytes_spilled;
   for (const ChunkInfo& info : loop_chunks) {
     out.loop_chunks += info.loop;
     out.loop_faces += info.faces;
+    std::error_code error;
+    const std::uintmax_t bytes = info.loop ? std::filesystem::file_size(info.path, error) : 0;
+    if (!error) out.bytes_spilled += bytes;
   }
-  out.bytes_spilled = partition->bytes_spilled;
   for (const ChunkLoopSummary& l : loops) out.bytes_spilled += l.bytes;
   std::vector<format::Vec3f> plane(merged.patch_label.size());
   for (std::size_t p = 0; p < plane.size(); ++p) {
