@@ -63,8 +63,11 @@ format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& sam
   // The mesher leaves collapsed faces and repeats of a vertex set out, and walks an adjacency
   // without them. A face and its repeats share their vertices, so they are owned by one chunk and
   // travel together: the chunk sees every repeat the whole mesh has.
+  // A loop chunk has none (write_loop_chunk writes none for a chunk with any).
   bool any_repeat = false;
-  const std::vector<std::uint8_t> skip = faces_the_mesher_skips(chunk.triangles, sampler_adjacency, &any_repeat);
+  const std::vector<std::uint8_t> skip = chunk.core_face.empty()
+                                             ? faces_the_mesher_skips(chunk.triangles, sampler_adjacency, &any_repeat)
+                                             : std::vector<std::uint8_t>(nf, 0);
   MeshAdjacency without_repeats;
   if (any_repeat) {
     std::vector<format::Triangle> kept(chunk.triangles);
