@@ -298,11 +298,16 @@ format::Result<bool> write_loop_chunk(const ChunkMesh& chunk, const ChunkInfo& i
     sum[1] += uz * vx - ux * vz;
     sum[2] += ux * vy - uy * vx;
   }
+  // Frames of 128 KiB, encoded one at a time: this runs while the sampler's arrays are held, and
+  // a whole-chunk buffer, 1 MiB frames and the zstd tables sized for them were 5-7 MB of peak at
+  // 1M triangles (zstd sizes its tables by the frame).
   format::RecordWriterOptions options;
   options.columns = {{8, true}, {4, true}, {4, true}, {4, true}, {1, false}, {4, false}};
+  options.frame_bytes = std::size_t{128} << 10;
   auto writer = format::RecordWriter::create(path, kLoopChunkRecordKind, kLoopChunkRecordBytes, options);
   if (!writer) return writer.status();
-  std::vector<std::byte> records(kept.size() * kLoopChunkRecordBytes);
+  const std::size_t per_frame = (*writer)->frame_limit() / kLoopChunkRecordBytes;
+  std::vector<std::byte> records(std::min(kept.size(), per_frame) * kLoopChunkRecordBytes);
   loop_info = info;
   loop_info.path = path;
   loop_info.loop = true;
@@ -310,7 +315,7 @@ format::Result<bool> write_loop_chunk(const ChunkMesh& chunk, const ChunkInfo& i
   loop_info.owned_faces = 0;
   for (std::size_t k = 0; k < kept.size(); ++k) {
     const std::uint32_t f = kept[k];
-    std::byte* r = records.data() + k * kLoopChunkRecordBytes;
+    std::byte* r = records.data() + (k % per_frame) * kLoopChunkRecordBytes;
     std::uint32_t v[3];
     std::uint8_t flags = 0;
     for (int j = 0; j < 3; ++j) {
@@ -326,8 +331,9 @@ format::Result<bool> write_loop_chunk(const ChunkMesh& chunk, const ChunkInfo& i
     std::memcpy(r + 8, v, 12);
     r[20] = std::byte{flags};
     std::memcpy(r + 21, &piece, 4);
+    if ((k + 1) % per_frame == 0 || k + 1 == kept.size())
+      GM_RETURN_IF_ERROR((*writer)->append(std::span(records).first((k % per_frame + 1) * kLoopChunkRecordBytes)));
   }
-  GM_RETURN_IF_ERROR((*writer)->append(records));
   GM_RETURN_IF_ERROR((*writer)->finish());
   return true;
 }
