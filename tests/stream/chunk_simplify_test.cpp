@@ -8,12 +8,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <functional>
 #include <map>
 
 #include "format/mesh_writer.h"
 #include "format/output_file.h"
+#include "format/record_file.h"
 #include "stream/simplify.h"
 #include "tests/support/shapes.h"
 #include "tests/support/test_util.h"
@@ -289,6 +291,81 @@ TEST(ChunkSimplify, LoopChunksFindTheWholeChunksLoopsUnderAnyCoarserPatches) {
   }
   std::printf("%zu of %zu chunks as loop chunks\n", loop_chunks, chunks);
   EXPECT_GT(loop_chunks, chunks / 4);
+}
+
+TEST(ChunkSimplify, DamagedLoopChunksAreBadInput) {
+  // A loop chunk file is read by load_chunk like a chunk file, with its own checks: a piece on a
+  // face the chunk does not own or none on one it owns, corners of one vertex that disagree on
+  // its loop bit, and the file taken for a plain chunk file (another kind) are kBadInput.
+  testing::ScratchDir tmp;
+  PartitionOptions partition;
+  partition.max_chunk_faces = 2500;
+  partition.tmp_dir = tmp.path().string();
+  auto parts = partition_mesh(testing::fixture("real/cow.off"), {}, partition);
+  ASSERT_TRUE(parts.is_ok()) << parts.status().to_string();
+  const ChunkInfo& info = parts->chunks[0];
+  auto chunk = load_chunk(info);
+  ASSERT_TRUE(chunk.is_ok());
+  MeshAdjacency adjacency;
+  ASSERT_TRUE(build_mesh_adjacency(chunk->view(), adjacency).is_ok());
+  std::vector<std::uint32_t> piece_index(chunk->triangles.size(), 0xFFFFFFFFu);
+  for (std::uint32_t f = 0; f < piece_index.size(); ++f)
+    if (chunk->owned_face[f]) piece_index[f] = 0;  // one piece: R is the chunk's border
+  ChunkInfo loop_info;
+  std::vector<std::array<double, 3>> areas;
+  auto written = write_loop_chunk(*chunk, info, adjacency, piece_index, {}, tmp.file("loop.gmr"), loop_info, areas);
+  ASSERT_TRUE(written.is_ok() && *written);
+  ASSERT_TRUE(load_chunk(loop_info).is_ok());
+  std::vector<std::byte> records;
+  {
+    auto reader = format::RecordReader::open(loop_info.path, kLoopChunkRecordKind, kLoopChunkRecordBytes);
+    ASSERT_TRUE(reader.is_ok());
+    for (;;) {
+      auto block = (*reader)->next();
+      ASSERT_TRUE(block.is_ok());
+      if (block->empty()) break;
+      records.insert(records.end(), block->begin(), block->end());
+    }
+  }
+  auto expect_bad = [&](const ChunkInfo& damaged, const std::string& what) {
+    auto loaded = load_chunk(damaged);
+    ASSERT_FALSE(loaded.is_ok()) << what;
+    EXPECT_EQ(loaded.status().code(), format::Code::kBadInput) << what;
+    EXPECT_NE(loaded.status().to_string().find(damaged.path), std::string::npos) << loaded.status().to_string();
+  };
+  auto rewrite = [&](const std::function<void(std::vector<std::byte>&)>& damage, const std::string& what) {
+    std::vector<std::byte> copy = records;
+    damage(copy);
+    auto writer = format::RecordWriter::create(loop_info.path, kLoopChunkRecordKind, kLoopChunkRecordBytes);
+    ASSERT_TRUE(writer.is_ok());
+    ASSERT_TRUE((*writer)->append(copy).is_ok());
+    ASSERT_TRUE((*writer)->finish().is_ok());
+    expect_bad(loop_info, what);
+  };
+  const std::size_t n = records.size() / kLoopChunkRecordBytes;
+  auto flags = [&](std::vector<std::byte>& r, std::size_t k) -> std::byte& { return r[k * kLoopChunkRecordBytes + 20]; };
+  auto piece = [&](std::vector<std::byte>& r, std::size_t k) { return r.data() + k * kLoopChunkRecordBytes + 21; };
+  std::size_t owned = n, foreign = n, looped = n;
+  for (std::size_t k = 0; k < n; ++k) {
+    const auto f = std::to_integer<std::uint8_t>(flags(records, k));
+    if (f & kOwnsFace) owned = std::min(owned, k);
+    else foreign = std::min(foreign, k);
+    if (f & (kLoopCornerVertex * 7)) looped = std::min(looped, k);
+  }
+  ASSERT_TRUE(owned < n && foreign < n && looped < n);
+  rewrite([&](auto& r) { std::memset(piece(r, owned), 0xFF, 4); }, "no piece on an owned face");
+  rewrite([&](auto& r) { std::memset(piece(r, foreign), 0, 4); }, "a piece on a face not owned");
+  rewrite([&](auto& r) {
+    const auto f = std::to_integer<std::uint8_t>(flags(r, looped));
+    for (int j = 0; j < 3; ++j)
+      if (f & (kLoopCornerVertex << j)) {
+        flags(r, looped) = std::byte{static_cast<std::uint8_t>(f & ~(kLoopCornerVertex << j))};
+        break;
+      }
+  }, "a vertex's corners disagree on its loop bit");
+  ChunkInfo plain = loop_info;
+  plain.loop = false;
+  expect_bad(plain, "a loop chunk read as a chunk file");
 }
 
 TEST(ChunkSimplify, StitchLoopsJoinsRunsAcrossChunksFromTheirLowestHalfEdge) {
