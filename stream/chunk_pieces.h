@@ -13,6 +13,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -35,6 +36,9 @@ struct PieceRecord {
   std::uint32_t label = 0;     // Gaussian triangle, or kNoLabel
   std::uint64_t faces = 0;     // owned faces in the piece
   std::uint64_t min_face = 0;  // lowest global face id
+  // Vector area (its faces' cross products summed in face order): set by write_loop_chunk for
+  // pass C, zero otherwise.
+  std::array<double, 3> area = {0, 0, 0};
 };
 
 struct BorderEdgeRecord {

@@ -77,13 +77,14 @@ bool worth_releasing(std::uint64_t rss, std::uint64_t memory_bytes) { return rss
 format::Status for_each_chunk(const Partition& partition, std::uint32_t threads, const ChunkBody& body,
                               const std::function<void(std::size_t, std::size_t)>& progress,
                               std::uint64_t memory_bytes) {
-  return for_each_chunk(std::span<const ChunkInfo>(partition.chunks), threads, body, progress, memory_bytes);
+  return for_each_chunk(
+      partition.chunks.size(), [&](std::size_t c) { return partition.chunks[c]; }, threads, body, progress, memory_bytes);
 }
 
-format::Status for_each_chunk(std::span<const ChunkInfo> chunks, std::uint32_t threads, const ChunkBody& body,
-                              const std::function<void(std::size_t, std::size_t)>& progress,
+format::Status for_each_chunk(std::size_t count, const std::function<ChunkInfo(std::size_t)>& info_of, std::uint32_t threads,
+                              const ChunkBody& body, const std::function<void(std::size_t, std::size_t)>& progress,
                               std::uint64_t memory_bytes) {
-  const std::size_t nc = chunks.size();
+  const std::size_t nc = count;
   std::vector<format::Status> errors(nc);
   std::atomic<bool> failed{false};
   std::atomic<std::size_t> done{0};
@@ -98,7 +99,7 @@ format::Status for_each_chunk(std::span<const ChunkInfo> chunks, std::uint32_t t
   arena.execute([&] {
     tbb::parallel_for(std::size_t{0}, nc, [&](std::size_t c) {
       if (failed) return;
-      auto chunk = load_chunk(chunks[c]);
+      auto chunk = load_chunk(info_of(c));
       format::Status st = chunk ? body(c, *chunk, workspaces.local()) : chunk.status();
       if (!st) {
         errors[c] = st;

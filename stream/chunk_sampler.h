@@ -79,9 +79,10 @@ using ChunkBody = std::function<format::Status(std::size_t, const ChunkMesh&, Ch
 format::Status for_each_chunk(const Partition& partition, std::uint32_t threads, const ChunkBody& body,
                               const std::function<void(std::size_t, std::size_t)>& progress,
                               std::uint64_t memory_bytes = 0);
-// The same over another list of chunk files (simplify's loop chunks), chunk i for index i.
-format::Status for_each_chunk(std::span<const ChunkInfo> chunks, std::uint32_t threads, const ChunkBody& body,
-                              const std::function<void(std::size_t, std::size_t)>& progress,
+// The same over `count` chunk files that info_of(i) describes (simplify's loop chunks): built
+// when loaded, so that no second list of every chunk's paths is held.
+format::Status for_each_chunk(std::size_t count, const std::function<ChunkInfo(std::size_t)>& info_of, std::uint32_t threads,
+                              const ChunkBody& body, const std::function<void(std::size_t, std::size_t)>& progress,
                               std::uint64_t memory_bytes = 0);
 
 // Passes 0-1 for the chunk passes: options' memory and tmp dir, the overlap the sampler's

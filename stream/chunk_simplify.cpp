@@ -43,10 +43,11 @@ format::Status for_each_chunk(const Partition& partition, std::uint32_t threads,
       options.partition.memory_bytes);
 }
 
-format::Status for_each_chunk(std::span<const ChunkInfo> chunks, std::uint64_t faces, std::uint32_t threads, const char* pass,
-                              const OutOfCoreSimplifyOptions& options, const ChunkBody& body) {
+format::Status for_each_chunk(std::size_t count, const std::function<ChunkInfo(std::size_t)>& info_of, std::uint64_t faces,
+                              std::uint32_t threads, const char* pass, const OutOfCoreSimplifyOptions& options,
+                              const ChunkBody& body) {
   return stream::for_each_chunk(
-      chunks, threads, body,
+      count, info_of, threads, body,
       [&](std::size_t done, std::size_t total) {
         if (options.progress) options.progress(pass, done, total, faces);
       },
@@ -658,19 +659,40 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   auto joins = PieceJoinFiles::create(partition->dir, nc, border_bucket_count(expected_border, options.partition.memory_bytes),
                                       options.partition.memory_bytes);
   if (!joins) return joins.status();
-  // Pass C reads loop chunks where pass A could write them (write_loop_chunk), else the chunk.
-  std::vector<ChunkInfo> loop_chunks(partition->chunks);
-  std::vector<std::vector<std::array<double, 3>>> piece_areas(nc);
+  // Pass C reads loop chunks where pass A could write them (write_loop_chunk), else the chunk;
+  // the pieces' areas ride in the spilled piece records (held here they grew with the pieces:
+  // 100M under 16M, +10 MB at the merge).
+  struct LoopChunk {
+    std::uint64_t faces = 0, owned_faces = 0;  // faces == 0: none
+  };
+  std::vector<LoopChunk> loop_chunks(nc);
+  auto loop_path = [&](std::size_t c) { return partition->dir + "/loop-chunk-" + std::to_string(c) + ".gmr"; };
+  auto loop_info_of = [&](std::size_t c) {
+    ChunkInfo info = partition->chunks[c];
+    if (loop_chunks[c].faces == 0) return info;
+    info.path = loop_path(c);
+    info.loop = true;
+    info.faces = loop_chunks[c].faces;
+    info.owned_faces = loop_chunks[c].owned_faces;
+    return info;
+  };
   auto find_pieces = [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws,
                          const std::vector<GlobalSample>& chunk_samples) {
     std::vector<std::uint32_t> piece_index;
     find_chunk_pieces(*partition, chunk, ws.adjacency, ws.labels, ws.feature, pieces[c], &piece_index);
     GM_RETURN_IF_ERROR((*joins)->write_face_pieces(static_cast<std::uint32_t>(c), chunk, piece_index));
     ChunkInfo loop_info;
-    auto written = write_loop_chunk(chunk, partition->chunks[c], ws.adjacency, piece_index, chunk_samples,
-                                    partition->dir + "/loop-chunk-" + std::to_string(c) + ".gmr", loop_info, piece_areas[c]);
+    std::vector<std::array<double, 3>> piece_area;
+    auto written = write_loop_chunk(chunk, partition->chunks[c], ws.adjacency, piece_index, chunk_samples, loop_path(c),
+                                    loop_info, piece_area);
     if (!written) return written.status();
-    if (*written) loop_chunks[c] = std::move(loop_info);
+    if (*written) {
+      loop_chunks[c] = {loop_info.faces, loop_info.owned_faces};
+      if (piece_area.size() > pieces[c].pieces.size())
+        return format::Status::error(format::Code::kProcessing, "pass A", "more piece areas than pieces");
+      const std::size_t first = pieces[c].pieces.size() - piece_area.size();  // this chunk's, appended last
+      for (std::size_t k = 0; k < piece_area.size(); ++k) pieces[c].pieces[first + k].area = piece_area[k];
+    }
     return (*joins)->spill(static_cast<std::uint32_t>(c), pieces[c]);
   };
   GM_RETURN_IF_ERROR(for_each_chunk(*partition, options.threads, "sample", options,
@@ -760,14 +782,17 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   // carries its owned faces' pieces, and its areas come from pass A's per-piece sums.
   std::vector<ChunkLoopSummary> loops(nc);
   GM_RETURN_IF_ERROR(for_each_chunk(
-      loop_chunks, partition->faces, options.threads, "loops", options,
+      nc, loop_info_of, partition->faces, options.threads, "loops", options,
       [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
         std::vector<std::uint32_t> patch;
         const bool loop_chunk = !chunk.core_face.empty();
+        std::vector<PieceRecord> piece_records;
         if (loop_chunk) {
+          std::vector<PieceAdjacencyRecord> unused;
+          GM_RETURN_IF_ERROR((*joins)->read_pieces(static_cast<std::uint32_t>(c), piece_records, unused));
           for (std::size_t f = 0; f < chunk.loop_piece.size(); ++f)
-            if (chunk.owned_face[f] && chunk.loop_piece[f] >= piece_areas[c].size())
-              return damaged(loop_chunks[c].path + ": a face names a piece the chunk does not have");
+            if (chunk.owned_face[f] && chunk.loop_piece[f] >= piece_records.size())
+              return damaged(loop_path(c) + ": a face names a piece the chunk does not have");
           GM_RETURN_IF_ERROR(build_mesh_adjacency(chunk.view(), ws.adjacency));
           std::vector<PieceId> face_piece;
           GM_RETURN_IF_ERROR(chunk_face_pieces(*partition, chunk, chunk.loop_piece, **joins, face_piece));
@@ -781,12 +806,11 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
         GM_RETURN_IF_ERROR(find_chunk_loops(chunk, ws.adjacency, patch, is_corner, chosen[c], found));
         if (loop_chunk) {
           std::map<std::uint32_t, std::array<double, 3>> areas;
-          for (std::uint32_t k = 0; k < piece_areas[c].size(); ++k) {
-            auto& sum = areas[merged_patch_of_piece(PieceId{c} << 32 | k)];
-            for (int i = 0; i < 3; ++i) sum[i] += piece_areas[c][k][i];
+          for (const PieceRecord& r : piece_records) {
+            auto& sum = areas[merged_patch_of_piece(r.piece)];
+            for (int i = 0; i < 3; ++i) sum[i] += r.area[i];
           }
           for (const auto& [p, sum] : areas) found.areas.emplace_back(p, sum);
-          std::vector<std::array<double, 3>>().swap(piece_areas[c]);
         }
         auto summary = spill_chunk_loops(std::move(found), partition->dir + "/loops-" + std::to_string(c) + ".gmr");
         if (!summary) return summary.status();
@@ -795,13 +819,15 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
       }));
   out.peak_rss_after_loops = peak_rss();
   out.bytes_spilled = partition->bytes_spilled;
-  for (const ChunkInfo& info : loop_chunks) {
-    out.loop_chunks += info.loop;
-    out.loop_faces += info.faces;
+  for (std::size_t c = 0; c < nc; ++c) {
+    const bool loop = loop_chunks[c].faces > 0;
+    out.loop_chunks += loop;
+    out.loop_faces += loop ? loop_chunks[c].faces : partition->chunks[c].faces;
     std::error_code error;
-    const std::uintmax_t bytes = info.loop ? std::filesystem::file_size(info.path, error) : 0;
+    const std::uintmax_t bytes = loop ? std::filesystem::file_size(loop_path(c), error) : 0;
     if (!error) out.bytes_spilled += bytes;
   }
+  std::vector<LoopChunk>().swap(loop_chunks);
   for (const ChunkLoopSummary& l : loops) out.bytes_spilled += l.bytes;
   std::vector<format::Vec3f> plane(merged.patch_label.size());
   for (std::size_t p = 0; p < plane.size(); ++p) {

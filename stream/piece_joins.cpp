@@ -203,6 +203,7 @@ Status PieceJoinFiles::read_pieces(std::uint32_t chunk, std::vector<PieceRecord>
                                     r.min_face = get_u64(at + 8);
                                     r.faces = get_u64(at + 16);
                                     std::memcpy(&r.label, at + 24, 4);
+                                    std::memcpy(r.area.data(), at + 28, 24);
                                     pieces.push_back(r);
                                   }));
   adjacency.reserve(adjacency_entries_[chunk]);
@@ -301,6 +302,7 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
                                  put_u64(at + 8, r.min_face);
                                  put_u64(at + 16, r.faces);
                                  std::memcpy(at + 24, &r.label, 4);
+                                 std::memcpy(at + 28, r.area.data(), 24);
                                });
     if (!bytes) return bytes.status();
     std::lock_guard lock(mutex_);

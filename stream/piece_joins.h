@@ -34,10 +34,11 @@ inline constexpr std::uint32_t kFaceAnswerRecordBytes = 16;
 // break), u32 owner of face, u32 owner of next (bits 0..30) | entering edge is a break (bit 31).
 inline constexpr std::uint32_t kStarRecordKind = 0x54534D47u;
 inline constexpr std::uint32_t kStarRecordBytes = 24;
-// A chunk's pieces ("GMPC": u64 piece id, u64 lowest face, u64 faces, u32 label) and its
+// A chunk's pieces ("GMPC": u64 piece id, u64 lowest face, u64 faces, u32 label, 3 × f64 vector
+// area — zero unless pass A wrote a loop chunk, whose pass C reads the pieces again) and its
 // manifold feature edges between two of its pieces ("GMPA": u64 piece a, u64 piece b, u64 edges).
 inline constexpr std::uint32_t kPieceRecordKind = 0x43504D47u;
-inline constexpr std::uint32_t kPieceRecordBytes = 28;
+inline constexpr std::uint32_t kPieceRecordBytes = 52;
 inline constexpr std::uint32_t kPieceAdjacencyRecordKind = 0x41504D47u;
 inline constexpr std::uint32_t kPieceAdjacencyRecordBytes = 24;
 // The piece of each owned face of a chunk, in the chunk's face order ("GMFP": u32 index of the
