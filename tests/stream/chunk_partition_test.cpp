@@ -22,8 +22,8 @@
 
 #include "format/mesh_writer.h"
 #include "format/output_file.h"
-#include "format/record_file.h"
 #include "stream/mesh.h"
+#include "tests/support/records.h"
 #include "tests/support/shapes.h"
 #include "tests/support/test_util.h"
 
@@ -606,24 +606,13 @@ TEST(ChunkPartition, DamagedChunkFilesAreBadInput) {
   wrong.owned_faces += 1;
   expect_bad(wrong, "owned faces");
   // Well-formed files whose records contradict each other.
-  std::vector<std::byte> records;
-  {
-    auto reader = format::RecordReader::open(info.path, kChunkFaceRecordKind, kChunkFaceRecordBytes);
-    ASSERT_TRUE(reader.is_ok());
-    for (;;) {
-      auto block = (*reader)->next();
-      ASSERT_TRUE(block.is_ok());
-      if (block->empty()) break;
-      records.insert(records.end(), block->begin(), block->end());
-    }
-  }
+  auto read = testing::read_all_records(info.path, kChunkFaceRecordKind, kChunkFaceRecordBytes);
+  ASSERT_TRUE(read.is_ok()) << read.status().to_string();
+  const std::vector<std::byte> records = std::move(*read);
   auto rewrite = [&](const std::function<void(std::vector<std::byte>&)>& damage, const std::string& what) {
     std::vector<std::byte> copy = records;
     damage(copy);
-    auto writer = format::RecordWriter::create(info.path, kChunkFaceRecordKind, kChunkFaceRecordBytes);
-    ASSERT_TRUE(writer.is_ok());
-    ASSERT_TRUE((*writer)->append(copy).is_ok());
-    ASSERT_TRUE((*writer)->finish().is_ok());
+    ASSERT_TRUE(testing::write_all_records(info.path, kChunkFaceRecordKind, kChunkFaceRecordBytes, copy).is_ok());
     expect_bad(info, what);
   };
   const std::size_t last = records.size() - kChunkFaceRecordBytes;

@@ -15,8 +15,8 @@
 
 #include "format/mesh_writer.h"
 #include "format/output_file.h"
-#include "format/record_file.h"
 #include "stream/simplify.h"
+#include "tests/support/records.h"
 #include "tests/support/shapes.h"
 #include "tests/support/test_util.h"
 
@@ -316,17 +316,9 @@ TEST(ChunkSimplify, DamagedLoopChunksAreBadInput) {
   auto written = write_loop_chunk(*chunk, info, adjacency, piece_index, {}, tmp.file("loop.gmr"), loop_info, areas);
   ASSERT_TRUE(written.is_ok() && *written);
   ASSERT_TRUE(load_chunk(loop_info).is_ok());
-  std::vector<std::byte> records;
-  {
-    auto reader = format::RecordReader::open(loop_info.path, kLoopChunkRecordKind, kLoopChunkRecordBytes);
-    ASSERT_TRUE(reader.is_ok());
-    for (;;) {
-      auto block = (*reader)->next();
-      ASSERT_TRUE(block.is_ok());
-      if (block->empty()) break;
-      records.insert(records.end(), block->begin(), block->end());
-    }
-  }
+  auto read = testing::read_all_records(loop_info.path, kLoopChunkRecordKind, kLoopChunkRecordBytes);
+  ASSERT_TRUE(read.is_ok()) << read.status().to_string();
+  std::vector<std::byte> records = std::move(*read);
   auto expect_bad = [&](const ChunkInfo& damaged, const std::string& what) {
     auto loaded = load_chunk(damaged);
     ASSERT_FALSE(loaded.is_ok()) << what;
@@ -336,10 +328,7 @@ TEST(ChunkSimplify, DamagedLoopChunksAreBadInput) {
   auto rewrite = [&](const std::function<void(std::vector<std::byte>&)>& damage, const std::string& what) {
     std::vector<std::byte> copy = records;
     damage(copy);
-    auto writer = format::RecordWriter::create(loop_info.path, kLoopChunkRecordKind, kLoopChunkRecordBytes);
-    ASSERT_TRUE(writer.is_ok());
-    ASSERT_TRUE((*writer)->append(copy).is_ok());
-    ASSERT_TRUE((*writer)->finish().is_ok());
+    ASSERT_TRUE(testing::write_all_records(loop_info.path, kLoopChunkRecordKind, kLoopChunkRecordBytes, copy).is_ok());
     expect_bad(loop_info, what);
   };
   const std::size_t n = records.size() / kLoopChunkRecordBytes;
