@@ -74,9 +74,9 @@ struct ChunkLoops {
 // samples are the chunk's owned samples (ascending). Appends to out (offsets count from the
 // run vertices already there). Collapsed faces and repeats of a face's vertex set take no part
 // (faces_the_mesher_skips). Errors: the adjacency's, when repeats force a second one.
-// A loop chunk (chunk.core_face not empty, write_loop_chunk): only core faces' half-edges and
-// core faces' owned vertices are looked at, and no areas are summed (the caller adds them from
-// loop_piece_areas).
+// A loop chunk (chunk.core_face not empty, write_loop_chunk): only owned core faces' half-edges
+// and owned loop vertices are looked at, and no areas are summed (the caller adds the pieces'
+// areas, PieceRecord::area).
 format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
                       std::span<const std::uint32_t> patch,
                       const std::function<bool(std::uint32_t)>& is_corner, const std::vector<GlobalSample>& samples,
@@ -85,9 +85,10 @@ format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adj
 // Pass A's share of pass C: pass C needs only the faces near the chunk's piece borders, since
 // the merged patches' borders are piece borders. R is the set of vertices on a piece border or
 // the boundary of an owned face, the owned vertices with a face of another owner in their star,
-// and the owned samples; core faces are the faces with a vertex in R, and the file holds every
-// face with a vertex on a core face (so every edge of a core face has all its faces), with the
-// piece of each owned face. find_chunk_loops on it finds the same runs and vertex records as on
+// and the owned samples; core faces are the faces with a vertex in R, and the file holds them
+// and every face on an edge of a core face (so every edge of a core face has all its faces, and
+// every loop vertex its whole star), with the piece of each owned face and the loop vertices
+// flagged. find_chunk_loops on it finds the same runs and vertex records as on
 // the whole chunk. Writes it to path and sets loop_info (a copy of info for it), and returns
 // false (nothing written) when the chunk has faces the mesher skips (collapsed faces, repeats:
 // their adjacency differs) or the file would hold more than 3/4 of the chunk's faces.
