@@ -54,6 +54,15 @@ format::Status for_each_chunk(std::size_t count, const std::function<ChunkInfo(s
       options.partition.memory_bytes);
 }
 
+// Adds the cross product (b - a) x (c - a), in doubles, to sum: a face's vector area, twice over.
+void add_cross_product(const format::Vec3f& a, const format::Vec3f& b, const format::Vec3f& c, std::array<double, 3>& sum) {
+  const double ux = double(b.x) - a.x, uy = double(b.y) - a.y, uz = double(b.z) - a.z;
+  const double vx = double(c.x) - a.x, vy = double(c.y) - a.y, vz = double(c.z) - a.z;
+  sum[0] += uy * vz - uz * vy;
+  sum[1] += uz * vx - ux * vz;
+  sum[2] += ux * vy - uy * vx;
+}
+
 }  // namespace
 
 format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& sampler_adjacency,
@@ -202,19 +211,12 @@ format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& sam
   std::array<double, 3>* last_sum = nullptr;
   for (std::uint32_t f = 0; f < nf; ++f) {
     if (!chunk.owned_face[f] || skip[f]) continue;
-    const auto& a = chunk.positions[tris[f].v[0]];
-    const auto& b = chunk.positions[tris[f].v[1]];
-    const auto& c = chunk.positions[tris[f].v[2]];
-    const double ux = double(b.x) - a.x, uy = double(b.y) - a.y, uz = double(b.z) - a.z;
-    const double vx = double(c.x) - a.x, vy = double(c.y) - a.y, vz = double(c.z) - a.z;
     if (patch[f] != last_patch || last_sum == nullptr) {
       last_patch = patch[f];
       last_sum = &areas[last_patch];
     }
-    auto& sum = *last_sum;
-    sum[0] += uy * vz - uz * vy;
-    sum[1] += uz * vx - ux * vz;
-    sum[2] += ux * vy - uy * vx;
+    const auto& p = chunk.positions;
+    add_cross_product(p[tris[f].v[0]], p[tris[f].v[1]], p[tris[f].v[2]], *last_sum);
   }
   for (const auto& [p, sum] : areas) out.areas.emplace_back(p, sum);
   return format::Status();
@@ -289,15 +291,8 @@ format::Result<bool> write_loop_chunk(const ChunkMesh& chunk, const ChunkInfo& i
   piece_area.assign(pieces, {0, 0, 0});
   for (std::uint32_t f = 0; f < nf; ++f) {
     if (!chunk.owned_face[f]) continue;
-    const auto& a = chunk.positions[tris[f].v[0]];
-    const auto& b = chunk.positions[tris[f].v[1]];
-    const auto& c = chunk.positions[tris[f].v[2]];
-    const double ux = double(b.x) - a.x, uy = double(b.y) - a.y, uz = double(b.z) - a.z;
-    const double vx = double(c.x) - a.x, vy = double(c.y) - a.y, vz = double(c.z) - a.z;
-    auto& sum = piece_area[piece_index[f]];
-    sum[0] += uy * vz - uz * vy;
-    sum[1] += uz * vx - ux * vz;
-    sum[2] += ux * vy - uy * vx;
+    const auto& p = chunk.positions;
+    add_cross_product(p[tris[f].v[0]], p[tris[f].v[1]], p[tris[f].v[2]], piece_area[piece_index[f]]);
   }
   // Frames of 128 KiB, encoded one at a time: this runs while the sampler's arrays are held, and
   // a whole-chunk buffer, 1 MiB frames and the zstd tables sized for them were 5-7 MB of peak at
@@ -766,13 +761,21 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   // A chunk's faces under the merged patches, and its adjacency in ws: owned faces through the
   // pieces pass A/B wrote for them, the others through the owners' answer files (each read once
   // per chunk); kNone where neither knows (faces far from every owned face). No labelling again.
-  auto merged_patches_of_chunk = [&](const ChunkMesh& chunk, ChunkSamplerWorkspace& ws,
-                                     std::vector<std::uint32_t>& patch) -> format::Status {
+  // A loop chunk carries its owned faces' pieces (checked against pieces, the chunk's pieces).
+  auto merged_patches_of_chunk = [&](const ChunkMesh& chunk, ChunkSamplerWorkspace& ws, std::vector<std::uint32_t>& patch,
+                                     const std::vector<PieceRecord>& pieces = {}) -> format::Status {
     GM_RETURN_IF_ERROR(build_mesh_adjacency(chunk.view(), ws.adjacency));
     std::vector<std::uint32_t> piece_index;
-    GM_RETURN_IF_ERROR((*joins)->read_face_pieces(chunk.chunk, chunk, piece_index));
+    if (chunk.core_face.empty()) {
+      GM_RETURN_IF_ERROR((*joins)->read_face_pieces(chunk.chunk, chunk, piece_index));
+    } else {
+      for (std::size_t f = 0; f < chunk.loop_piece.size(); ++f)
+        if (chunk.owned_face[f] && chunk.loop_piece[f] >= pieces.size())
+          return damaged(loop_path(chunk.chunk) + ": a face names a piece the chunk does not have");
+    }
+    const std::vector<std::uint32_t>& index = chunk.core_face.empty() ? piece_index : chunk.loop_piece;
     std::vector<PieceId> face_piece;
-    GM_RETURN_IF_ERROR(chunk_face_pieces(*partition, chunk, piece_index, **joins, face_piece));
+    GM_RETURN_IF_ERROR(chunk_face_pieces(*partition, chunk, index, **joins, face_piece));
     patch.resize(chunk.triangles.size());
     for (std::uint32_t f = 0; f < patch.size(); ++f) patch[f] = merged_patch_of_piece(face_piece[f]);
     return format::Status();
@@ -787,20 +790,8 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
         std::vector<std::uint32_t> patch;
         const bool loop_chunk = !chunk.core_face.empty();
         std::vector<PieceRecord> piece_records;
-        if (loop_chunk) {
-          std::vector<PieceAdjacencyRecord> unused;
-          GM_RETURN_IF_ERROR((*joins)->read_pieces(static_cast<std::uint32_t>(c), piece_records, unused));
-          for (std::size_t f = 0; f < chunk.loop_piece.size(); ++f)
-            if (chunk.owned_face[f] && chunk.loop_piece[f] >= piece_records.size())
-              return damaged(loop_path(c) + ": a face names a piece the chunk does not have");
-          GM_RETURN_IF_ERROR(build_mesh_adjacency(chunk.view(), ws.adjacency));
-          std::vector<PieceId> face_piece;
-          GM_RETURN_IF_ERROR(chunk_face_pieces(*partition, chunk, chunk.loop_piece, **joins, face_piece));
-          patch.resize(chunk.triangles.size());
-          for (std::uint32_t f = 0; f < patch.size(); ++f) patch[f] = merged_patch_of_piece(face_piece[f]);
-        } else {
-          GM_RETURN_IF_ERROR(merged_patches_of_chunk(chunk, ws, patch));
-        }
+        if (loop_chunk) GM_RETURN_IF_ERROR((*joins)->read_pieces(static_cast<std::uint32_t>(c), piece_records));
+        GM_RETURN_IF_ERROR(merged_patches_of_chunk(chunk, ws, patch, piece_records));
         auto is_corner = [&](std::uint32_t v) { return std::binary_search(corners.begin(), corners.end(), v); };
         ChunkLoops found;
         GM_RETURN_IF_ERROR(find_chunk_loops(chunk, ws.adjacency, patch, is_corner, chosen[c], found));

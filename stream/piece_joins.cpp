@@ -192,8 +192,17 @@ Status PieceJoinFiles::read_face_pieces(std::uint32_t chunk, const ChunkMesh& me
 
 Status PieceJoinFiles::read_pieces(std::uint32_t chunk, std::vector<PieceRecord>& pieces,
                                    std::vector<PieceAdjacencyRecord>& adjacency) const {
-  pieces.clear();
   adjacency.clear();
+  GM_RETURN_IF_ERROR(read_pieces(chunk, pieces));
+  adjacency.reserve(adjacency_entries_[chunk]);
+  return read_records(adjacency_path(dir_, chunk), kPieceAdjacencyRecordKind, kPieceAdjacencyRecordBytes,
+                      adjacency_entries_[chunk], [&](const std::byte* at) {
+                        adjacency.push_back({get_u64(at), get_u64(at + 8), get_u64(at + 16)});
+                      });
+}
+
+Status PieceJoinFiles::read_pieces(std::uint32_t chunk, std::vector<PieceRecord>& pieces) const {
+  pieces.clear();
   if (chunk >= chunks_) return damaged("pieces of chunk " + std::to_string(chunk) + ", which does not exist");
   pieces.reserve(piece_entries_[chunk]);
   GM_RETURN_IF_ERROR(read_records(pieces_path(dir_, chunk), kPieceRecordKind, kPieceRecordBytes, piece_entries_[chunk],
@@ -206,11 +215,7 @@ Status PieceJoinFiles::read_pieces(std::uint32_t chunk, std::vector<PieceRecord>
                                     std::memcpy(r.area.data(), at + 28, 24);
                                     pieces.push_back(r);
                                   }));
-  adjacency.reserve(adjacency_entries_[chunk]);
-  return read_records(adjacency_path(dir_, chunk), kPieceAdjacencyRecordKind, kPieceAdjacencyRecordBytes,
-                      adjacency_entries_[chunk], [&](const std::byte* at) {
-                        adjacency.push_back({get_u64(at), get_u64(at + 8), get_u64(at + 16)});
-                      });
+  return {};
 }
 
 Status PieceJoinFiles::read_stars(std::uint32_t chunk, std::vector<StarEntry>& out) const {

@@ -108,6 +108,8 @@ class PieceJoinFiles {
   // The pieces and piece adjacency spill() took from chunk. Errors as read_stars.
   format::Status read_pieces(std::uint32_t chunk, std::vector<PieceRecord>& pieces,
                              std::vector<PieceAdjacencyRecord>& adjacency) const;
+  // The pieces alone (pass C reads a loop chunk's pieces for their areas).
+  format::Status read_pieces(std::uint32_t chunk, std::vector<PieceRecord>& pieces) const;
   std::uint64_t border_records() const { return border_records_; }
   std::uint64_t answer_records() const { return answer_records_; }
   std::uint64_t bytes_written() const { return bytes_written_; }  // compressed, every file
