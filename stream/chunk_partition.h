@@ -95,6 +95,9 @@ struct Partition {
   std::uint64_t bytes_spilled = 0;  // every byte written to temporary files
   std::uint64_t cache_misses = 0;   // blocks read into the bounded cache (a measure of disorder)
   double seconds_ingest = 0, seconds_partition = 0;
+  // seconds_partition split by step: the plan (cell histograms and the owner pass over
+  // positions.bin), the ring rounds, the final scan writing the chunk files.
+  double seconds_plan = 0, seconds_rings = 0, seconds_chunks = 0;
 
   Partition() = default;
   ~Partition();
