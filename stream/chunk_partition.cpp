@@ -1090,11 +1090,12 @@ Status PartitionRun::ingest(const std::string& input_path, const format::ReadOpt
 
 // The plan's scans of positions.bin compute per vertex (a cell, a sub-cell code, an owner) and
 // are the partition's only vertex-parallel work: at 100M triangles, five scans of 50M vertices
-// took 2.8 s on one thread.
-// 1 MiB: a larger buffer, once freed, raises glibc's mmap threshold, and later buffers of that
-// size come from the heap and stay resident (4 MiB here raised the 10M run's peak by 2.6 MB).
+// took 2.8 s on one thread. They read 1 MiB at a time: a larger buffer, once freed, raises
+// glibc's mmap threshold, and later buffers of that size come from the heap and stay resident
+// (4 MiB here raised the 10M run's peak by 2.6 MB). Pieces are small enough that the tests'
+// shapes take the threaded path.
 constexpr std::size_t kPlanScanBytes = std::size_t{1} << 20;
-constexpr std::size_t kPlanPieceVertices = std::size_t{1} << 13;  // small enough that the tests' shapes take the threaded path
+constexpr std::size_t kPlanPieceVertices = std::size_t{1} << 13;
 
 template <class Fn>
 void PartitionRun::for_pieces(std::size_t n, Fn&& fn) {
@@ -1119,10 +1120,16 @@ Result<std::vector<std::uint32_t>> PartitionRun::count_positions(std::size_t siz
     });
     return Status{};
   }));
-  std::vector<std::uint32_t> sum(size, 0);
-  local.combine_each([&](const std::vector<std::uint32_t>& part) {
+  // The first thread's counts become the sum (no copy more than the threads' own).
+  std::vector<std::uint32_t> sum;
+  for (std::vector<std::uint32_t>& part : local) {
+    if (sum.empty()) {
+      sum.swap(part);
+      continue;
+    }
     for (std::size_t i = 0; i < size; ++i) sum[i] += part[i];
-  });
+  }
+  if (sum.empty()) sum.assign(size, 0);  // no vertex: no thread counted
   return sum;
 }
 
