@@ -179,7 +179,7 @@ int run_sample_out_of_core(const SampleCommandOptions& o, const std::vector<stre
                     {"sample", sampled->seconds_sample},
                     {"write", secs(t1, t2)},
                     {"total", secs(t0, t2)}};
-    j["partition_seconds"] = partition_seconds(*sampled);
+    j["partition_seconds"] = partition_seconds(sampled->partition_steps);
     if (Status s = write_report(o.report, j); !s) return report_error(s);
   }
   return 0;

@@ -148,7 +148,7 @@ int run_simplify_out_of_core(const SimplifyArgs& args, OutputKind kind, const st
                          {"mesh", result->seconds_mesh},
                          {"write", seconds_write},
                          {"total", seconds_since(started)}};
-    report["partition_seconds"] = partition_seconds(*result);
+    report["partition_seconds"] = partition_seconds(result->partition_steps);
     auto status = write_report(args.report, report);
     if (!status.is_ok()) return report_error(status);
   }

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "format/status.h"
+#include "stream/chunk_partition.h"
 
 namespace gaussmesh::cli {
 
@@ -14,11 +15,9 @@ using Json = nlohmann::ordered_json;
 // Writes report to path ("-" = stdout) through OutputFile (temp + rename).
 format::Status write_report(const std::string& path, const Json& report);
 
-// The partition's seconds by step (out-of-core results: OutOfCoreSampling, OutOfCoreSimplify),
-// the report's `partition_seconds`: they add up to `seconds.partition`.
-template <class Result>
-Json partition_seconds(const Result& r) {
-  return {{"plan", r.seconds_plan}, {"rings", r.seconds_rings}, {"chunks", r.seconds_chunks}};
+// The report's `partition_seconds`: the partition's steps, adding up to `seconds.partition`.
+inline Json partition_seconds(const stream::PartitionSteps& steps) {
+  return {{"plan", steps.plan}, {"rings", steps.rings}, {"chunks", steps.chunks}};
 }
 
 // Peak resident set size of this process so far (VmHWM), in bytes; 0 if unknown.

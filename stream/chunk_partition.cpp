@@ -1470,7 +1470,7 @@ Status PartitionRun::run(const std::string& input_path, const format::ReadOption
   out_.seconds_ingest = seconds_since(start);
   start = std::chrono::steady_clock::now();
   GM_RETURN_IF_ERROR(plan());
-  out_.seconds_plan = seconds_since(start);
+  out_.steps.plan = seconds_since(start);
   auto step = std::chrono::steady_clock::now();
   // Half the budget caches vertex-indexed data; an eighth holds chunk writers' frames; the
   // rest is the scan buffer, the cell tables and the zstd context.
@@ -1493,7 +1493,7 @@ Status PartitionRun::run(const std::string& input_path, const format::ReadOption
     frontier_[1] = std::make_unique<CachedBitmap>(*cache_, *f1);
     GM_RETURN_IF_ERROR(expand_rings());
   }
-  out_.seconds_rings = seconds_since(step);
+  out_.steps.rings = seconds_since(step);
   step = std::chrono::steady_clock::now();
   scan_pass_ = "chunks";
   GM_RETURN_IF_ERROR(write_chunks());
@@ -1507,7 +1507,7 @@ Status PartitionRun::run(const std::string& input_path, const format::ReadOption
   for (const char* name : {"/set-index.bin", "/sets.bin", "/set-nodes.bin", "/has-extras.bin", "/frontier-0.bin", "/frontier-1.bin"}) {
     ::unlink((out_.dir + name).c_str());
   }
-  out_.seconds_chunks = seconds_since(step);
+  out_.steps.chunks = seconds_since(step);
   out_.seconds_partition = seconds_since(start);
   return {};
 }
@@ -1533,9 +1533,7 @@ Partition& Partition::operator=(Partition&& other) noexcept {
   cache_misses = other.cache_misses;
   seconds_ingest = other.seconds_ingest;
   seconds_partition = other.seconds_partition;
-  seconds_plan = other.seconds_plan;
-  seconds_rings = other.seconds_rings;
-  seconds_chunks = other.seconds_chunks;
+  steps = other.steps;
   temp_slot = other.temp_slot;
   owner_map = std::move(other.owner_map);
   other.dir.clear();

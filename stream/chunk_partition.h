@@ -84,6 +84,12 @@ struct ChunkInfo {
   std::string positions, owners;     // the partition's vertex files (positions.bin, owners.bin)
 };
 
+// seconds_partition split by step: the plan (cell histograms and the owner pass over
+// positions.bin), the ring rounds, the final scan writing the chunk files.
+struct PartitionSteps {
+  double plan = 0, rings = 0, chunks = 0;
+};
+
 // The result of passes 0 and 1. Owns its temporary directory: the destructor (or
 // remove_temp()) deletes it with everything in it. Move-only.
 struct Partition {
@@ -95,9 +101,7 @@ struct Partition {
   std::uint64_t bytes_spilled = 0;  // every byte written to temporary files
   std::uint64_t cache_misses = 0;   // blocks read into the bounded cache (a measure of disorder)
   double seconds_ingest = 0, seconds_partition = 0;
-  // seconds_partition split by step: the plan (cell histograms and the owner pass over
-  // positions.bin), the ring rounds, the final scan writing the chunk files.
-  double seconds_plan = 0, seconds_rings = 0, seconds_chunks = 0;
+  PartitionSteps steps;             // seconds_partition by step
 
   Partition() = default;
   ~Partition();

@@ -111,9 +111,7 @@ void record_partition(const Partition& partition, Result& out) {
   out.chunks = partition.chunks.size();
   out.seconds_ingest = partition.seconds_ingest;
   out.seconds_partition = partition.seconds_partition;
-  out.seconds_plan = partition.seconds_plan;
-  out.seconds_rings = partition.seconds_rings;
-  out.seconds_chunks = partition.seconds_chunks;
+  out.partition_steps = partition.steps;
   out.peak_rss_after_partition = peak_rss();
 }
 
@@ -148,7 +146,7 @@ struct OutOfCoreSampling {
   std::size_t chunks = 0;
   std::uint64_t bytes_spilled = 0;
   double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0;
-  double seconds_plan = 0, seconds_rings = 0, seconds_chunks = 0;  // seconds_partition by step
+  PartitionSteps partition_steps;  // seconds_partition by step
   // The process's peak RSS when passes 0-1 had finished (getrusage), to tell which pass peaks.
   std::uint64_t peak_rss_after_partition = 0;
 };

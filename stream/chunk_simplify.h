@@ -158,7 +158,7 @@ struct OutOfCoreSimplify {
   std::size_t loop_chunks = 0;
   std::uint64_t loop_faces = 0;
   double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0, seconds_stitch = 0, seconds_mesh = 0;
-  double seconds_plan = 0, seconds_rings = 0, seconds_chunks = 0;  // seconds_partition by step
+  PartitionSteps partition_steps;  // seconds_partition by step
   // The process's peak RSS (getrusage) after passes 0-1, after pass A/B, after the piece stitch
   // and merge, and after pass C: which stage sets the peak.
   std::uint64_t peak_rss_after_partition = 0, peak_rss_after_pieces = 0, peak_rss_after_merge = 0,

@@ -558,8 +558,8 @@ TEST(ChunkPartition, FullDiskIsAnOutputErrorAndLeavesNothing) {
     auto* previous = ::signal(SIGXFSZ, SIG_IGN);
     ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &low), 0);
     expect_write_failure(dir.file("in.ply"), dir.file("tmp"), "file size limit");
-    // With two threads the ingest's spills are written on a thread of their own: its error
-    // stops the reader and is the run's.
+    // With two threads the ingest's spills are written on a thread of their own: the run
+    // still fails as kOutput with one line and leaves nothing.
     expect_write_failure(dir.file("in.ply"), dir.file("tmp"), "file size limit, spill thread", 2);
     ::setrlimit(RLIMIT_FSIZE, &old);
     ::signal(SIGXFSZ, previous);
