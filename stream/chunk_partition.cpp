@@ -600,6 +600,9 @@ class FaceSpill {
   Status open(const std::string& path) {
     format::RecordWriterOptions options;
     options.frame_bytes = kFaceSpillFrameBytes;
+    // -1: on the refined cow's 1 MB frames 2.2x faster to compress and 1.5x to decompress than
+    // level 1, for 19.3x instead of 21.6x (docs/partition.md, "zstd level on column frames").
+    options.level = -1;
     options.columns = {{4, true}, {4, true}, {4, true}};
     auto writer = format::RecordWriter::create(path, kFaceSpillRecordKind, sizeof(Triangle), options);
     if (!writer) return writer.status();
