@@ -254,7 +254,9 @@ TEST(ChunkSimplify, LoopChunksFindTheWholeChunksLoopsUnderAnyCoarserPatches) {
       MeshAdjacency loop_adjacency;
       ASSERT_TRUE(build_mesh_adjacency(loop->view(), loop_adjacency).is_ok());
       for (std::uint32_t f = 0; f < loop->triangles.size(); ++f) {
-        if (loop->owned_face[f]) ASSERT_EQ(piece_cell[loop->loop_piece[f]], cell_of(*loop, f));
+        if (loop->owned_face[f]) {
+          ASSERT_EQ(piece_cell[loop->loop_piece[f]], cell_of(*loop, f));
+        }
       }
       auto is_corner = [](std::uint32_t v) { return v % 11 == 0; };
       for (const auto& group : groupings) {
