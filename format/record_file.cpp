@@ -165,6 +165,20 @@ RecordCompressor::~RecordCompressor() { ZSTD_freeCCtx(static_cast<ZSTD_CCtx*>(cc
 
 // ---------------------------------------------------------------------------------------------
 
+Result<std::unique_ptr<RecordSegmentFile>> RecordSegmentFile::create(const std::string& path) {
+  std::unique_ptr<RecordSegmentFile> file(new RecordSegmentFile());
+  file->path_ = path;
+  file->fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+  if (file->fd_ < 0) return Status::error(Code::kOutput, path, "cannot create segment file: " + errno_text());
+  return file;
+}
+
+RecordSegmentFile::~RecordSegmentFile() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+// ---------------------------------------------------------------------------------------------
+
 Result<std::unique_ptr<RecordWriter>> RecordWriter::create(const std::string& path, std::uint32_t kind,
                                                            std::uint32_t record_size, int level,
                                                            std::size_t frame_bytes) {
@@ -177,6 +191,17 @@ Result<std::unique_ptr<RecordWriter>> RecordWriter::create(const std::string& pa
 Result<std::unique_ptr<RecordWriter>> RecordWriter::create(const std::string& path, std::uint32_t kind,
                                                            std::uint32_t record_size,
                                                            const RecordWriterOptions& options) {
+  return make(path, kind, record_size, options, nullptr);
+}
+
+Result<std::unique_ptr<RecordWriter>> RecordWriter::create_in(RecordSegmentFile& file, std::uint32_t kind,
+                                                              std::uint32_t record_size, const RecordWriterOptions& options) {
+  if (file.writing_) return Status::error(Code::kProcessing, file.path_, "a second writer on a segment file");
+  return make(file.path_, kind, record_size, options, &file);
+}
+
+Result<std::unique_ptr<RecordWriter>> RecordWriter::make(const std::string& path, std::uint32_t kind, std::uint32_t record_size,
+                                                         const RecordWriterOptions& options, RecordSegmentFile* segment_file) {
   if (record_size == 0 || record_size > kMaxRecordFrameBytes) {
     return Status::error(Code::kProcessing, path, "record size " + std::to_string(record_size) + " out of range");
   }
@@ -188,11 +213,18 @@ Result<std::unique_ptr<RecordWriter>> RecordWriter::create(const std::string& pa
   writer->columns_ = options.columns;
   writer->record_size_ = record_size;
   writer->shared_ = options.shared;
-  writer->keep_open_ = options.keep_open;
+  writer->keep_open_ = options.keep_open || segment_file != nullptr;
   std::size_t limit = std::min(std::max<std::size_t>(options.frame_bytes, record_size), kMaxRecordFrameBytes);
   writer->frame_limit_ = limit - limit % record_size;
-  writer->fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
-  if (writer->fd_ < 0) return Status::error(Code::kOutput, path, "cannot create record file: " + errno_text());
+  if (segment_file != nullptr) {
+    writer->segment_file_ = segment_file;
+    writer->base_ = segment_file->end_;
+    writer->fd_ = segment_file->fd_;
+    segment_file->writing_ = true;
+  } else {
+    writer->fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    if (writer->fd_ < 0) return Status::error(Code::kOutput, path, "cannot create record file: " + errno_text());
+  }
   if (writer->shared_ == nullptr) {
     ZSTD_CCtx* cctx = ZSTD_createCCtx();
     if (cctx == nullptr) return Status::error(Code::kResources, path, "cannot create a zstd context");
@@ -217,7 +249,11 @@ Result<std::unique_ptr<RecordWriter>> RecordWriter::create(const std::string& pa
 }
 
 RecordWriter::~RecordWriter() {
-  if (fd_ >= 0) ::close(fd_);
+  if (segment_file_ != nullptr) {
+    if (fd_ >= 0) segment_file_->writing_ = false;  // unfinished: no segment, its bytes get overwritten
+  } else if (fd_ >= 0) {
+    ::close(fd_);
+  }
   ZSTD_freeCCtx(static_cast<ZSTD_CCtx*>(cctx_));
 }
 
@@ -233,6 +269,12 @@ Status RecordWriter::reopen() {
 
 Status RecordWriter::close_file() {
   if (fd_ < 0) return {};
+  if (segment_file_ != nullptr) {  // the descriptor is the segment file's; this segment is done
+    fd_ = -1;
+    segment_file_->end_ = base_ + file_bytes_;
+    segment_file_->writing_ = false;
+    return {};
+  }
   const int fd = fd_;
   fd_ = -1;
   if (::close(fd) != 0) {
@@ -245,7 +287,9 @@ Status RecordWriter::close_file() {
 Status RecordWriter::write_raw(const void* data, std::size_t size) {
   const char* bytes = static_cast<const char*>(data);
   while (size > 0) {
-    ssize_t put_bytes = ::write(fd_, bytes, size);
+    ssize_t put_bytes = segment_file_ != nullptr
+                            ? ::pwrite(fd_, bytes, size, static_cast<off_t>(base_ + file_bytes_))
+                            : ::write(fd_, bytes, size);
     if (put_bytes < 0 && errno == EINTR) continue;
     if (put_bytes < 0) {
       failed_ = true;
@@ -332,7 +376,7 @@ Status RecordWriter::finish() {
     std::uint64_t at = frame_offsets_.back();
     for (std::uint64_t k = frame_offsets_.size(); k < frames_; ++k) {
       std::byte header[kFrameHeaderBytes];
-      if (!pread_all(in, header, sizeof header, at)) {
+      if (!pread_all(in, header, sizeof header, base_ + at)) {
         ::close(in);
         failed_ = true;
         return Status::error(Code::kOutput, path_, "cannot read back frame headers: " + errno_text());
@@ -369,11 +413,21 @@ Status RecordWriter::finish() {
 // ---------------------------------------------------------------------------------------------
 
 Status RecordReader::fail(std::uint64_t offset, const std::string& message) const {
-  return Status::error(Code::kBadInput, path_ + ": byte " + std::to_string(offset), message);
+  return Status::error(Code::kBadInput, path_ + ": byte " + std::to_string(base_ + offset), message);
 }
 
 Result<std::unique_ptr<RecordReader>> RecordReader::open(const std::string& path, std::uint32_t kind,
                                                          std::uint32_t record_size) {
+  return open_at(path, kind, record_size, nullptr);
+}
+
+Result<std::unique_ptr<RecordReader>> RecordReader::open(const std::string& path, std::uint32_t kind,
+                                                         std::uint32_t record_size, RecordSegment segment) {
+  return open_at(path, kind, record_size, &segment);
+}
+
+Result<std::unique_ptr<RecordReader>> RecordReader::open_at(const std::string& path, std::uint32_t kind,
+                                                            std::uint32_t record_size, const RecordSegment* segment) {
   std::unique_ptr<RecordReader> reader(new RecordReader());
   reader->path_ = path;
   reader->record_size_ = record_size;
@@ -381,10 +435,18 @@ Result<std::unique_ptr<RecordReader>> RecordReader::open(const std::string& path
   if (reader->fd_ < 0) return Status::error(Code::kBadInput, path, "cannot open record file: " + errno_text());
   struct stat st {};
   if (::fstat(reader->fd_, &st) != 0) return Status::error(Code::kBadInput, path, "cannot stat: " + errno_text());
-  const auto size = static_cast<std::uint64_t>(st.st_size);
+  auto size = static_cast<std::uint64_t>(st.st_size);
+  if (segment != nullptr) {
+    if (segment->offset > size || segment->bytes > size - segment->offset) {
+      return reader->fail(segment->offset, "segment of " + std::to_string(segment->bytes) + " bytes runs past the end of the file (" +
+                                               std::to_string(size) + " bytes)");
+    }
+    reader->base_ = segment->offset;
+    size = segment->bytes;
+  }
   if (size < kHeaderBytes + kFooterBytes) return reader->fail(0, "record file too short (" + std::to_string(size) + " bytes)");
   std::byte header[kHeaderBytes];
-  if (!pread_all(reader->fd_, header, sizeof header, 0)) return reader->fail(0, "cannot read header");
+  if (!pread_all(reader->fd_, header, sizeof header, reader->base_)) return reader->fail(0, "cannot read header");
   if (std::memcmp(header, kMagic, sizeof kMagic) != 0) return reader->fail(0, "not a gaussmesh record file");
   if (get<std::uint32_t>(header + 8) != kRecordFileVersion) {
     return reader->fail(8, "record file version " + std::to_string(get<std::uint32_t>(header + 8)) +
@@ -401,7 +463,7 @@ Result<std::unique_ptr<RecordReader>> RecordReader::open(const std::string& path
   if (std::string why = check_columns(reader->columns_, record_size); !why.empty()) return reader->fail(kColumnsAt, "record fields: " + why);
   std::byte footer[kFooterBytes];
   const std::uint64_t footer_at = size - kFooterBytes;
-  if (!pread_all(reader->fd_, footer, sizeof footer, footer_at)) return reader->fail(footer_at, "cannot read seek table");
+  if (!pread_all(reader->fd_, footer, sizeof footer, reader->base_ + footer_at)) return reader->fail(footer_at, "cannot read seek table");
   if (std::memcmp(footer + 16, kSeekMagic, sizeof kSeekMagic) != 0) {
     return reader->fail(footer_at, "seek table missing (file truncated or not finished)");
   }
@@ -410,7 +472,7 @@ Result<std::unique_ptr<RecordReader>> RecordReader::open(const std::string& path
   if (frames * 8 > footer_at - kHeaderBytes) return reader->fail(footer_at, "seek table claims " + std::to_string(frames) + " frames, more than the file holds");
   reader->data_end_ = footer_at - frames * 8;
   reader->frame_offsets_.resize(frames);  // bounded by the file's real size, checked above
-  if (frames > 0 && !pread_all(reader->fd_, reader->frame_offsets_.data(), frames * 8, reader->data_end_)) {
+  if (frames > 0 && !pread_all(reader->fd_, reader->frame_offsets_.data(), frames * 8, reader->base_ + reader->data_end_)) {
     return reader->fail(reader->data_end_, "cannot read seek table");
   }
   std::uint64_t previous = kHeaderBytes;
@@ -443,7 +505,7 @@ const std::byte* RecordReader::fetch(std::uint64_t at, std::uint64_t size) {
   const std::uint64_t want = std::max<std::uint64_t>(size, std::min<std::uint64_t>(kReadAheadBytes, data_end_ - at));
   buffer_.resize(static_cast<std::size_t>(want));
   buffer_at_ = at;
-  if (!pread_all(fd_, buffer_.data(), buffer_.size(), at)) {
+  if (!pread_all(fd_, buffer_.data(), buffer_.size(), base_ + at)) {
     buffer_.clear();
     return nullptr;
   }

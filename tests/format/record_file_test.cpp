@@ -216,5 +216,82 @@ TEST(RecordFile, FlippedBytesAreDetected) {
   EXPECT_GT(detected, trials * 9 / 10);
 }
 
+Result<std::vector<Item>> read_segment(const std::string& path, RecordSegment segment) {
+  auto reader = RecordReader::open(path, 42, sizeof(Item), segment);
+  if (!reader) return reader.status();
+  std::vector<Item> items;
+  for (;;) {
+    auto block = (*reader)->next();
+    if (!block) return block.status();
+    if (block->empty()) break;
+    const size_t old = items.size();
+    items.resize(old + block->size() / sizeof(Item));
+    std::memcpy(items.data() + old, block->data(), block->size());
+  }
+  return items;
+}
+
+TEST(RecordFile, SegmentsAreWholeRecordFilesBackToBack) {
+  // Three record files in one segment file: the second past the offsets a writer keeps (its seek
+  // table is found again from the frame headers, at the segment's offset), the third empty; an
+  // unfinished writer in between leaves nothing. Each segment reads back alone, byte for byte
+  // what a file of its own holds.
+  testing::ScratchDir dir;
+  auto file = RecordSegmentFile::create(dir.file("segments.rec"));
+  ASSERT_TRUE(file.is_ok());
+  const std::vector<std::vector<Item>> items = {make_items(1000), make_items(40000), {}};
+  RecordWriterOptions small;
+  small.frame_bytes = 2048;
+  std::vector<RecordSegment> segments;
+  for (size_t k = 0; k < items.size(); ++k) {
+    if (k == 1) {
+      auto abandoned = RecordWriter::create_in(**file, 42, sizeof(Item));
+      ASSERT_TRUE(abandoned.is_ok());
+      EXPECT_EQ(RecordWriter::create_in(**file, 42, sizeof(Item)).status().code(), Code::kProcessing) << "two writers at once";
+      ASSERT_TRUE((*abandoned)->append(std::as_bytes(std::span(items[0]))).is_ok());
+    }  // destroyed unfinished
+    auto writer = RecordWriter::create_in(**file, 42, sizeof(Item), small);
+    ASSERT_TRUE(writer.is_ok());
+    ASSERT_TRUE((*writer)->append(std::as_bytes(std::span(items[k]))).is_ok());
+    ASSERT_TRUE((*writer)->finish().is_ok());
+    segments.push_back((*writer)->segment());
+    EXPECT_EQ(segments[k].offset + segments[k].bytes, (*file)->size());
+    if (k > 0) {
+      EXPECT_EQ(segments[k].offset, segments[k - 1].offset + segments[k - 1].bytes);
+    }
+  }
+  auto many = RecordReader::open(dir.file("segments.rec"), 42, sizeof(Item), segments[1]);
+  ASSERT_TRUE(many.is_ok());
+  EXPECT_GT((*many)->frame_count(), 256u);
+  const std::string all = testing::read_file(dir.file("segments.rec"));
+  ASSERT_EQ(all.size(), (*file)->size());
+  for (size_t k = 0; k < items.size(); ++k) {
+    auto back = read_segment(dir.file("segments.rec"), segments[k]);
+    ASSERT_TRUE(back.is_ok()) << back.status().to_string();
+    ASSERT_EQ(back->size(), items[k].size());
+    EXPECT_EQ(std::memcmp(back->data(), items[k].data(), items[k].size() * sizeof(Item)), 0);
+    // The same bytes as a file of its own.
+    testing::write_file(dir.file("alone.rec"), all.substr(segments[k].offset, segments[k].bytes));
+    auto alone = read_items(dir.file("alone.rec"));
+    ASSERT_TRUE(alone.is_ok()) << alone.status().to_string();
+    EXPECT_EQ(alone->size(), items[k].size());
+  }
+  // A segment that is not one, or runs past the end: kBadInput naming the file's byte.
+  RecordSegment shifted = segments[1];
+  shifted.offset += 1;
+  EXPECT_EQ(read_segment(dir.file("segments.rec"), shifted).status().code(), Code::kBadInput);
+  RecordSegment past = segments[2];
+  past.bytes += 1;
+  auto beyond = read_segment(dir.file("segments.rec"), past);
+  EXPECT_EQ(beyond.status().code(), Code::kBadInput);
+  EXPECT_NE(beyond.status().to_string().find("past the end"), std::string::npos) << beyond.status().to_string();
+  // Damage inside one segment is that segment's error, and only its.
+  std::string damaged = all;
+  damaged[segments[0].offset + segments[0].bytes / 2] ^= 0x5A;
+  testing::write_file(dir.file("segments.rec"), damaged);
+  EXPECT_EQ(read_segment(dir.file("segments.rec"), segments[0]).status().code(), Code::kBadInput);
+  EXPECT_TRUE(read_segment(dir.file("segments.rec"), segments[1]).is_ok());
+}
+
 }  // namespace
 }  // namespace gaussmesh::format
