@@ -77,6 +77,7 @@ format::Result<std::unique_ptr<PieceJoinFiles>> PieceJoinFiles::create(const std
   files->dir_ = dir;
   files->chunks_ = chunks;
   files->answered_.assign(chunks, 0);
+  files->placed_.assign(5 * chunks, Placed{});
   files->star_entries_.assign(chunks, 0);
   files->piece_entries_.assign(chunks, 0);
   files->adjacency_entries_.assign(chunks, 0);
@@ -103,35 +104,59 @@ format::Result<std::unique_ptr<PieceJoinFiles>> PieceJoinFiles::create(const std
 
 PieceJoinFiles::~PieceJoinFiles() = default;
 
-std::string PieceJoinFiles::answer_path(std::uint32_t chunk) const {
-  return dir_ + "/answers-" + std::to_string(chunk) + ".rec";
+std::string PieceJoinFiles::segment_path(std::uint32_t file) const {
+  return dir_ + "/pass-b-" + std::to_string(file) + ".rec";
+}
+
+PieceJoinFiles::Placed PieceJoinFiles::placed(Part part, std::uint32_t chunk) const {
+  return chunk < chunks_ ? placed_[5 * std::size_t{chunk} + static_cast<std::size_t>(part)] : Placed{};
+}
+
+void PieceJoinFiles::replace_segment_for_test(Part part, std::uint32_t chunk, format::RecordSegment segment) {
+  place(part, chunk).segment = segment;
+}
+
+format::Result<std::uint32_t> PieceJoinFiles::acquire_segment_file() {
+  std::lock_guard lock(mutex_);
+  if (!free_segment_files_.empty()) {
+    const std::uint32_t file = free_segment_files_.back();
+    free_segment_files_.pop_back();
+    return file;
+  }
+  const auto file = static_cast<std::uint32_t>(segment_files_.size());
+  auto created = format::RecordSegmentFile::create(segment_path(file));
+  if (!created) return created.status();
+  segment_files_.push_back(std::move(*created));
+  return file;
+}
+
+void PieceJoinFiles::release_segment_file(std::uint32_t file) {
+  std::lock_guard lock(mutex_);
+  free_segment_files_.push_back(file);
 }
 
 namespace {
-std::string star_path(const std::string& dir, std::uint32_t chunk) { return dir + "/stars-" + std::to_string(chunk) + ".rec"; }
-std::string pieces_path(const std::string& dir, std::uint32_t chunk) { return dir + "/pieces-" + std::to_string(chunk) + ".rec"; }
-std::string adjacency_path(const std::string& dir, std::uint32_t chunk) {
-  return dir + "/piece-adjacency-" + std::to_string(chunk) + ".rec";
-}
 
-// Writes n records of `bytes` each, made by encode(k, at), to a new record file; returns its size.
+// Writes n records of `bytes` each, made by encode(k, at), as the next segment of `file`.
 template <class Encode>
-format::Result<std::uint64_t> write_records(const std::string& path, std::uint32_t kind, std::uint32_t bytes, std::size_t n,
-                                            Encode&& encode) {
-  auto writer = format::RecordWriter::create(path, kind, bytes);
+format::Result<format::RecordSegment> write_records(format::RecordSegmentFile& file, std::uint32_t kind, std::uint32_t bytes,
+                                                    std::size_t n, Encode&& encode,
+                                                    const format::RecordWriterOptions& options = {}) {
+  auto writer = format::RecordWriter::create_in(file, kind, bytes, options);
   if (!writer) return writer.status();
   std::vector<std::byte> buffer(n * bytes);
   for (std::size_t k = 0; k < n; ++k) encode(k, buffer.data() + k * bytes);
   GM_RETURN_IF_ERROR((*writer)->append(buffer));
   GM_RETURN_IF_ERROR((*writer)->finish());
-  return (*writer)->bytes_written();
+  return (*writer)->segment();
 }
 
 // Reads a record file that must hold exactly `expect` records, calling decode(at) for each.
 template <class Decode>
-Status read_records(const std::string& path, std::uint32_t kind, std::uint32_t bytes, std::uint64_t expect, Decode&& decode) {
+Status read_records(const std::string& path, format::RecordSegment segment, std::uint32_t kind, std::uint32_t bytes,
+                    std::uint64_t expect, Decode&& decode) {
   if (expect == 0) return {};
-  auto reader = format::RecordReader::open(path, kind, bytes);
+  auto reader = format::RecordReader::open(path, kind, bytes, segment);
   if (!reader) return reader.status();
   if ((*reader)->records() != expect) return damaged(path + ": holds another number of records than were written");
   std::uint64_t seen = 0;
@@ -146,11 +171,33 @@ Status read_records(const std::string& path, std::uint32_t kind, std::uint32_t b
 }
 }  // namespace
 
-namespace {
-std::string face_pieces_path(const std::string& dir, std::uint32_t chunk) {
-  return dir + "/face-pieces-" + std::to_string(chunk) + ".rec";
-}
-}  // namespace
+// A pass-b file held for one chunk's writes, given back when done.
+class PieceJoinFiles::Lease {
+ public:
+  explicit Lease(PieceJoinFiles& files) : files_(files) {
+    auto got = files.acquire_segment_file();
+    if (got) {
+      file_ = *got;
+    } else {
+      status_ = got.status();
+    }
+  }
+  ~Lease() {
+    if (status_.is_ok()) files_.release_segment_file(file_);
+  }
+  const Status& status() const { return status_; }
+  std::uint32_t index() const { return file_; }
+  // The file itself: stable while leased (segment_files_ holds it by pointer).
+  format::RecordSegmentFile& file() {
+    std::lock_guard lock(files_.mutex_);
+    return *files_.segment_files_[file_];
+  }
+
+ private:
+  PieceJoinFiles& files_;
+  std::uint32_t file_ = 0;
+  Status status_;
+};
 
 Status PieceJoinFiles::write_face_pieces(std::uint32_t chunk, const ChunkMesh& mesh, const std::vector<std::uint32_t>& piece_index) {
   if (chunk >= chunks_ || piece_index.size() != mesh.triangles.size())
@@ -162,12 +209,15 @@ Status PieceJoinFiles::write_face_pieces(std::uint32_t chunk, const ChunkMesh& m
     owned.push_back(piece_index[f]);
     pieces = std::max(pieces, piece_index[f] + 1);
   }
-  auto bytes = write_records(face_pieces_path(dir_, chunk), kFacePieceRecordKind, kFacePieceRecordBytes, owned.size(),
-                             [&](std::size_t k, std::byte* at) { std::memcpy(at, &owned[k], 4); });
-  if (!bytes) return bytes.status();
+  Lease lease(*this);
+  GM_RETURN_IF_ERROR(lease.status());
+  auto segment = write_records(lease.file(), kFacePieceRecordKind, kFacePieceRecordBytes, owned.size(),
+                               [&](std::size_t k, std::byte* at) { std::memcpy(at, &owned[k], 4); });
+  if (!segment) return segment.status();
   std::lock_guard lock(mutex_);
   pieces_of_chunk_[chunk] = pieces;
-  bytes_written_ += *bytes;
+  place(Part::kFacePieces, chunk) = {lease.index(), *segment};
+  bytes_written_ += segment->bytes;
   return {};
 }
 
@@ -178,7 +228,10 @@ Status PieceJoinFiles::read_face_pieces(std::uint32_t chunk, const ChunkMesh& me
   piece_index.assign(mesh.triangles.size(), 0xFFFFFFFFu);
   std::size_t f = 0;
   bool bad_index = false;
-  GM_RETURN_IF_ERROR(read_records(face_pieces_path(dir_, chunk), kFacePieceRecordKind, kFacePieceRecordBytes, owned,
+  const Placed at_file = placed(Part::kFacePieces, chunk);
+  if (at_file.file == Placed{}.file) return damaged("face pieces of chunk " + std::to_string(chunk) + " were never written");
+  const std::string path = segment_path(at_file.file);
+  GM_RETURN_IF_ERROR(read_records(path, at_file.segment, kFacePieceRecordKind, kFacePieceRecordBytes, owned,
                                   [&](const std::byte* at) {
                                     while (f < mesh.owned_face.size() && !mesh.owned_face[f]) ++f;
                                     std::uint32_t index;
@@ -186,7 +239,7 @@ Status PieceJoinFiles::read_face_pieces(std::uint32_t chunk, const ChunkMesh& me
                                     if (index >= pieces_of_chunk_[chunk]) bad_index = true;
                                     if (f < piece_index.size()) piece_index[f++] = index;
                                   }));
-  if (bad_index) return damaged(face_pieces_path(dir_, chunk) + ": a face names a piece the chunk does not have");
+  if (bad_index) return damaged(path + ": a face names a piece the chunk does not have");
   return {};
 }
 
@@ -195,7 +248,8 @@ Status PieceJoinFiles::read_pieces(std::uint32_t chunk, std::vector<PieceRecord>
   adjacency.clear();
   GM_RETURN_IF_ERROR(read_pieces(chunk, pieces));
   adjacency.reserve(adjacency_entries_[chunk]);
-  return read_records(adjacency_path(dir_, chunk), kPieceAdjacencyRecordKind, kPieceAdjacencyRecordBytes,
+  const Placed at_file = placed(Part::kAdjacency, chunk);
+  return read_records(segment_path(at_file.file), at_file.segment, kPieceAdjacencyRecordKind, kPieceAdjacencyRecordBytes,
                       adjacency_entries_[chunk], [&](const std::byte* at) {
                         adjacency.push_back({get_u64(at), get_u64(at + 8), get_u64(at + 16)});
                       });
@@ -205,7 +259,8 @@ Status PieceJoinFiles::read_pieces(std::uint32_t chunk, std::vector<PieceRecord>
   pieces.clear();
   if (chunk >= chunks_) return damaged("pieces of chunk " + std::to_string(chunk) + ", which does not exist");
   pieces.reserve(piece_entries_[chunk]);
-  GM_RETURN_IF_ERROR(read_records(pieces_path(dir_, chunk), kPieceRecordKind, kPieceRecordBytes, piece_entries_[chunk],
+  const Placed at_file = placed(Part::kPieces, chunk);
+  GM_RETURN_IF_ERROR(read_records(segment_path(at_file.file), at_file.segment, kPieceRecordKind, kPieceRecordBytes, piece_entries_[chunk],
                                   [&](const std::byte* at) {
                                     PieceRecord r;
                                     r.piece = get_u64(at);
@@ -223,8 +278,9 @@ Status PieceJoinFiles::read_stars(std::uint32_t chunk, std::vector<StarEntry>& o
   if (chunk >= chunks_) return damaged("stars of chunk " + std::to_string(chunk) + ", which does not exist");
   const std::uint64_t expect = star_entries_[chunk];
   if (expect == 0) return {};
-  const std::string path = star_path(dir_, chunk);
-  auto reader = format::RecordReader::open(path, kStarRecordKind, kStarRecordBytes);
+  const Placed at_file = placed(Part::kStars, chunk);
+  const std::string path = segment_path(at_file.file);
+  auto reader = format::RecordReader::open(path, kStarRecordKind, kStarRecordBytes, at_file.segment);
   if (!reader) return reader.status();
   if ((*reader)->records() != expect) return damaged(path + ": holds another number of star entries than were written");
   out.reserve(expect);
@@ -249,11 +305,17 @@ Status PieceJoinFiles::read_stars(std::uint32_t chunk, std::vector<StarEntry>& o
 }
 
 Status PieceJoinFiles::write_answer_file(std::uint32_t chunk, std::span<const FacePieceRecord> answers) {
+  Lease lease(*this);
+  GM_RETURN_IF_ERROR(lease.status());
+  return write_answer_file(chunk, answers, lease);
+}
+
+Status PieceJoinFiles::write_answer_file(std::uint32_t chunk, std::span<const FacePieceRecord> answers, Lease& lease) {
   // Ascending faces and their pieces (mostly a few per chunk) as differences, column by column.
   format::RecordWriterOptions options;
   options.frame_bytes = kAnswerFrameBytes;
   options.columns = {{8, true}, {8, true}};
-  auto writer = format::RecordWriter::create(answer_path(chunk), kFaceAnswerRecordKind, kFaceAnswerRecordBytes, options);
+  auto writer = format::RecordWriter::create_in(lease.file(), kFaceAnswerRecordKind, kFaceAnswerRecordBytes, options);
   if (!writer) return writer.status();
   const std::size_t per_frame = (*writer)->frame_limit() / kFaceAnswerRecordBytes;
   std::vector<std::byte> bytes(std::min(answers.size(), per_frame) * kFaceAnswerRecordBytes);
@@ -268,6 +330,7 @@ Status PieceJoinFiles::write_answer_file(std::uint32_t chunk, std::span<const Fa
   GM_RETURN_IF_ERROR((*writer)->finish());
   std::lock_guard lock(mutex_);
   answered_[chunk] = 1;
+  place(Part::kAnswers, chunk) = {lease.index(), (*writer)->segment()};
   answer_records_ += answers.size();
   bytes_written_ += (*writer)->bytes_written();
   return {};
@@ -279,10 +342,12 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
     if (pieces.border_faces[k].face <= pieces.border_faces[k - 1].face)
       return Status::error(Code::kProcessing, "stitch", "face answers of chunk " + std::to_string(chunk) + " not ascending");
   }
-  GM_RETURN_IF_ERROR(write_answer_file(chunk, pieces.border_faces));
+  Lease lease(*this);
+  GM_RETURN_IF_ERROR(lease.status());
+  GM_RETURN_IF_ERROR(write_answer_file(chunk, pieces.border_faces, lease));
   std::vector<FacePieceRecord>().swap(pieces.border_faces);  // "= {}" would keep the capacity
   if (!pieces.star.empty()) {
-    auto writer = format::RecordWriter::create(star_path(dir_, chunk), kStarRecordKind, kStarRecordBytes);
+    auto writer = format::RecordWriter::create_in(lease.file(), kStarRecordKind, kStarRecordBytes);
     if (!writer) return writer.status();
     std::vector<std::byte> bytes(pieces.star.size() * kStarRecordBytes);
     for (std::size_t k = 0; k < pieces.star.size(); ++k) {
@@ -296,11 +361,12 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
     GM_RETURN_IF_ERROR((*writer)->finish());
     std::lock_guard lock(mutex_);
     star_entries_[chunk] = pieces.star.size();
+    place(Part::kStars, chunk) = {lease.index(), (*writer)->segment()};
     bytes_written_ += (*writer)->bytes_written();
   }
   std::vector<StarEntry>().swap(pieces.star);
   if (!pieces.pieces.empty()) {
-    auto bytes = write_records(pieces_path(dir_, chunk), kPieceRecordKind, kPieceRecordBytes, pieces.pieces.size(),
+    auto segment = write_records(lease.file(), kPieceRecordKind, kPieceRecordBytes, pieces.pieces.size(),
                                [&](std::size_t k, std::byte* at) {
                                  const PieceRecord& r = pieces.pieces[k];
                                  put_u64(at, r.piece);
@@ -309,23 +375,25 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
                                  std::memcpy(at + 24, &r.label, 4);
                                  std::memcpy(at + 28, r.area.data(), 24);
                                });
-    if (!bytes) return bytes.status();
+    if (!segment) return segment.status();
     std::lock_guard lock(mutex_);
     piece_entries_[chunk] = pieces.pieces.size();
-    bytes_written_ += *bytes;
+    place(Part::kPieces, chunk) = {lease.index(), *segment};
+    bytes_written_ += segment->bytes;
   }
   if (!pieces.adjacency.empty()) {
-    auto bytes = write_records(adjacency_path(dir_, chunk), kPieceAdjacencyRecordKind, kPieceAdjacencyRecordBytes,
+    auto segment = write_records(lease.file(), kPieceAdjacencyRecordKind, kPieceAdjacencyRecordBytes,
                                pieces.adjacency.size(), [&](std::size_t k, std::byte* at) {
                                  const PieceAdjacencyRecord& r = pieces.adjacency[k];
                                  put_u64(at, r.a);
                                  put_u64(at + 8, r.b);
                                  put_u64(at + 16, r.edges);
                                });
-    if (!bytes) return bytes.status();
+    if (!segment) return segment.status();
     std::lock_guard lock(mutex_);
     adjacency_entries_[chunk] = pieces.adjacency.size();
-    bytes_written_ += *bytes;
+    place(Part::kAdjacency, chunk) = {lease.index(), *segment};
+    bytes_written_ += segment->bytes;
   }
   std::vector<PieceRecord>().swap(pieces.pieces);
   std::vector<PieceAdjacencyRecord>().swap(pieces.adjacency);
@@ -441,8 +509,10 @@ Status PieceJoinFiles::look_up(std::span<const std::uint32_t> owners, std::span<
     std::size_t last = first;
     while (last < order.size() && owners[order[last]] == owner) ++last;
     if (owner >= chunks_) return damaged("a face owned by chunk " + std::to_string(owner) + ", which does not exist");
-    const std::string path = answer_path(owner);
-    auto reader = format::RecordReader::open(path, kFaceAnswerRecordKind, kFaceAnswerRecordBytes);
+    const Placed at_file = placed(Part::kAnswers, owner);
+    if (at_file.file == Placed{}.file) return damaged("the face answers of chunk " + std::to_string(owner) + " were never written");
+    const std::string path = segment_path(at_file.file);
+    auto reader = format::RecordReader::open(path, kFaceAnswerRecordKind, kFaceAnswerRecordBytes, at_file.segment);
     if (!reader) return reader.status();
     std::size_t at = first;
     std::uint64_t previous = 0;

@@ -4,7 +4,10 @@
 // own, read on demand by whoever needs the piece of a face that chunk owns. Nothing here grows
 // with the length of the chunk borders in memory: a bucket at a time, a frame at a time.
 //
-// Files live in a directory the caller owns and removes (the partition's temp dir). Everything
+// Files live in a directory the caller owns and removes (the partition's temp dir). The
+// per-chunk record files (answers, stars, pieces, piece adjacency, face pieces) are segments of
+// a few shared files, `pass-b-N.rec` (format::RecordSegmentFile): one per thread writing at once,
+// not five per chunk. Everything
 // read back is untrusted: a damaged file, an edge seen other than exactly twice, two sides that
 // disagree, an answer out of order or from the wrong chunk is a kBadInput error, never a crash.
 #pragma once
@@ -58,6 +61,13 @@ std::uint64_t bucket_bytes(std::uint64_t memory_bytes);
 
 class PieceJoinFiles {
  public:
+  // The per-chunk record files, each a segment of a pass-b file.
+  enum class Part { kAnswers, kStars, kPieces, kAdjacency, kFacePieces };
+  struct Placed {
+    std::uint32_t file = 0xFFFFFFFFu;  // pass-b file; all ones: not written
+    format::RecordSegment segment;
+  };
+
   // Creates `buckets` (1..kMaxBorderBuckets) empty bucket files under dir; answer files are
   // made by write_answers. Errors: kOutput when a file cannot be created; kUsage for a bucket
   // count out of range.
@@ -114,12 +124,23 @@ class PieceJoinFiles {
   std::uint64_t answer_records() const { return answer_records_; }
   std::uint64_t bytes_written() const { return bytes_written_; }  // compressed, every file
   std::size_t buckets() const { return bucket_paths_.size(); }
-  std::string answer_path(std::uint32_t chunk) const;
+  // Where a chunk's part lies (file == all ones: not written) and the path of a pass-b file: for
+  // tests that damage them.
+  Placed placed(Part part, std::uint32_t chunk) const;
+  std::string segment_path(std::uint32_t file) const;
+  // Points a chunk's part at another segment of the same file (tests append forged record files).
+  void replace_segment_for_test(Part part, std::uint32_t chunk, format::RecordSegment segment);
   const std::string& bucket_path(std::size_t bucket) const { return bucket_paths_[bucket]; }
 
  private:
   PieceJoinFiles() = default;
+  class Lease;
   format::Status write_answer_file(std::uint32_t chunk, std::span<const FacePieceRecord> answers);
+  format::Status write_answer_file(std::uint32_t chunk, std::span<const FacePieceRecord> answers, Lease& lease);
+  // A pass-b file no other thread appends to until released: a free one, or a new one.
+  format::Result<std::uint32_t> acquire_segment_file();
+  void release_segment_file(std::uint32_t file);
+  Placed& place(Part part, std::uint32_t chunk) { return placed_[5 * std::size_t{chunk} + static_cast<std::size_t>(part)]; }
 
   std::string dir_;
   std::size_t chunks_ = 0;
@@ -128,6 +149,9 @@ class PieceJoinFiles {
   std::unique_ptr<format::RecordCompressor> compressor_;  // shared by the bucket writers, under mutex_
   std::vector<std::unique_ptr<format::RecordWriter>> writers_;
   std::vector<std::uint8_t> answered_;  // per chunk: its answer file is written
+  std::vector<Placed> placed_;          // per chunk, per Part (written under mutex_ once each)
+  std::vector<std::unique_ptr<format::RecordSegmentFile>> segment_files_;  // under mutex_
+  std::vector<std::uint32_t> free_segment_files_;                          // under mutex_
   std::vector<std::uint64_t> star_entries_;  // per chunk: entries in its star file
   std::vector<std::uint64_t> piece_entries_, adjacency_entries_;  // per chunk: spilled pieces, adjacency
   std::vector<std::uint64_t> pieces_of_chunk_;  // per chunk: its pieces (bound of its face pieces)

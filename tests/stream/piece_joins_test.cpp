@@ -73,6 +73,24 @@ void forge(const std::string& path, std::uint32_t kind, std::uint32_t record_siz
   ASSERT_TRUE((*writer)->finish().is_ok());
 }
 
+// Appends a forged record file to the pass-b file holding chunk's part and points the part at it.
+void forge_part(PieceJoinFiles& joins, PieceJoinFiles::Part part, std::uint32_t chunk, std::uint32_t kind,
+                std::uint32_t record_size, const std::vector<std::byte>& bytes, const testing::ScratchDir& dir) {
+  forge(dir.file("forged.rec"), kind, record_size, bytes);
+  const std::string forged = testing::read_file(dir.file("forged.rec"));
+  const std::string path = joins.segment_path(joins.placed(part, chunk).file);
+  const std::string held = testing::read_file(path);
+  testing::write_file(path, held + forged);
+  joins.replace_segment_for_test(part, chunk, {held.size(), forged.size()});
+}
+
+// Cuts the pass-b file holding chunk's part `cut` bytes before the part's end.
+void truncate_part(const PieceJoinFiles& joins, PieceJoinFiles::Part part, std::uint32_t chunk, std::uint64_t cut) {
+  const PieceJoinFiles::Placed placed = joins.placed(part, chunk);
+  ASSERT_NE(placed.file, PieceJoinFiles::Placed{}.file);
+  std::filesystem::resize_file(joins.segment_path(placed.file), placed.segment.offset + placed.segment.bytes - cut);
+}
+
 std::vector<std::byte> border_bytes(const std::vector<BorderEdgeRecord>& records, std::uint8_t feature_byte) {
   std::vector<std::byte> bytes(records.size() * kBorderEdgeRecordBytes);
   for (std::size_t k = 0; k < records.size(); ++k) {
@@ -235,19 +253,21 @@ TEST(PieceJoins, AnswersComeFromTheOwnersFiles) {
   std::vector<PieceId> one(1);
   EXPECT_EQ((*joins)->look_up(bad_owner, one_face, one).code(), Code::kBadInput);
   // Damaged, forged or missing answer files.
+  using Part = PieceJoinFiles::Part;
   const std::vector<std::uint32_t> owner2 = {2};
-  const std::string path = (*joins)->answer_path(2);
-  forge(path, kFaceAnswerRecordKind, kFaceAnswerRecordBytes, answer_bytes({{3, PieceId{2} << 32}, {2, PieceId{2} << 32}}));
+  testing::ScratchDir forged;
+  forge_part(**joins, Part::kAnswers, 2, kFaceAnswerRecordKind, kFaceAnswerRecordBytes,
+             answer_bytes({{3, PieceId{2} << 32}, {2, PieceId{2} << 32}}), forged);
   EXPECT_EQ((*joins)->look_up(owner2, one_face, one).code(), Code::kBadInput) << "not ascending";
-  forge(path, kFaceAnswerRecordKind, kFaceAnswerRecordBytes, answer_bytes({{4, PieceId{1} << 32}}));
+  forge_part(**joins, Part::kAnswers, 2, kFaceAnswerRecordKind, kFaceAnswerRecordBytes, answer_bytes({{4, PieceId{1} << 32}}), forged);
   EXPECT_EQ((*joins)->look_up(owner2, one_face, one).code(), Code::kBadInput) << "piece of another chunk";
-  forge(path, kFaceAnswerRecordKind, kFaceAnswerRecordBytes, answer_bytes({{4, PieceId{2} << 32 | 7}}));
+  forge_part(**joins, Part::kAnswers, 2, kFaceAnswerRecordKind, kFaceAnswerRecordBytes, answer_bytes({{4, PieceId{2} << 32 | 7}}),
+             forged);
   ASSERT_TRUE((*joins)->look_up(owner2, one_face, one).is_ok());
   EXPECT_EQ(one[0], PieceId{2} << 32 | 7);
-  const std::string bytes = testing::read_file(path);
-  testing::write_file(path, bytes.substr(0, bytes.size() / 2));
+  truncate_part(**joins, Part::kAnswers, 2, (*joins)->placed(Part::kAnswers, 2).segment.bytes / 2);
   EXPECT_EQ((*joins)->look_up(owner2, one_face, one).code(), Code::kBadInput) << "truncated";
-  std::filesystem::remove(path);
+  std::filesystem::remove((*joins)->segment_path((*joins)->placed(Part::kAnswers, 2).file));
   EXPECT_EQ((*joins)->look_up(owner2, one_face, one).code(), Code::kBadInput) << "missing";
   // Answers that are not ascending are refused at spill time (our own bug, not bad input).
   ChunkPieces unsorted;
@@ -291,12 +311,11 @@ TEST(PieceJoins, StarsComeBackAsSpilledAndDamageIsBadInput) {
   EXPECT_EQ(got[1].next, kNoFaceId);
   EXPECT_EQ(got[1].entering_break, 0u);
   EXPECT_EQ((*joins)->read_stars(2, got).code(), Code::kBadInput) << "no such chunk";
-  const std::string path = dir.file("stars-1.rec");
-  ASSERT_TRUE(std::filesystem::exists(path));
-  const std::string bytes = testing::read_file(path);
-  testing::write_file(path, bytes.substr(0, bytes.size() - 5));
+  using Part = PieceJoinFiles::Part;
+  EXPECT_EQ((*joins)->placed(Part::kStars, 0).file, PieceJoinFiles::Placed{}.file) << "no stars, no file";
+  truncate_part(**joins, Part::kStars, 1, 5);
   EXPECT_EQ((*joins)->read_stars(1, got).code(), Code::kBadInput) << "truncated";
-  std::filesystem::remove(path);
+  std::filesystem::remove((*joins)->segment_path((*joins)->placed(Part::kStars, 1).file));
   EXPECT_EQ((*joins)->read_stars(1, got).code(), Code::kBadInput) << "missing";
 }
 
@@ -325,10 +344,12 @@ TEST(PieceJoins, PiecesAndTheirAdjacencyComeBackAsSpilled) {
   ASSERT_EQ(adjacency.size(), 1u);
   EXPECT_EQ(adjacency[0].b, PieceId{1} << 32 | 1);
   EXPECT_EQ(adjacency[0].edges, 4u);
-  const std::string path = dir.file("pieces-1.rec");
-  const std::string bytes = testing::read_file(path);
-  testing::write_file(path, bytes.substr(0, bytes.size() - 1));
-  EXPECT_EQ((*joins)->read_pieces(1, pieces, adjacency).code(), Code::kBadInput) << "truncated";
+  // The adjacency follows the pieces in the same file: cutting it off leaves the pieces whole.
+  truncate_part(**joins, PieceJoinFiles::Part::kAdjacency, 1, 1);
+  EXPECT_TRUE((*joins)->read_pieces(1, pieces).is_ok());
+  EXPECT_EQ((*joins)->read_pieces(1, pieces, adjacency).code(), Code::kBadInput) << "adjacency truncated";
+  truncate_part(**joins, PieceJoinFiles::Part::kPieces, 1, 1);
+  EXPECT_EQ((*joins)->read_pieces(1, pieces).code(), Code::kBadInput) << "pieces truncated";
 }
 
 TEST(PieceJoins, FacePiecesComeBackForTheOwnedFaces) {
@@ -347,9 +368,7 @@ TEST(PieceJoins, FacePiecesComeBackForTheOwnedFaces) {
   other.owned_face = {1, 1, 1, 1};  // a mesh that owns another number of faces than the file holds
   EXPECT_EQ((*joins)->read_face_pieces(0, other, back).code(), Code::kBadInput);
   EXPECT_EQ((*joins)->read_face_pieces(1, mesh, back).code(), Code::kBadInput) << "no such chunk";
-  const std::string path = dir.file("face-pieces-0.rec");
-  const std::string bytes = testing::read_file(path);
-  testing::write_file(path, bytes.substr(0, bytes.size() - 2));
+  truncate_part(**joins, PieceJoinFiles::Part::kFacePieces, 0, 2);
   EXPECT_EQ((*joins)->read_face_pieces(0, mesh, back).code(), Code::kBadInput) << "truncated";
 }
 
