@@ -177,6 +177,29 @@ RecordSegmentFile::~RecordSegmentFile() {
   if (fd_ >= 0) ::close(fd_);
 }
 
+RecordSegmentPool::Lease::Lease(RecordSegmentPool& pool) : pool_(pool) {
+  std::lock_guard lock(pool.mutex_);
+  if (!pool.free_.empty()) {
+    index_ = pool.free_.back();
+    pool.free_.pop_back();
+  } else {
+    index_ = static_cast<std::uint32_t>(pool.files_.size());
+    auto created = RecordSegmentFile::create(pool.path(index_));
+    if (!created) {
+      status_ = created.status();
+      return;
+    }
+    pool.files_.push_back(std::move(*created));
+  }
+  file_ = pool.files_[index_].get();
+}
+
+RecordSegmentPool::Lease::~Lease() {
+  if (file_ == nullptr) return;
+  std::lock_guard lock(pool_.mutex_);
+  pool_.free_.push_back(index_);
+}
+
 // ---------------------------------------------------------------------------------------------
 
 Result<std::unique_ptr<RecordWriter>> RecordWriter::create(const std::string& path, std::uint32_t kind,

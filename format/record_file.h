@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <span>
 #include <string>
 #include <vector>
@@ -92,6 +93,40 @@ class RecordSegmentFile {
   std::string path_;
   std::uint64_t end_ = 0;
   bool writing_ = false;  // a writer is appending a segment
+};
+
+// Segment files for many threads: a thread leases one, appends its segments, and gives it back;
+// files are made on first need, so there are as many as were ever leased at once. Files are
+// path_prefix + N + ".rec", N from 0. Thread-safe.
+class RecordSegmentPool {
+ public:
+  explicit RecordSegmentPool(std::string path_prefix) : prefix_(std::move(path_prefix)) {}
+  std::string path(std::uint32_t file) const { return prefix_ + std::to_string(file) + ".rec"; }
+
+  // One file, this holder's alone until destroyed. Check status() first (kOutput when a new
+  // file cannot be created).
+  class Lease {
+   public:
+    explicit Lease(RecordSegmentPool& pool);
+    ~Lease();
+    Lease(const Lease&) = delete;
+    Lease& operator=(const Lease&) = delete;
+    const Status& status() const { return status_; }
+    std::uint32_t index() const { return index_; }
+    RecordSegmentFile& file() { return *file_; }
+
+   private:
+    RecordSegmentPool& pool_;
+    RecordSegmentFile* file_ = nullptr;
+    std::uint32_t index_ = 0;
+    Status status_;
+  };
+
+ private:
+  std::string prefix_;
+  std::mutex mutex_;
+  std::vector<std::unique_ptr<RecordSegmentFile>> files_;  // under mutex_; the files never move
+  std::vector<std::uint32_t> free_;                         // under mutex_
 };
 
 class RecordWriter {

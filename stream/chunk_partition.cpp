@@ -1807,7 +1807,9 @@ Status read_chunk_positions(const ChunkInfo& info, ChunkMesh& mesh) {
 
 format::Result<ChunkMesh> load_chunk(const ChunkInfo& info) {
   const std::uint32_t record_bytes = info.loop ? kLoopChunkRecordBytes : kChunkFaceRecordBytes;
-  auto opened = format::RecordReader::open(info.path, info.loop ? kLoopChunkRecordKind : kChunkFaceRecordKind, record_bytes);
+  const std::uint32_t kind = info.loop ? kLoopChunkRecordKind : kChunkFaceRecordKind;
+  auto opened = info.segment.bytes > 0 ? format::RecordReader::open(info.path, kind, record_bytes, info.segment)
+                                       : format::RecordReader::open(info.path, kind, record_bytes);
   if (!opened) return opened.status();
   format::RecordReader& reader = **opened;
   auto bad = [&](const std::string& message) { return Status::error(Code::kBadInput, info.path, message); };

@@ -12,6 +12,7 @@
 
 #include "format/mesh_reader.h"
 #include "format/mesh_types.h"
+#include "format/record_file.h"
 #include "format/status.h"
 
 namespace gaussmesh::stream {
@@ -83,6 +84,7 @@ struct ChunkInfo {
   std::uint64_t faces = 0;           // records in its file: F_k(C), owned faces included
   std::string path;                  // its chunk face record file
   bool loop = false;                 // path is a loop chunk file (kLoopChunkRecordKind)
+  format::RecordSegment segment;     // bytes > 0: the record file is this segment of path
   std::string positions, owners;     // the partition's vertex files (positions.bin, owners.bin)
 };
 

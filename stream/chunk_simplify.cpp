@@ -224,7 +224,7 @@ format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& sam
 
 format::Result<bool> write_loop_chunk(const ChunkMesh& chunk, const ChunkInfo& info, const MeshAdjacency& adjacency,
                                       const std::vector<std::uint32_t>& piece_index,
-                                      const std::vector<GlobalSample>& samples, const std::string& path,
+                                      const std::vector<GlobalSample>& samples, format::RecordSegmentFile& file,
                                       ChunkInfo& loop_info, std::vector<std::array<double, 3>>& piece_area) {
   const std::size_t nf = chunk.triangles.size(), nv = chunk.positions.size();
   const auto& tris = chunk.triangles;
@@ -300,12 +300,12 @@ format::Result<bool> write_loop_chunk(const ChunkMesh& chunk, const ChunkInfo& i
   format::RecordWriterOptions options;
   options.columns = {{8, true}, {4, true}, {4, true}, {4, true}, {1, false}, {4, false}};
   options.frame_bytes = std::size_t{128} << 10;
-  auto writer = format::RecordWriter::create(path, kLoopChunkRecordKind, kLoopChunkRecordBytes, options);
+  auto writer = format::RecordWriter::create_in(file, kLoopChunkRecordKind, kLoopChunkRecordBytes, options);
   if (!writer) return writer.status();
   const std::size_t per_frame = (*writer)->frame_limit() / kLoopChunkRecordBytes;
   std::vector<std::byte> records(std::min(kept.size(), per_frame) * kLoopChunkRecordBytes);
   loop_info = info;
-  loop_info.path = path;
+  loop_info.path = file.path();
   loop_info.loop = true;
   loop_info.faces = kept.size();
   loop_info.owned_faces = 0;
@@ -331,23 +331,25 @@ format::Result<bool> write_loop_chunk(const ChunkMesh& chunk, const ChunkInfo& i
       GM_RETURN_IF_ERROR((*writer)->append(std::span(records).first((k % per_frame + 1) * kLoopChunkRecordBytes)));
   }
   GM_RETURN_IF_ERROR((*writer)->finish());
+  loop_info.segment = (*writer)->segment();
   return true;
 }
 
-format::Result<ChunkLoopSummary> spill_chunk_loops(ChunkLoops&& loops, const std::string& path) {
+format::Result<ChunkLoopSummary> spill_chunk_loops(ChunkLoops&& loops, format::RecordSegmentFile& file) {
   ChunkLoopSummary out;
   out.runs = std::move(loops.runs);
   out.vertices = std::move(loops.vertices);
   out.areas = std::move(loops.areas);
   out.entries = loops.run_vertices.size();
   if (out.entries == 0) return out;
-  out.path = path;
-  auto writer = format::RecordWriter::create(path, kLoopVertexRecordKind, sizeof(LoopVertexEntry));
+  out.path = file.path();
+  auto writer = format::RecordWriter::create_in(file, kLoopVertexRecordKind, sizeof(LoopVertexEntry));
   if (!writer) return writer.status();
   static_assert(sizeof(LoopVertexEntry) == 16, "16 bytes per run vertex on disk");
   GM_RETURN_IF_ERROR((*writer)->append(std::as_bytes(std::span(loops.run_vertices))));
   GM_RETURN_IF_ERROR((*writer)->finish());
   out.bytes = (*writer)->bytes_written();
+  out.segment = (*writer)->segment();
   loops.run_vertices = {};
   return out;
 }
@@ -405,7 +407,7 @@ format::Status read_run_vertices(const ChunkLoopSummary& chunk, Body&& body) {
   }
   if (expect != chunk.entries) return damaged("the runs of " + chunk.path + " do not tile its records");
   if (chunk.entries == 0) return format::Status();
-  auto reader = format::RecordReader::open(chunk.path, kLoopVertexRecordKind, sizeof(LoopVertexEntry));
+  auto reader = format::RecordReader::open(chunk.path, kLoopVertexRecordKind, sizeof(LoopVertexEntry), chunk.segment);
   if (!reader) return reader.status();
   if ((*reader)->records() != chunk.entries) return damaged(chunk.path + " holds a different number of run vertices");
   std::uint64_t at = 0;
@@ -659,13 +661,15 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   // 100M under 16M, +10 MB at the merge).
   struct LoopChunk {
     std::uint64_t faces = 0, owned_faces = 0;  // faces == 0: none
+    std::uint32_t file = 0;                    // its pass-b file (PieceJoinFiles::segments)
+    format::RecordSegment segment;
   };
   std::vector<LoopChunk> loop_chunks(nc);
-  auto loop_path = [&](std::size_t c) { return partition->dir + "/loop-chunk-" + std::to_string(c) + ".gmr"; };
   auto loop_info_of = [&](std::size_t c) {
     ChunkInfo info = partition->chunks[c];
     if (loop_chunks[c].faces == 0) return info;
-    info.path = loop_path(c);
+    info.path = (*joins)->segment_path(loop_chunks[c].file);
+    info.segment = loop_chunks[c].segment;
     info.loop = true;
     info.faces = loop_chunks[c].faces;
     info.owned_faces = loop_chunks[c].owned_faces;
@@ -678,11 +682,13 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     GM_RETURN_IF_ERROR((*joins)->write_face_pieces(static_cast<std::uint32_t>(c), chunk, piece_index));
     ChunkInfo loop_info;
     std::vector<std::array<double, 3>> piece_area;
-    auto written = write_loop_chunk(chunk, partition->chunks[c], ws.adjacency, piece_index, chunk_samples, loop_path(c),
+    format::RecordSegmentPool::Lease lease((*joins)->segments());
+    GM_RETURN_IF_ERROR(lease.status());
+    auto written = write_loop_chunk(chunk, partition->chunks[c], ws.adjacency, piece_index, chunk_samples, lease.file(),
                                     loop_info, piece_area);
     if (!written) return written.status();
     if (*written) {
-      loop_chunks[c] = {loop_info.faces, loop_info.owned_faces};
+      loop_chunks[c] = {loop_info.faces, loop_info.owned_faces, lease.index(), loop_info.segment};
       if (piece_area.size() > pieces[c].pieces.size())
         return format::Status::error(format::Code::kProcessing, "pass A", "more piece areas than pieces");
       const std::size_t first = pieces[c].pieces.size() - piece_area.size();  // this chunk's, appended last
@@ -771,7 +777,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     } else {
       for (std::size_t f = 0; f < chunk.loop_piece.size(); ++f)
         if (chunk.owned_face[f] && chunk.loop_piece[f] >= pieces.size())
-          return damaged(loop_path(chunk.chunk) + ": a face names a piece the chunk does not have");
+          return damaged("the loop chunk of chunk " + std::to_string(chunk.chunk) + ": a face names a piece the chunk does not have");
     }
     const std::vector<std::uint32_t>& index = chunk.core_face.empty() ? piece_index : chunk.loop_piece;
     std::vector<PieceId> face_piece;
@@ -803,7 +809,9 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
           }
           for (const auto& [p, sum] : areas) found.areas.emplace_back(p, sum);
         }
-        auto summary = spill_chunk_loops(std::move(found), partition->dir + "/loops-" + std::to_string(c) + ".gmr");
+        format::RecordSegmentPool::Lease lease((*joins)->segments());
+        GM_RETURN_IF_ERROR(lease.status());
+        auto summary = spill_chunk_loops(std::move(found), lease.file());
         if (!summary) return summary.status();
         loops[c] = std::move(summary).value();
         return format::Status();
@@ -814,9 +822,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     const bool loop = loop_chunks[c].faces > 0;
     out.loop_chunks += loop;
     out.loop_faces += loop ? loop_chunks[c].faces : partition->chunks[c].faces;
-    std::error_code error;
-    const std::uintmax_t bytes = loop ? std::filesystem::file_size(loop_path(c), error) : 0;
-    if (!error) out.bytes_spilled += bytes;
+    out.bytes_spilled += loop ? loop_chunks[c].segment.bytes : 0;
   }
   std::vector<LoopChunk>().swap(loop_chunks);
   for (const ChunkLoopSummary& l : loops) out.bytes_spilled += l.bytes;

@@ -96,7 +96,7 @@ format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adj
 // (its owned faces' cross products summed in face order), which pass C sums per merged patch.
 format::Result<bool> write_loop_chunk(const ChunkMesh& chunk, const ChunkInfo& info, const MeshAdjacency& adjacency,
                                       const std::vector<std::uint32_t>& piece_index,
-                                      const std::vector<GlobalSample>& samples, const std::string& path,
+                                      const std::vector<GlobalSample>& samples, format::RecordSegmentFile& file,
                                       ChunkInfo& loop_info, std::vector<std::array<double, 3>>& piece_area);
 
 // What the stitch keeps of a chunk's pass C: its run vertices go to a file, the rest stays.
@@ -104,14 +104,15 @@ struct ChunkLoopSummary {
   std::vector<LoopRunRecord> runs;
   std::vector<LoopVertexRecord> vertices;
   std::vector<std::pair<std::uint32_t, std::array<double, 3>>> areas;
-  std::string path;           // record file of its run vertices (kLoopVertexRecordKind)
+  std::string path;           // segment file holding the record file of its run vertices (kLoopVertexRecordKind)
+  format::RecordSegment segment;
   std::uint64_t entries = 0;  // records in it
   std::uint64_t bytes = 0;    // its size on disk
 };
 inline constexpr std::uint32_t kLoopVertexRecordKind = 0x564C4D47u;  // "GMLV"
 
 // Writes a chunk's run vertices to path (a record file) and returns the summary.
-format::Result<ChunkLoopSummary> spill_chunk_loops(ChunkLoops&& loops, const std::string& path);
+format::Result<ChunkLoopSummary> spill_chunk_loops(ChunkLoops&& loops, format::RecordSegmentFile& file);
 
 // The stitch's last step before the mesher: runs joined into loops (each patch's loops from
 // their lowest half-edge id, as mesh_patch_polygons walks them), vertices renumbered densely in

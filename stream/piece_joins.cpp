@@ -78,6 +78,7 @@ format::Result<std::unique_ptr<PieceJoinFiles>> PieceJoinFiles::create(const std
   files->chunks_ = chunks;
   files->answered_.assign(chunks, 0);
   files->placed_.assign(5 * chunks, Placed{});
+  files->segments_ = std::make_unique<format::RecordSegmentPool>(dir + "/pass-b-");
   files->star_entries_.assign(chunks, 0);
   files->piece_entries_.assign(chunks, 0);
   files->adjacency_entries_.assign(chunks, 0);
@@ -104,35 +105,12 @@ format::Result<std::unique_ptr<PieceJoinFiles>> PieceJoinFiles::create(const std
 
 PieceJoinFiles::~PieceJoinFiles() = default;
 
-std::string PieceJoinFiles::segment_path(std::uint32_t file) const {
-  return dir_ + "/pass-b-" + std::to_string(file) + ".rec";
-}
-
 PieceJoinFiles::Placed PieceJoinFiles::placed(Part part, std::uint32_t chunk) const {
   return chunk < chunks_ ? placed_[5 * std::size_t{chunk} + static_cast<std::size_t>(part)] : Placed{};
 }
 
 void PieceJoinFiles::replace_segment_for_test(Part part, std::uint32_t chunk, format::RecordSegment segment) {
   place(part, chunk).segment = segment;
-}
-
-format::Result<std::uint32_t> PieceJoinFiles::acquire_segment_file() {
-  std::lock_guard lock(mutex_);
-  if (!free_segment_files_.empty()) {
-    const std::uint32_t file = free_segment_files_.back();
-    free_segment_files_.pop_back();
-    return file;
-  }
-  const auto file = static_cast<std::uint32_t>(segment_files_.size());
-  auto created = format::RecordSegmentFile::create(segment_path(file));
-  if (!created) return created.status();
-  segment_files_.push_back(std::move(*created));
-  return file;
-}
-
-void PieceJoinFiles::release_segment_file(std::uint32_t file) {
-  std::lock_guard lock(mutex_);
-  free_segment_files_.push_back(file);
 }
 
 namespace {
@@ -171,33 +149,7 @@ Status read_records(const std::string& path, format::RecordSegment segment, std:
 }
 }  // namespace
 
-// A pass-b file held for one chunk's writes, given back when done.
-class PieceJoinFiles::Lease {
- public:
-  explicit Lease(PieceJoinFiles& files) : files_(files) {
-    auto got = files.acquire_segment_file();
-    if (got) {
-      file_ = *got;
-    } else {
-      status_ = got.status();
-    }
-  }
-  ~Lease() {
-    if (status_.is_ok()) files_.release_segment_file(file_);
-  }
-  const Status& status() const { return status_; }
-  std::uint32_t index() const { return file_; }
-  // The file itself: stable while leased (segment_files_ holds it by pointer).
-  format::RecordSegmentFile& file() {
-    std::lock_guard lock(files_.mutex_);
-    return *files_.segment_files_[file_];
-  }
-
- private:
-  PieceJoinFiles& files_;
-  std::uint32_t file_ = 0;
-  Status status_;
-};
+using Lease = format::RecordSegmentPool::Lease;
 
 Status PieceJoinFiles::write_face_pieces(std::uint32_t chunk, const ChunkMesh& mesh, const std::vector<std::uint32_t>& piece_index) {
   if (chunk >= chunks_ || piece_index.size() != mesh.triangles.size())
@@ -209,7 +161,7 @@ Status PieceJoinFiles::write_face_pieces(std::uint32_t chunk, const ChunkMesh& m
     owned.push_back(piece_index[f]);
     pieces = std::max(pieces, piece_index[f] + 1);
   }
-  Lease lease(*this);
+  Lease lease(*segments_);
   GM_RETURN_IF_ERROR(lease.status());
   auto segment = write_records(lease.file(), kFacePieceRecordKind, kFacePieceRecordBytes, owned.size(),
                                [&](std::size_t k, std::byte* at) { std::memcpy(at, &owned[k], 4); });
@@ -305,7 +257,7 @@ Status PieceJoinFiles::read_stars(std::uint32_t chunk, std::vector<StarEntry>& o
 }
 
 Status PieceJoinFiles::write_answer_file(std::uint32_t chunk, std::span<const FacePieceRecord> answers) {
-  Lease lease(*this);
+  Lease lease(*segments_);
   GM_RETURN_IF_ERROR(lease.status());
   return write_answer_file(chunk, answers, lease);
 }
@@ -342,7 +294,7 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
     if (pieces.border_faces[k].face <= pieces.border_faces[k - 1].face)
       return Status::error(Code::kProcessing, "stitch", "face answers of chunk " + std::to_string(chunk) + " not ascending");
   }
-  Lease lease(*this);
+  Lease lease(*segments_);
   GM_RETURN_IF_ERROR(lease.status());
   GM_RETURN_IF_ERROR(write_answer_file(chunk, pieces.border_faces, lease));
   std::vector<FacePieceRecord>().swap(pieces.border_faces);  // "= {}" would keep the capacity

@@ -127,19 +127,18 @@ class PieceJoinFiles {
   // Where a chunk's part lies (file == all ones: not written) and the path of a pass-b file: for
   // tests that damage them.
   Placed placed(Part part, std::uint32_t chunk) const;
-  std::string segment_path(std::uint32_t file) const;
+  std::string segment_path(std::uint32_t file) const { return segments_->path(file); }
+  // The pass-b files, for other per-chunk record files of the same passes (loop chunks, loops).
+  format::RecordSegmentPool& segments() { return *segments_; }
   // Points a chunk's part at another segment of the same file (tests append forged record files).
   void replace_segment_for_test(Part part, std::uint32_t chunk, format::RecordSegment segment);
   const std::string& bucket_path(std::size_t bucket) const { return bucket_paths_[bucket]; }
 
  private:
   PieceJoinFiles() = default;
-  class Lease;
   format::Status write_answer_file(std::uint32_t chunk, std::span<const FacePieceRecord> answers);
-  format::Status write_answer_file(std::uint32_t chunk, std::span<const FacePieceRecord> answers, Lease& lease);
-  // A pass-b file no other thread appends to until released: a free one, or a new one.
-  format::Result<std::uint32_t> acquire_segment_file();
-  void release_segment_file(std::uint32_t file);
+  format::Status write_answer_file(std::uint32_t chunk, std::span<const FacePieceRecord> answers,
+                                   format::RecordSegmentPool::Lease& lease);
   Placed& place(Part part, std::uint32_t chunk) { return placed_[5 * std::size_t{chunk} + static_cast<std::size_t>(part)]; }
 
   std::string dir_;
@@ -150,8 +149,7 @@ class PieceJoinFiles {
   std::vector<std::unique_ptr<format::RecordWriter>> writers_;
   std::vector<std::uint8_t> answered_;  // per chunk: its answer file is written
   std::vector<Placed> placed_;          // per chunk, per Part (written under mutex_ once each)
-  std::vector<std::unique_ptr<format::RecordSegmentFile>> segment_files_;  // under mutex_
-  std::vector<std::uint32_t> free_segment_files_;                          // under mutex_
+  std::unique_ptr<format::RecordSegmentPool> segments_;  // the pass-b files
   std::vector<std::uint64_t> star_entries_;  // per chunk: entries in its star file
   std::vector<std::uint64_t> piece_entries_, adjacency_entries_;  // per chunk: spilled pieces, adjacency
   std::vector<std::uint64_t> pieces_of_chunk_;  // per chunk: its pieces (bound of its face pieces)

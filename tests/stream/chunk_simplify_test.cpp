@@ -167,10 +167,14 @@ std::vector<ChunkLoops> two_chunk_square() {
   return chunks;
 }
 
+// Every chunk's run vertices as segments of one new file (as pass C writes them).
 std::vector<ChunkLoopSummary> spill(std::vector<ChunkLoops> chunks, const testing::ScratchDir& dir) {
+  static int calls = 0;
+  auto file = format::RecordSegmentFile::create(dir.file("loops-" + std::to_string(calls++)));
+  EXPECT_TRUE(file.is_ok());
   std::vector<ChunkLoopSummary> out;
   for (std::size_t c = 0; c < chunks.size(); ++c) {
-    auto s = spill_chunk_loops(std::move(chunks[c]), dir.file("loops-" + std::to_string(c)));
+    auto s = spill_chunk_loops(std::move(chunks[c]), **file);
     EXPECT_TRUE(s.is_ok());
     out.push_back(std::move(s).value());
   }
@@ -242,8 +246,9 @@ TEST(ChunkSimplify, LoopChunksFindTheWholeChunksLoopsUnderAnyCoarserPatches) {
         if (chunk->owned_vertex[v]) samples.push_back({chunk->global_vertex[v], chunk->positions[v]});
       ChunkInfo loop_info;
       std::vector<std::array<double, 3>> piece_area;
-      auto written = write_loop_chunk(*chunk, info, adjacency, piece_index, samples,
-                                      tmp.file("loop-" + std::to_string(info.id) + ".gmr"), loop_info, piece_area);
+      auto file = format::RecordSegmentFile::create(tmp.file("loop-" + std::to_string(info.id) + ".gmr"));
+      ASSERT_TRUE(file.is_ok());
+      auto written = write_loop_chunk(*chunk, info, adjacency, piece_index, samples, **file, loop_info, piece_area);
       ASSERT_TRUE(written.is_ok()) << written.status().to_string();
       ++chunks;
       if (!*written) continue;
@@ -316,9 +321,15 @@ TEST(ChunkSimplify, DamagedLoopChunksAreBadInput) {
     if (chunk->owned_face[f]) piece_index[f] = 0;  // one piece: R is the chunk's border
   ChunkInfo loop_info;
   std::vector<std::array<double, 3>> areas;
-  auto written = write_loop_chunk(*chunk, info, adjacency, piece_index, {}, tmp.file("loop.gmr"), loop_info, areas);
+  auto file = format::RecordSegmentFile::create(tmp.file("loop.gmr"));
+  ASSERT_TRUE(file.is_ok());
+  auto written = write_loop_chunk(*chunk, info, adjacency, piece_index, {}, **file, loop_info, areas);
   ASSERT_TRUE(written.is_ok() && *written);
   ASSERT_TRUE(load_chunk(loop_info).is_ok());
+  // The file's one segment is the whole file: rewritten below as a record file of its own.
+  ASSERT_EQ(loop_info.segment.offset, 0u);
+  ASSERT_EQ(loop_info.segment.bytes, (*file)->size());
+  loop_info.segment = {};
   auto read = testing::read_all_records(loop_info.path, kLoopChunkRecordKind, kLoopChunkRecordBytes);
   ASSERT_TRUE(read.is_ok()) << read.status().to_string();
   std::vector<std::byte> records = std::move(*read);
