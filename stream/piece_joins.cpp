@@ -77,7 +77,7 @@ format::Result<std::unique_ptr<PieceJoinFiles>> PieceJoinFiles::create(const std
   files->dir_ = dir;
   files->chunks_ = chunks;
   files->answered_.assign(chunks, 0);
-  files->placed_.assign(5 * chunks, Placed{});
+  files->placed_.assign(5 * chunks, Stored{});
   files->segments_ = std::make_unique<format::RecordSegmentPool>(dir + "/pass-b-");
   files->star_entries_.assign(chunks, 0);
   files->piece_entries_.assign(chunks, 0);
@@ -106,11 +106,22 @@ format::Result<std::unique_ptr<PieceJoinFiles>> PieceJoinFiles::create(const std
 PieceJoinFiles::~PieceJoinFiles() = default;
 
 PieceJoinFiles::Placed PieceJoinFiles::placed(Part part, std::uint32_t chunk) const {
-  return chunk < chunks_ ? placed_[5 * std::size_t{chunk} + static_cast<std::size_t>(part)] : Placed{};
+  if (chunk >= chunks_) return {};
+  const Stored& s = placed_[5 * std::size_t{chunk} + static_cast<std::size_t>(part)];
+  return {s.file, {s.offset, s.bytes}};
+}
+
+Status PieceJoinFiles::place(Part part, std::uint32_t chunk, const Placed& placed) {
+  if (placed.segment.bytes > 0xFFFFFFFFu)
+    return Status::error(Code::kResources, "stitch", "a record file of chunk " + std::to_string(chunk) + " of 4 GiB or more");
+  placed_[5 * std::size_t{chunk} + static_cast<std::size_t>(part)] = {placed.segment.offset,
+                                                                      static_cast<std::uint32_t>(placed.segment.bytes), placed.file};
+  return {};
 }
 
 void PieceJoinFiles::replace_segment_for_test(Part part, std::uint32_t chunk, format::RecordSegment segment) {
-  place(part, chunk).segment = segment;
+  const std::uint32_t file = placed(part, chunk).file;
+  (void)place(part, chunk, {file, segment});
 }
 
 namespace {
@@ -168,7 +179,7 @@ Status PieceJoinFiles::write_face_pieces(std::uint32_t chunk, const ChunkMesh& m
   if (!segment) return segment.status();
   std::lock_guard lock(mutex_);
   pieces_of_chunk_[chunk] = pieces;
-  place(Part::kFacePieces, chunk) = {lease.index(), *segment};
+  GM_RETURN_IF_ERROR(place(Part::kFacePieces, chunk, {lease.index(), *segment}));
   bytes_written_ += segment->bytes;
   return {};
 }
@@ -282,7 +293,7 @@ Status PieceJoinFiles::write_answer_file(std::uint32_t chunk, std::span<const Fa
   GM_RETURN_IF_ERROR((*writer)->finish());
   std::lock_guard lock(mutex_);
   answered_[chunk] = 1;
-  place(Part::kAnswers, chunk) = {lease.index(), (*writer)->segment()};
+  GM_RETURN_IF_ERROR(place(Part::kAnswers, chunk, {lease.index(), (*writer)->segment()}));
   answer_records_ += answers.size();
   bytes_written_ += (*writer)->bytes_written();
   return {};
@@ -313,7 +324,7 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
     GM_RETURN_IF_ERROR((*writer)->finish());
     std::lock_guard lock(mutex_);
     star_entries_[chunk] = pieces.star.size();
-    place(Part::kStars, chunk) = {lease.index(), (*writer)->segment()};
+    GM_RETURN_IF_ERROR(place(Part::kStars, chunk, {lease.index(), (*writer)->segment()}));
     bytes_written_ += (*writer)->bytes_written();
   }
   std::vector<StarEntry>().swap(pieces.star);
@@ -330,7 +341,7 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
     if (!segment) return segment.status();
     std::lock_guard lock(mutex_);
     piece_entries_[chunk] = pieces.pieces.size();
-    place(Part::kPieces, chunk) = {lease.index(), *segment};
+    GM_RETURN_IF_ERROR(place(Part::kPieces, chunk, {lease.index(), *segment}));
     bytes_written_ += segment->bytes;
   }
   if (!pieces.adjacency.empty()) {
@@ -344,7 +355,7 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
     if (!segment) return segment.status();
     std::lock_guard lock(mutex_);
     adjacency_entries_[chunk] = pieces.adjacency.size();
-    place(Part::kAdjacency, chunk) = {lease.index(), *segment};
+    GM_RETURN_IF_ERROR(place(Part::kAdjacency, chunk, {lease.index(), *segment}));
     bytes_written_ += segment->bytes;
   }
   std::vector<PieceRecord>().swap(pieces.pieces);

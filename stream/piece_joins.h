@@ -139,7 +139,8 @@ class PieceJoinFiles {
   format::Status write_answer_file(std::uint32_t chunk, std::span<const FacePieceRecord> answers);
   format::Status write_answer_file(std::uint32_t chunk, std::span<const FacePieceRecord> answers,
                                    format::RecordSegmentPool::Lease& lease);
-  Placed& place(Part part, std::uint32_t chunk) { return placed_[5 * std::size_t{chunk} + static_cast<std::size_t>(part)]; }
+  // Records where a part went (under mutex_). kResources for a segment of 4 GiB or more.
+  format::Status place(Part part, std::uint32_t chunk, const Placed& placed);
 
   std::string dir_;
   std::size_t chunks_ = 0;
@@ -148,7 +149,13 @@ class PieceJoinFiles {
   std::unique_ptr<format::RecordCompressor> compressor_;  // shared by the bucket writers, under mutex_
   std::vector<std::unique_ptr<format::RecordWriter>> writers_;
   std::vector<std::uint8_t> answered_;  // per chunk: its answer file is written
-  std::vector<Placed> placed_;          // per chunk, per Part (written under mutex_ once each)
+  // Per chunk, per Part, where it is: 16 bytes (80 per chunk; 0.65 MB at 8,103 chunks).
+  struct Stored {
+    std::uint64_t offset = 0;
+    std::uint32_t bytes = 0;
+    std::uint32_t file = 0xFFFFFFFFu;
+  };
+  std::vector<Stored> placed_;
   std::unique_ptr<format::RecordSegmentPool> segments_;  // the pass-b files
   std::vector<std::uint64_t> star_entries_;  // per chunk: entries in its star file
   std::vector<std::uint64_t> piece_entries_, adjacency_entries_;  // per chunk: spilled pieces, adjacency
