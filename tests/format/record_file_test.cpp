@@ -40,8 +40,9 @@ Status write_items(const std::string& path, const std::vector<Item>& items, size
   return (*writer)->finish();
 }
 
-Result<std::vector<Item>> read_items(const std::string& path) {
-  auto reader = RecordReader::open(path, 42, sizeof(Item));
+// Every item of the record file at path, or at `segment` of it.
+Result<std::vector<Item>> read_items(const std::string& path, const RecordSegment* segment = nullptr) {
+  auto reader = segment ? RecordReader::open(path, 42, sizeof(Item), *segment) : RecordReader::open(path, 42, sizeof(Item));
   if (!reader) return reader.status();
   std::vector<Item> items;
   for (;;) {
@@ -216,20 +217,7 @@ TEST(RecordFile, FlippedBytesAreDetected) {
   EXPECT_GT(detected, trials * 9 / 10);
 }
 
-Result<std::vector<Item>> read_segment(const std::string& path, RecordSegment segment) {
-  auto reader = RecordReader::open(path, 42, sizeof(Item), segment);
-  if (!reader) return reader.status();
-  std::vector<Item> items;
-  for (;;) {
-    auto block = (*reader)->next();
-    if (!block) return block.status();
-    if (block->empty()) break;
-    const size_t old = items.size();
-    items.resize(old + block->size() / sizeof(Item));
-    std::memcpy(items.data() + old, block->data(), block->size());
-  }
-  return items;
-}
+Result<std::vector<Item>> read_segment(const std::string& path, RecordSegment segment) { return read_items(path, &segment); }
 
 TEST(RecordFile, SegmentsAreWholeRecordFilesBackToBack) {
   // Three record files in one segment file: the second past the offsets a writer keeps (its seek
