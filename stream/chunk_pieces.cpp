@@ -31,31 +31,46 @@ void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const
                        ChunkPieces& out, std::vector<std::uint32_t>* piece_index) {
   const std::size_t nf = chunk.triangles.size();
   const std::uint32_t* nb = adjacency.edge_neighbor.data();
-  std::vector<std::uint32_t> piece_of(nf, kUnassigned), stack;
+  // Pieces, numbered by their lowest face: one pass in face order joins each owned face to the
+  // owned faces before it across its non-feature manifold edges (a union-find whose roots are
+  // the lowest faces; feature bits and edge_neighbor are symmetric, so one side of an edge
+  // suffices), then a second numbers the roots in face order. A depth-first fill from each seed
+  // found the same pieces in the same order, but its neighbour loads jumped about the chunk.
+  std::vector<std::uint32_t> piece_of(nf, kUnassigned), parent(nf, kUnassigned);
   const std::size_t first = out.pieces.size();
   auto id = [&](std::uint32_t index) { return PieceId{chunk.chunk} << 32 | index; };
-  for (std::uint32_t seed = 0; seed < nf; ++seed) {
-    if (!chunk.owned_face[seed] || piece_of[seed] != kUnassigned) continue;
-    const std::uint32_t index = static_cast<std::uint32_t>(out.pieces.size() - first);
-    PieceRecord piece;
-    piece.piece = id(index);
-    piece.label = labels[seed];
-    piece.min_face = chunk.global_face[seed];  // faces are in ascending global id
-    piece_of[seed] = index;
-    stack.assign(1, seed);
-    while (!stack.empty()) {
-      const std::uint32_t f = stack.back();
-      stack.pop_back();
-      ++piece.faces;
-      for (int i = 0; i < 3; ++i) {
-        if (feature[f] >> i & 1) continue;
-        const std::uint32_t g = nb[3 * std::size_t{f} + i];
-        if (g == MeshAdjacency::kNoFace || !chunk.owned_face[g] || piece_of[g] != kUnassigned) continue;
-        piece_of[g] = index;
-        stack.push_back(g);
-      }
+  auto root = [&](std::uint32_t f) {
+    while (parent[f] != f) {
+      parent[f] = parent[parent[f]];
+      f = parent[f];
     }
-    out.pieces.push_back(piece);
+    return f;
+  };
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    if (!chunk.owned_face[f]) continue;
+    parent[f] = f;
+    for (int i = 0; i < 3; ++i) {
+      if (feature[f] >> i & 1) continue;
+      const std::uint32_t g = nb[3 * std::size_t{f} + i];
+      if (g >= f || !chunk.owned_face[g]) continue;  // kNoFace is >= f too
+      const std::uint32_t a = root(f), b = root(g);
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+  }
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    if (!chunk.owned_face[f]) continue;
+    const std::uint32_t r = root(f);
+    if (r == f) {
+      PieceRecord piece;
+      piece.piece = id(static_cast<std::uint32_t>(out.pieces.size() - first));
+      piece.label = labels[f];
+      piece.min_face = chunk.global_face[f];  // faces are in ascending global id
+      piece_of[f] = static_cast<std::uint32_t>(out.pieces.size() - first);
+      out.pieces.push_back(piece);
+    } else {
+      piece_of[f] = piece_of[r];
+    }
+    ++out.pieces[first + piece_of[f]].faces;
   }
   // One entry (lower piece << 32 | higher piece) per feature edge between two owned faces,
   // counted after a sort (a map insertion per edge was a fifth of this function on noisy input).
