@@ -70,7 +70,8 @@ struct RecordSegment {
 
 // A file of record files back to back ("segments"), for a pass that writes many small record
 // files: one file is created instead of one per record file. A create cost ~0.5 ms on this
-// machine's ext4, and pass A of `simplify --memory` made five files per chunk: 7,370 at 100M.
+// machine's ext4, and passes A and C of `simplify --memory` made seven files per chunk (10.3k
+// at 100M; docs/records.md, "Segment files").
 // Each segment is a whole record file, byte for byte, at an offset: RecordWriter::create_in
 // appends one and RecordReader::open(path, ..., segment) reads one. One writer at a time. The
 // file is closed on destruction and left in place, as record files are; its directory's owner

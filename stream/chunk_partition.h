@@ -67,7 +67,7 @@ struct PartitionOptions {
   std::uint32_t max_open_chunks = 0;
   // zstd level of the chunk files. -4, not 1: on their column frames (zstd 1.5.4, refined cow,
   // torus and bunny) it is 2.5-4x faster both ways and no larger; -1 to -3 are 2-3x larger
-  // (docs/partition.md, "zstd level").
+  // (docs/partition.md, "zstd level on column frames").
   int compression_level = -4;
   // Called now and then with (pass, done, total): "ingest" counts triangles read against the
   // count the header declares (0 when it declares none; untrusted, for display only); "rings"

@@ -129,9 +129,8 @@ namespace {
 // Writes n records of `bytes` each, made by encode(k, at), as the next segment of `file`.
 template <class Encode>
 format::Result<format::RecordSegment> write_records(format::RecordSegmentFile& file, std::uint32_t kind, std::uint32_t bytes,
-                                                    std::size_t n, Encode&& encode,
-                                                    const format::RecordWriterOptions& options = {}) {
-  auto writer = format::RecordWriter::create_in(file, kind, bytes, options);
+                                                    std::size_t n, Encode&& encode) {
+  auto writer = format::RecordWriter::create_in(file, kind, bytes);
   if (!writer) return writer.status();
   std::vector<std::byte> buffer(n * bytes);
   for (std::size_t k = 0; k < n; ++k) encode(k, buffer.data() + k * bytes);
@@ -310,22 +309,19 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
   GM_RETURN_IF_ERROR(write_answer_file(chunk, pieces.border_faces, lease));
   std::vector<FacePieceRecord>().swap(pieces.border_faces);  // "= {}" would keep the capacity
   if (!pieces.star.empty()) {
-    auto writer = format::RecordWriter::create_in(lease.file(), kStarRecordKind, kStarRecordBytes);
-    if (!writer) return writer.status();
-    std::vector<std::byte> bytes(pieces.star.size() * kStarRecordBytes);
-    for (std::size_t k = 0; k < pieces.star.size(); ++k) {
-      const StarEntry& e = pieces.star[k];
-      const std::uint32_t owners[2] = {e.owner, e.next_owner | std::uint32_t{e.entering_break} << 31};
-      put_u64(bytes.data() + k * kStarRecordBytes, e.face);
-      put_u64(bytes.data() + k * kStarRecordBytes + 8, e.next);
-      std::memcpy(bytes.data() + k * kStarRecordBytes + 16, owners, 8);
-    }
-    GM_RETURN_IF_ERROR((*writer)->append(bytes));
-    GM_RETURN_IF_ERROR((*writer)->finish());
+    auto segment = write_records(lease.file(), kStarRecordKind, kStarRecordBytes, pieces.star.size(),
+                                 [&](std::size_t k, std::byte* at) {
+                                   const StarEntry& e = pieces.star[k];
+                                   const std::uint32_t owners[2] = {e.owner, e.next_owner | std::uint32_t{e.entering_break} << 31};
+                                   put_u64(at, e.face);
+                                   put_u64(at + 8, e.next);
+                                   std::memcpy(at + 16, owners, 8);
+                                 });
+    if (!segment) return segment.status();
     std::lock_guard lock(mutex_);
     star_entries_[chunk] = pieces.star.size();
-    GM_RETURN_IF_ERROR(place(Part::kStars, chunk, {lease.index(), (*writer)->segment()}));
-    bytes_written_ += (*writer)->bytes_written();
+    GM_RETURN_IF_ERROR(place(Part::kStars, chunk, {lease.index(), *segment}));
+    bytes_written_ += segment->bytes;
   }
   std::vector<StarEntry>().swap(pieces.star);
   if (!pieces.pieces.empty()) {

@@ -1,15 +1,17 @@
 // The on-disk joins of the out-of-core stitch's first step (docs/out-of-core.md, "Pass B"): the
 // border-edge records of every chunk, bucketed by face pair into temporary record files and
-// joined one bucket at a time, and every chunk's face answers (face -> piece) in a file of its
-// own, read on demand by whoever needs the piece of a face that chunk owns. Nothing here grows
-// with the length of the chunk borders in memory: a bucket at a time, a frame at a time.
+// joined one bucket at a time, and every chunk's face answers (face -> piece) in a record file
+// of its own (a segment, below), read on demand by whoever needs the piece of a face that chunk
+// owns. Nothing here grows with the length of the chunk borders in memory: a bucket at a time,
+// a frame at a time.
 //
 // Files live in a directory the caller owns and removes (the partition's temp dir). The
-// per-chunk record files (answers, stars, pieces, piece adjacency, face pieces) are segments of
-// a few shared files, `pass-b-N.rec` (format::RecordSegmentFile): one per thread writing at once,
-// not five per chunk. Everything
-// read back is untrusted: a damaged file, an edge seen other than exactly twice, two sides that
-// disagree, an answer out of order or from the wrong chunk is a kBadInput error, never a crash.
+// per-chunk record files (answers, stars, pieces, piece adjacency, face pieces; and, through
+// segments(), pass A's loop chunks and pass C's run vertices) are segments of a few shared files,
+// `pass-b-N.rec` (format::RecordSegmentPool): one per thread writing at once, not one per chunk
+// and kind. Everything read back is untrusted: a damaged file, an edge seen other than exactly
+// twice, two sides that disagree, an answer out of order or from the wrong chunk is a kBadInput
+// error, never a crash.
 #pragma once
 
 #include <cstdint>
