@@ -230,6 +230,24 @@ class BlockCache {
     }
   }
 
+  // Writes back the dirty blocks of file and keeps them cached, clean: the file then holds
+  // what the cache holds, for a FileWindow to read on another thread.
+  void flush(int file) {
+    for (std::uint32_t slot = 0; slot < slot_count_; ++slot) {
+      Slot& s = slots_[slot];
+      if (!s.dirty || s.key >> 48 != static_cast<std::uint64_t>(file) + 1) continue;
+      const std::uint64_t at = (s.key & ((std::uint64_t{1} << 48) - 1)) * kSlotBytes;
+      if (!write_all(files_[file].fd, arena_.get() + std::size_t{slot} * kSlotBytes, kSlotBytes, at, true)) {
+        if (status_.is_ok()) status_ = Status::error(Code::kOutput, files_[file].path, "write failed: " + errno_text());
+      } else {
+        bytes_written_ += kSlotBytes;
+      }
+      s.dirty = false;
+    }
+  }
+  int fd(int file) const { return files_[file].fd; }
+  const std::string& path(int file) const { return files_[file].path; }
+
   const Status& status() const { return status_; }
   std::uint64_t misses() const { return misses_; }
   std::uint64_t bytes_written() const { return bytes_written_; }
@@ -390,10 +408,57 @@ class CachedBitmap {
     block[bit / 8] |= std::byte{static_cast<unsigned char>(1u << (bit % 8))};
   }
   void clear() { cache_->discard(file_); }
+  int file() const { return file_; }
 
  private:
   BlockCache* cache_;
   int file_;
+};
+
+// A read-only, thread-private window on one of the cache's files (owners.bin, or a bitmap the
+// cache has flushed): direct-mapped 4 KiB blocks, a pread per miss, zeros past the end of the
+// file (blocks never written read as zeros, as in the cache). The scans' per-face tests run on
+// several threads through these (FaceTags), beside the single-threaded cache. A failed read is
+// sticky and reads as zeros; the scan checks failed() after each frame.
+class FileWindow {
+ public:
+  static constexpr std::size_t kBlockBytes = 4096;
+  FileWindow(int fd, std::size_t bytes) : fd_(fd) {
+    std::size_t blocks = 4;
+    while (blocks * 2 * kBlockBytes <= bytes) blocks *= 2;
+    mask_ = blocks - 1;
+    keys_.assign(blocks, kEmpty);
+    data_.reset(new std::byte[blocks * kBlockBytes]);
+  }
+  std::uint32_t u32(std::uint64_t i) {
+    std::uint32_t value;
+    std::memcpy(&value, at(4 * i), 4);
+    return value;
+  }
+  bool bit(std::uint64_t i) { return (std::to_integer<unsigned>(*at(i / 8)) >> (i % 8)) & 1u; }
+  // The first read error's text, empty when every read worked.
+  const std::string& error() const { return error_; }
+
+ private:
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+  const std::byte* at(std::uint64_t byte) {
+    const std::uint64_t block = byte / kBlockBytes;
+    const std::size_t slot = static_cast<std::size_t>(block & mask_);
+    std::byte* data = data_.get() + slot * kBlockBytes;
+    if (keys_[slot] != block) [[unlikely]] {
+      const std::int64_t got = read_some(fd_, data, kBlockBytes, block * kBlockBytes);
+      if (got < 0 && error_.empty()) error_ = errno_text();
+      const std::size_t kept = got > 0 ? static_cast<std::size_t>(got) : 0;
+      std::memset(data + kept, 0, kBlockBytes - kept);
+      keys_[slot] = block;
+    }
+    return data + byte % kBlockBytes;
+  }
+  int fd_;
+  std::uint64_t mask_ = 0;
+  std::vector<std::uint64_t> keys_;
+  std::unique_ptr<std::byte[]> data_;
+  std::string error_;
 };
 
 // ---- Per-vertex chunk sets beyond the owner ---------------------------------------------------
@@ -1032,14 +1097,18 @@ class PartitionRun {
  private:
   Status ingest(const std::string& input_path, const format::ReadOptions& read);
   Status plan();
-  // Calls fn(face id, triangle) for every face in order; after each batch, stops early when
-  // the cache has failed or stop() says so.
-  template <class Fn, class Stop>
-  Status scan_faces(Fn&& fn, Stop&& stop);
-  template <class Fn>
-  Status scan_faces(Fn&& fn) {
-    return scan_faces(fn, [] { return false; });
-  }
+  // Calls fn(face id, triangle, tag) for every face in order, tag = tag_of(triangle, windows)
+  // computed first for each frame on the run's threads (FaceWindows: owners.bin and, when
+  // bitmap >= 0, that cache file, read through thread-private windows; tag_of must not touch
+  // the cache). After each frame, stops early when the cache or a window has failed or stop()
+  // says so.
+  struct FaceWindows {
+    FileWindow owners;
+    std::optional<FileWindow> bitmap;
+  };
+  template <class Tag, class Fn, class Stop>
+  Status scan_faces(int bitmap, Tag&& tag_of, Fn&& fn, Stop&& stop);
+  std::size_t window_bytes() const;
   Status expand_rings();
   Status write_chunks();
   // Calls fn(begin, end) on pieces of [0, n), on the run's threads when there are several
@@ -1058,6 +1127,7 @@ class PartitionRun {
   Planner planner_;
   std::unique_ptr<BlockCache> cache_;
   std::unique_ptr<CachedArray<std::uint32_t>> owners_;  // owners.bin: the scans need only owners
+  int owners_file_ = -1;                                 // its file in the cache (FaceWindows read it too)
   std::unique_ptr<ChunkSets> sets_;
   std::unique_ptr<CachedBitmap> has_extras_;
   std::unique_ptr<CachedBitmap> frontier_[2];
@@ -1268,8 +1338,14 @@ Status PartitionRun::plan() {
   return {};
 }
 
-template <class Fn, class Stop>
-Status PartitionRun::scan_faces(Fn&& fn, Stop&& stop) {
+// Each thread's two windows: together 2 x threads x this, taken from the cache's half of the
+// budget (64M, 2 threads: 512 KiB each, 2 MiB in all).
+std::size_t PartitionRun::window_bytes() const {
+  return std::clamp<std::size_t>(options_.memory_bytes / 64 / options_.threads, std::size_t{16} << 10, std::size_t{1} << 20);
+}
+
+template <class Tag, class Fn, class Stop>
+Status PartitionRun::scan_faces(int bitmap, Tag&& tag_of, Fn&& fn, Stop&& stop) {
   const std::uint64_t nv = out_.vertices;
   auto reader = format::RecordReader::open(faces_path_, kFaceSpillRecordKind, sizeof(Triangle));
   if (!reader) return reader.status();
@@ -1277,21 +1353,49 @@ Status PartitionRun::scan_faces(Fn&& fn, Stop&& stop) {
     return Status::error(Code::kBadInput, faces_path_, "holds " + std::to_string((*reader)->records()) + " faces, ingest wrote " +
                                                           std::to_string(out_.faces) + " (temporary file damaged)");
   }
+  const int owners_fd = cache_->fd(owners_file_);
+  const int bitmap_fd = bitmap >= 0 ? cache_->fd(bitmap) : -1;
+  const std::size_t bytes = window_bytes();
+  tbb::enumerable_thread_specific<std::unique_ptr<FaceWindows>> windows;
+  auto windows_here = [&]() -> FaceWindows& {
+    std::unique_ptr<FaceWindows>& w = windows.local();
+    if (!w) {
+      w.reset(new FaceWindows{FileWindow(owners_fd, bytes), std::nullopt});
+      if (bitmap_fd >= 0) w->bitmap.emplace(bitmap_fd, bytes);
+    }
+    return *w;
+  };
+  auto window_error = [&]() -> Status {
+    for (const auto& w : windows) {
+      if (!w) continue;
+      if (!w->owners.error().empty()) return Status::error(Code::kOutput, owners_path_, "read failed: " + w->owners.error());
+      if (w->bitmap && !w->bitmap->error().empty())
+        return Status::error(Code::kOutput, cache_->path(bitmap), "read failed: " + w->bitmap->error());
+    }
+    return {};
+  };
   // Frames are read and decompressed one ahead on another thread (the scan's thread is the
   // partition's bottleneck; the other core is idle in the ring rounds).
   FrameReadAhead ahead(**reader, options_.threads > 1);
   std::vector<Triangle> batch;
+  std::vector<std::uint32_t> tags;
   std::uint64_t first = 0;
   for (;;) {
     GM_RETURN_IF_ERROR(ahead.next(batch));
     if (batch.empty()) return {};
+    tags.resize(batch.size());
+    for_pieces(batch.size(), [&](std::size_t begin, std::size_t end) {
+      FaceWindows& w = windows_here();
+      for (std::size_t i = begin; i < end; ++i) tags[i] = tag_of(batch[i], w);
+    });
+    GM_RETURN_IF_ERROR(window_error());
     for (std::size_t i = 0; i < batch.size(); ++i) {
       const Triangle& t = batch[i];
       if (t.v[0] >= nv || t.v[1] >= nv || t.v[2] >= nv) {
         return Status::error(Code::kBadInput, faces_path_,
                              "face " + std::to_string(first + i) + " refers to a vertex out of range (temporary file damaged)");
       }
-      fn(first + i, t);
+      fn(first + i, t, tags[i]);
     }
     first += batch.size();
     if (options_.progress) options_.progress(scan_pass_, first, out_.faces);
@@ -1317,7 +1421,19 @@ Status PartitionRun::expand_rings() {
       if (keep_frontier) next.set(v);
       ++added;
     };
-    GM_RETURN_IF_ERROR(scan_faces([&](std::uint64_t, const Triangle& t) {
+    // Tag 1: a face the round must look at. Round 1: its corners' owners differ (at 100M, 4 %
+    // of the faces); later rounds: a corner is in the frontier, read from the file the cache
+    // has just flushed.
+    if (round > 1) cache_->flush(previous.file());
+    auto tag_of = [&](const Triangle& t, FaceWindows& w) -> std::uint32_t {
+      if (round == 1) {
+        const std::uint32_t o = w.owners.u32(t.v[0]);
+        return w.owners.u32(t.v[1]) != o || w.owners.u32(t.v[2]) != o;
+      }
+      return w.bitmap->bit(t.v[0]) || w.bitmap->bit(t.v[1]) || w.bitmap->bit(t.v[2]);
+    };
+    GM_RETURN_IF_ERROR(scan_faces(round > 1 ? previous.file() : -1, tag_of, [&](std::uint64_t, const Triangle& t, std::uint32_t tag) {
+      if (tag == 0) return;
       std::uint32_t owner[3];
       if (round == 1) {
         for (int j = 0; j < 3; ++j) owner[j] = owners_->get(t.v[j]);
@@ -1341,7 +1457,7 @@ Status PartitionRun::expand_rings() {
         const std::uint32_t o = owners_->get(t.v[j]);
         for (std::uint32_t c : incoming) add(t.v[j], o, c);
       }
-    }));
+    }, [] { return false; }));
     frontier_[(round + 1) % 2]->clear();
     GM_RETURN_IF_ERROR(cache_->status());
     if (added == 0) break;  // nothing new: later rounds add nothing either
@@ -1363,6 +1479,7 @@ Status PartitionRun::write_chunks() {
     info.owners = owners_path_;
   }
   if (chunks == 0) return {};
+  if (options_.rings > 1) cache_->flush(has_extras_->file());  // the scan's windows read it
   // Staged frames share memory_bytes / 8; frames of at least 64 records; more chunks than fit
   // are written in several scans. With threads > 1, `threads` threads compress (ChunkOutput).
   const bool background = options_.threads > 1;
@@ -1409,33 +1526,50 @@ Status PartitionRun::write_chunks() {
     }
     ChunkOutput output(writers, frame_bytes, workers);
     bool damaged = false;
-    Status scanned = scan_faces([&](std::uint64_t f, const Triangle& t) {
+    // Tag: the face's one chunk when its corners share an owner and none is in another chunk's
+    // rings (most faces), else kNoChunk and the scan looks the face up through the cache.
+    constexpr std::uint32_t kNoChunk = 0xFFFFFFFFu;
+    const bool rings = options_.rings > 1;
+    auto tag_of = [&](const Triangle& t, FaceWindows& w) -> std::uint32_t {
+      const std::uint32_t o = w.owners.u32(t.v[0]);
+      if (o >= chunks || w.owners.u32(t.v[1]) != o || w.owners.u32(t.v[2]) != o) return kNoChunk;
+      if (rings && (w.bitmap->bit(t.v[0]) || w.bitmap->bit(t.v[1]) || w.bitmap->bit(t.v[2]))) return kNoChunk;
+      return o;
+    };
+    auto emit = [&](std::uint64_t f, const Triangle& t, std::uint32_t c, std::uint8_t flags) {
+      std::byte* record = output.slot(c - first);
+      std::memcpy(record, &f, 8);
+      std::memcpy(record + 8, t.v, 12);
+      record[20] = std::byte{flags};
+      output.added(c - first, kChunkFaceRecordBytes);
+      ChunkInfo& info = out_.chunks[c];
+      ++info.faces;
+      info.owned_faces += (flags & kOwnsFace) != 0;
+    };
+    Status scanned = scan_faces(rings ? has_extras_->file() : -1, tag_of, [&](std::uint64_t f, const Triangle& t, std::uint32_t tag) {
+      if (tag != kNoChunk) {
+        if (tag >= first && tag < last) emit(f, t, tag, 7 | kOwnsFace);
+        return;
+      }
       std::uint32_t owner[3];
       bool extras[3] = {false, false, false};
       for (int j = 0; j < 3; ++j) owner[j] = owners_->get(t.v[j]);
-      if (options_.rings > 1)
+      if (rings)
         for (int j = 0; j < 3; ++j) extras[j] = has_extras_->test(t.v[j]);
       int lowest = 0;
       for (int j = 1; j < 3; ++j)
         if (t.v[j] < t.v[lowest]) lowest = j;
       const std::uint32_t face_owner = owner[lowest];
       if (owner[0] >= chunks || owner[1] >= chunks || owner[2] >= chunks) damaged = true;
-      auto emit = [&](std::uint32_t c) {
+      auto emit_to = [&](std::uint32_t c) {
         std::uint8_t flags = 0;
         for (int j = 0; j < 3; ++j) flags |= static_cast<std::uint8_t>(owner[j] == c) << j;
         if (face_owner == c) flags |= kOwnsFace;
-        std::byte* record = output.slot(c - first);
-        std::memcpy(record, &f, 8);
-        std::memcpy(record + 8, t.v, 12);
-        record[20] = std::byte{flags};
-        output.added(c - first, kChunkFaceRecordBytes);
-        ChunkInfo& info = out_.chunks[c];
-        ++info.faces;
-        info.owned_faces += face_owner == c;
+        emit(f, t, c, flags);
       };
-      // Most faces: one owner, no vertex in another chunk's rings.
+      // A face the windows could not settle can still have one owner and no extras.
       if (!extras[0] && !extras[1] && !extras[2] && owner[0] == owner[1] && owner[1] == owner[2]) {
-        if (owner[0] >= first && owner[0] < last) emit(owner[0]);
+        if (owner[0] >= first && owner[0] < last) emit_to(owner[0]);
         return;
       }
       set.assign(owner, owner + 3);
@@ -1445,7 +1579,7 @@ Status PartitionRun::write_chunks() {
       set.erase(std::unique(set.begin(), set.end()), set.end());
       if (set.back() >= chunks) damaged = true;
       for (std::uint32_t c : set)
-        if (c >= first && c < last) emit(c);
+        if (c >= first && c < last) emit_to(c);
     }, [&] { return output.failed(); });
     if (output.failed()) return output.finish();  // the writer's own error
     GM_RETURN_IF_ERROR(scanned);
@@ -1477,10 +1611,12 @@ Status PartitionRun::run(const std::string& input_path, const format::ReadOption
   auto step = std::chrono::steady_clock::now();
   // Half the budget caches vertex-indexed data; an eighth holds chunk writers' frames; the
   // rest is the scan buffer, the cell tables and the zstd context.
-  cache_ = std::make_unique<BlockCache>(options_.memory_bytes / 2);
+  // The scans' windows (two per thread) come out of the cache's half.
+  cache_ = std::make_unique<BlockCache>(options_.memory_bytes / 2 - 2 * options_.threads * window_bytes());
   auto owners = cache_->open_file(owners_path_);
   if (!owners) return owners.status();
   owners_ = std::make_unique<CachedArray<std::uint32_t>>(*cache_, *owners);
+  owners_file_ = *owners;
   if (options_.rings > 1) {
     auto index = cache_->add_file(out_.dir + "/set-index.bin");
     auto slots = cache_->add_file(out_.dir + "/sets.bin");
