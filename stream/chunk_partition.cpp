@@ -834,10 +834,13 @@ class SpillThread {
   std::thread thread_;  // last: starts once the rest is built (none without `background`)
 };
 
+// Positions of stripes in file 0 go to the spill thread, those in file 1 are written here, on
+// the reader's thread: two threads copy into the page cache at once, each into its own file.
 class IngestSink final : public format::MeshSink {
  public:
-  IngestSink(SpillThread& spills, const std::function<void(const char*, std::uint64_t, std::uint64_t)>& progress)
-      : spills_(spills), progress_(progress) {}
+  IngestSink(SpillThread& spills, SpillWriter& positions_here,
+             const std::function<void(const char*, std::uint64_t, std::uint64_t)>& progress)
+      : spills_(spills), positions_here_(positions_here), progress_(progress) {}
   Status on_header(const format::MeshHeader& header) override {
     declared_faces_ = header.declared_faces.value_or(0);
     return {};
@@ -855,8 +858,16 @@ class IngestSink final : public format::MeshSink {
         hi_[a] = std::max(hi_[a], c[a]);
       }
     }
-    vertices_ += batch.size();
-    return spills_.vertices(batch);
+    while (!batch.empty()) {
+      const auto v = static_cast<std::uint32_t>(vertices_);  // below kMaxVertices (checked above)
+      const std::size_t part = std::min<std::size_t>(batch.size(), kPositionStripeVertices - v % kPositionStripeVertices);
+      const std::span<const Vec3f> stripe = batch.first(part);
+      GM_RETURN_IF_ERROR(position_file(v) == 0 ? spills_.vertices(stripe)
+                                               : positions_here_.write(stripe.data(), stripe.size_bytes()));
+      vertices_ += part;
+      batch = batch.subspan(part);
+    }
+    return {};
   }
   Status on_triangles(std::span<const Triangle> batch) override {
     faces_count_ += batch.size();
@@ -878,6 +889,7 @@ class IngestSink final : public format::MeshSink {
 
  private:
   SpillThread& spills_;
+  SpillWriter& positions_here_;
   std::uint64_t vertices_ = 0, faces_count_ = 0;
   std::uint64_t declared_faces_ = 0;  // the header's count (polygons): untrusted, for progress only
   const std::function<void(const char*, std::uint64_t, std::uint64_t)>& progress_;
@@ -886,28 +898,40 @@ class IngestSink final : public format::MeshSink {
 
 // ---- Sequential scans ----------------------------------------------------------------------------
 
-// Reads a spill file of fixed-size items in buffer-sized pieces: fn(first_index, span).
-template <class T, class Fn>
-Status scan_spill(const std::string& path, std::uint64_t expected, std::size_t buffer_bytes, Fn&& fn) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return Status::error(Code::kBadInput, path, "cannot open temporary file: " + errno_text());
-  const std::size_t per = std::max<std::size_t>(buffer_bytes / sizeof(T), 1);
-  std::unique_ptr<T[]> buffer(new T[per]);
-  std::uint64_t done = 0;
-  Status status;
-  while (done < expected && status.is_ok()) {
-    const std::size_t want = static_cast<std::size_t>(std::min<std::uint64_t>(per, expected - done));
-    const std::int64_t got = read_some(fd, buffer.get(), want * sizeof(T), done * sizeof(T));
-    if (got != static_cast<std::int64_t>(want * sizeof(T))) {
-      status = Status::error(Code::kBadInput, path + ": byte " + std::to_string(done * sizeof(T)),
-                             got < 0 ? "read failed: " + errno_text() : "temporary file is shorter than written");
-      break;
+// Reads the positions of vertices 0 .. expected - 1 in order, a stripe (768 KiB) at a time
+// from the two position files: fn(first_index, span). (A larger buffer, once freed, raises
+// glibc's mmap threshold, and later buffers of that size come from the heap and stay resident:
+// 4 MiB here raised the 10M run's peak by 2.6 MB.)
+template <class Fn>
+Status scan_positions(const VertexFiles& files, std::uint64_t expected, Fn&& fn) {
+  int fds[kPositionFiles];
+  for (std::uint32_t i = 0; i < kPositionFiles; ++i) fds[i] = -1;
+  struct Closer {
+    int* fds;
+    ~Closer() {
+      for (std::uint32_t i = 0; i < kPositionFiles; ++i)
+        if (fds[i] >= 0) ::close(fds[i]);
     }
-    status = fn(done, std::span<const T>(buffer.get(), want));
+  } closer{fds};
+  for (std::uint32_t i = 0; i < kPositionFiles; ++i) {
+    fds[i] = ::open(files.positions[i].c_str(), O_RDONLY | O_CLOEXEC);
+    if (fds[i] < 0) return Status::error(Code::kBadInput, files.positions[i], "cannot open temporary file: " + errno_text());
+  }
+  std::unique_ptr<Vec3f[]> buffer(new Vec3f[kPositionStripeVertices]);
+  for (std::uint64_t done = 0; done < expected;) {
+    const auto v = static_cast<std::uint32_t>(done);
+    const std::size_t want = static_cast<std::size_t>(std::min<std::uint64_t>(kPositionStripeVertices, expected - done));
+    const std::uint32_t file = position_file(v);
+    const std::uint64_t offset = position_record(v) * sizeof(Vec3f);
+    const std::int64_t got = read_some(fds[file], buffer.get(), want * sizeof(Vec3f), offset);
+    if (got != static_cast<std::int64_t>(want * sizeof(Vec3f))) {
+      return Status::error(Code::kBadInput, files.positions[file] + ": byte " + std::to_string(offset),
+                           got < 0 ? "read failed: " + errno_text() : "temporary file is shorter than written");
+    }
+    GM_RETURN_IF_ERROR(fn(done, std::span<const Vec3f>(buffer.get(), want)));
     done += want;
   }
-  ::close(fd);
-  return status;
+  return {};
 }
 
 void remove_tree(const std::string& dir) {
@@ -1123,7 +1147,8 @@ class PartitionRun {
   const PartitionOptions& options_;
   const char* scan_pass_ = "rings";  // what scan_faces reports to options_.progress
   Partition& out_;
-  std::string positions_path_, faces_path_, owners_path_;
+  std::shared_ptr<VertexFiles> vertex_files_;  // positions (pass 0) and owners (the owner pass)
+  std::string faces_path_, owners_path_;
   Planner planner_;
   std::unique_ptr<BlockCache> cache_;
   std::unique_ptr<CachedArray<std::uint32_t>> owners_;  // owners.bin: the scans need only owners
@@ -1136,14 +1161,15 @@ class PartitionRun {
 };
 
 Status PartitionRun::ingest(const std::string& input_path, const format::ReadOptions& read) {
-  positions_path_ = out_.dir + "/positions.bin";
+  vertex_files_ = std::make_shared<VertexFiles>();
+  for (std::uint32_t i = 0; i < kPositionFiles; ++i) vertex_files_->positions[i] = out_.dir + "/positions-" + std::to_string(i) + ".bin";
   faces_path_ = out_.dir + "/faces.gmr";
-  SpillWriter positions;
+  SpillWriter positions[kPositionFiles];
   FaceSpill faces;
-  GM_RETURN_IF_ERROR(positions.open(positions_path_, std::size_t{1} << 20));
+  for (std::uint32_t i = 0; i < kPositionFiles; ++i) GM_RETURN_IF_ERROR(positions[i].open(vertex_files_->positions[i], std::size_t{1} << 20));
   GM_RETURN_IF_ERROR(faces.open(faces_path_));
-  SpillThread spills(positions, faces, options_.threads > 1);
-  IngestSink sink(spills, options_.progress);
+  SpillThread spills(positions[0], faces, options_.threads > 1);
+  IngestSink sink(spills, positions[1], options_.progress);
   Status status = format::read_mesh_file(input_path, read, sink);
   // A write error stops the reader (the sink returns it) and is the run's error.
   if (Status written = spills.finish(); !written.is_ok()) return written;
@@ -1152,22 +1178,21 @@ Status PartitionRun::ingest(const std::string& input_path, const format::ReadOpt
     if (status.where().empty()) return Status::error(status.code(), input_path == "-" ? "<stdin>" : input_path, status.message());
     return status;
   }
-  GM_RETURN_IF_ERROR(positions.close());
+  for (SpillWriter& p : positions) {
+    GM_RETURN_IF_ERROR(p.close());
+    bytes_spilled_ += p.bytes();
+  }
   GM_RETURN_IF_ERROR(faces.close());
   out_.vertices = sink.vertices();
   out_.faces = sink.faces();
   sink.bounds(out_.lo, out_.hi);
-  bytes_spilled_ += positions.bytes() + faces.bytes();
+  bytes_spilled_ += faces.bytes();
   return {};
 }
 
-// The plan's scans of positions.bin compute per vertex (a cell, a sub-cell code, an owner) and
-// are the partition's only vertex-parallel work: at 100M triangles, five scans of 50M vertices
-// took 2.8 s on one thread. They read 1 MiB at a time: a larger buffer, once freed, raises
-// glibc's mmap threshold, and later buffers of that size come from the heap and stay resident
-// (4 MiB here raised the 10M run's peak by 2.6 MB). Pieces are small enough that the tests'
-// shapes take the threaded path.
-constexpr std::size_t kPlanScanBytes = std::size_t{1} << 20;
+// The plan's scans of the positions compute per vertex (a cell, a sub-cell code, an owner) and
+// run on the run's threads: at 100M triangles, five scans of 50M vertices took 2.8 s on one
+// thread. Pieces are small enough that the tests' shapes take the threaded path.
 constexpr std::size_t kPlanPieceVertices = std::size_t{1} << 13;
 
 template <class Fn>
@@ -1186,7 +1211,7 @@ void PartitionRun::for_pieces(std::size_t n, Fn&& fn) {
 template <class Count>
 Result<std::vector<std::uint32_t>> PartitionRun::count_positions(std::size_t size, Count&& count) {
   tbb::enumerable_thread_specific<std::vector<std::uint32_t>> local([size] { return std::vector<std::uint32_t>(size, 0); });
-  GM_RETURN_IF_ERROR(scan_spill<Vec3f>(positions_path_, out_.vertices, kPlanScanBytes, [&](std::uint64_t, std::span<const Vec3f> batch) {
+  GM_RETURN_IF_ERROR(scan_positions(*vertex_files_, out_.vertices, [&](std::uint64_t, std::span<const Vec3f> batch) {
     for_pieces(batch.size(), [&](std::size_t begin, std::size_t end) {
       std::uint32_t* histogram = local.local().data();
       for (std::size_t i = begin; i < end; ++i) count(histogram, batch[i]);
@@ -1315,10 +1340,11 @@ Status PartitionRun::plan() {
   // Owner pass: the owning chunk per vertex, so that no later scan recomputes cells. The scans
   // read owners only (4 bytes a vertex through the cache); positions.bin stays for load_chunk.
   owners_path_ = out_.dir + "/owners.bin";
+  vertex_files_->owners = owners_path_;
   SpillWriter owners;
   GM_RETURN_IF_ERROR(owners.open(owners_path_, std::size_t{1} << 20));
   std::vector<std::uint32_t> records;
-  GM_RETURN_IF_ERROR(scan_spill<Vec3f>(positions_path_, out_.vertices, kPlanScanBytes, [&](std::uint64_t, std::span<const Vec3f> batch) {
+  GM_RETURN_IF_ERROR(scan_positions(*vertex_files_, out_.vertices, [&](std::uint64_t, std::span<const Vec3f> batch) {
     records.resize(batch.size());
     for_pieces(batch.size(), [&](std::size_t begin, std::size_t end) {
       for (std::size_t i = begin; i < end; ++i) records[i] = p.owner(batch[i]);
@@ -1475,8 +1501,7 @@ Status PartitionRun::write_chunks() {
     char name[32];
     std::snprintf(name, sizeof name, "/chunk-%06u.gmr", c);
     info.path = out_.dir + name;
-    info.positions = positions_path_;
-    info.owners = owners_path_;
+    info.vertex_files = vertex_files_;
   }
   if (chunks == 0) return {};
   if (options_.rings > 1) cache_->flush(has_extras_->file());  // the scan's windows read it
@@ -1898,7 +1923,8 @@ Status number_chunk_vertices(const std::vector<std::uint32_t>& ids, const std::v
 // Copies the record_bytes-sized record of every id of `ids` (ascending) from `path` into `out`
 // (ids.size() * record_bytes bytes). An id beyond the file is kBadInput naming `chunk_path`.
 Status read_vertex_records(const std::string& path, std::size_t record_bytes, const std::vector<std::uint32_t>& ids,
-                           const std::string& chunk_path, std::byte* out) {
+                           const std::string& chunk_path, std::byte* out, const std::vector<std::uint32_t>* vertices = nullptr) {
+  auto vertex = [&](std::size_t i) { return std::to_string(vertices ? (*vertices)[i] : ids[i]); };
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) return Status::error(Code::kBadInput, path, "cannot open a vertex file: " + errno_text());
   struct Closer {
@@ -1915,25 +1941,44 @@ Status read_vertex_records(const std::string& path, std::size_t record_bytes, co
   if (served == ids.size()) return {};
   if (ids[served] >= count) {
     return Status::error(Code::kBadInput, chunk_path,
-                         "vertex " + std::to_string(ids[served]) + " is beyond " + path + " (" + std::to_string(count) + " vertices)");
+                         "vertex " + vertex(served) + " is beyond " + path + " (" + std::to_string(count) + " records)");
   }
-  return Status::error(Code::kBadInput, path, "cannot read the record of vertex " + std::to_string(ids[served]));
+  return Status::error(Code::kBadInput, path, "cannot read the record of vertex " + vertex(served));
 }
 
-// Positions and owners of the chunk's vertices from the partition's vertex files; the owner
-// read back must agree with the chunk's owned flags.
+// Positions and owners of the chunk's vertices from the partition's vertex files (positions:
+// each file's ids in order, translated to its records); the owner read back must agree with the
+// chunk's owned flags.
 Status read_chunk_positions(const ChunkInfo& info, ChunkMesh& mesh) {
+  if (!info.vertex_files) return Status::error(Code::kProcessing, info.path, "no vertex files for the chunk");
+  const VertexFiles& files = *info.vertex_files;
   const std::vector<std::uint32_t>& ids = mesh.global_vertex;
   mesh.positions.resize(ids.size());
-  GM_RETURN_IF_ERROR(read_vertex_records(info.positions, kPositionRecordBytes, ids, info.path,
-                                         reinterpret_cast<std::byte*>(mesh.positions.data())));
+  std::vector<std::uint32_t> records, slots, vertices;
+  std::vector<Vec3f> positions;
+  for (std::uint32_t file = 0; file < kPositionFiles; ++file) {
+    records.clear();
+    slots.clear();
+    vertices.clear();
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      if (position_file(ids[i]) != file) continue;
+      records.push_back(static_cast<std::uint32_t>(position_record(ids[i])));
+      slots.push_back(static_cast<std::uint32_t>(i));
+      vertices.push_back(ids[i]);
+    }
+    if (records.empty()) continue;
+    positions.resize(records.size());
+    GM_RETURN_IF_ERROR(read_vertex_records(files.positions[file], kPositionRecordBytes, records, info.path,
+                                           reinterpret_cast<std::byte*>(positions.data()), &vertices));
+    for (std::size_t k = 0; k < slots.size(); ++k) mesh.positions[slots[k]] = positions[k];
+  }
   std::vector<std::uint32_t>& owners = mesh.vertex_owner;
   owners.resize(ids.size());
-  GM_RETURN_IF_ERROR(read_vertex_records(info.owners, kOwnerRecordBytes, ids, info.path, reinterpret_cast<std::byte*>(owners.data())));
+  GM_RETURN_IF_ERROR(read_vertex_records(files.owners, kOwnerRecordBytes, ids, info.path, reinterpret_cast<std::byte*>(owners.data())));
   for (std::size_t i = 0; i < ids.size(); ++i) {
     if ((owners[i] == info.id) != static_cast<bool>(mesh.owned_vertex[i])) {
       return Status::error(Code::kBadInput, info.path,
-                           "vertex " + std::to_string(ids[i]) + ": owned flag disagrees with " + info.owners);
+                           "vertex " + std::to_string(ids[i]) + ": owned flag disagrees with " + files.owners);
     }
   }
   return {};

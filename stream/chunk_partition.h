@@ -5,8 +5,10 @@
 // bounded by PartitionOptions::memory_bytes whatever the input size.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -77,6 +79,24 @@ struct PartitionOptions {
   std::string tmp_dir;
 };
 
+// Pass 0's position spill is two files, written at once by two threads (one file's buffered
+// writes take its inode's lock: at 100M triangles, 600 MB of positions into one file was the
+// ingest's bottleneck, the kernel's copy into new page-cache pages). Vertex v is in stripe
+// v / kPositionStripeVertices, the stripes alternating between the files.
+inline constexpr std::uint32_t kPositionStripeVertices = 1u << 16;
+inline constexpr std::uint32_t kPositionFiles = 2;
+inline constexpr std::uint32_t position_file(std::uint32_t v) { return (v / kPositionStripeVertices) % kPositionFiles; }
+// v's record index in its file.
+inline constexpr std::uint64_t position_record(std::uint32_t v) {
+  return std::uint64_t{v / kPositionStripeVertices / kPositionFiles} * kPositionStripeVertices + v % kPositionStripeVertices;
+}
+
+// The partition's vertex files, one copy shared by every ChunkInfo of a run.
+struct VertexFiles {
+  std::array<std::string, kPositionFiles> positions;  // positions-0.bin, positions-1.bin
+  std::string owners;                                 // owners.bin
+};
+
 struct ChunkInfo {
   std::uint32_t id = 0;
   std::uint64_t owned_vertices = 0;  // every vertex of its cells, referenced by faces or not
@@ -85,7 +105,7 @@ struct ChunkInfo {
   std::string path;                  // its chunk face record file
   bool loop = false;                 // path is a loop chunk file (kLoopChunkRecordKind)
   format::RecordSegment segment;     // bytes > 0: the record file is this segment of path
-  std::string positions, owners;     // the partition's vertex files (positions.bin, owners.bin)
+  std::shared_ptr<const VertexFiles> vertex_files;  // the partition's
 };
 
 // seconds_partition split by step: the plan (cell histograms and the owner pass over
@@ -176,7 +196,7 @@ struct ChunkMesh {
 };
 
 // Reads and checks one chunk file, and the positions and owners of its vertices from
-// info.positions and info.owners (ascending ids, one pread per run of nearby ids). Everything is untrusted: a damaged or
+// info.vertex_files (ascending ids, one pread per run of nearby ids). Everything is untrusted: a damaged or
 // inconsistent file (checksums, record count against info.faces, owned faces against
 // info.owned_faces, face ids not ascending, flag bits, one vertex id with two ownerships, a face
 // owned though its lowest-id vertex is not, a vertex id beyond a vertex file, an owned flag

@@ -471,14 +471,16 @@ TEST(ChunkPartition, TempDirGoesWithThePartition) {
     // Only the chunk files and the vertex files are left once the pass is done.
     std::size_t files = 0;
     for (const auto& entry : fs::directory_iterator(run_dir)) {
-      if (entry.path().filename() == "positions.bin" || entry.path().filename() == "owners.bin") continue;
+      const std::string name = entry.path().filename().string();
+      if (name == "positions-0.bin" || name == "positions-1.bin" || name == "owners.bin") continue;
       EXPECT_EQ(entry.path().extension(), ".gmr") << entry.path();
       ++files;
     }
     EXPECT_EQ(files, partition->chunks.size());
     ASSERT_FALSE(partition->chunks.empty());
-    EXPECT_TRUE(fs::exists(partition->chunks[0].positions));
-    EXPECT_TRUE(fs::exists(partition->chunks[0].owners));
+    ASSERT_TRUE(partition->chunks[0].vertex_files);
+    for (const std::string& path : partition->chunks[0].vertex_files->positions) EXPECT_TRUE(fs::exists(path));
+    EXPECT_TRUE(fs::exists(partition->chunks[0].vertex_files->owners));
     Partition moved = std::move(*partition);
     EXPECT_TRUE(partition->dir.empty());
     EXPECT_TRUE(fs::exists(run_dir));  // the moved-from partition removed nothing
@@ -644,8 +646,9 @@ TEST(ChunkPartition, DamagedChunkFilesAreBadInput) {
   // The vertex files: positions missing or truncated; owners missing, or naming another owner
   // for a vertex the chunk file says is owned.
   testing::write_file(info.path, bytes);  // the undamaged chunk file
-  const std::string position_bytes = testing::read_file(info.positions);
-  const std::string owner_bytes = testing::read_file(info.owners);
+  ASSERT_TRUE(info.vertex_files);
+  const std::string& owners_path = info.vertex_files->owners;
+  const std::string owner_bytes = testing::read_file(owners_path);
   auto expect_bad_vertices = [&](const std::string& what) {
     auto chunk = load_chunk(info);
     ASSERT_FALSE(chunk.is_ok()) << what;
@@ -654,13 +657,16 @@ TEST(ChunkPartition, DamagedChunkFilesAreBadInput) {
   };
   auto loaded = load_chunk(info);
   ASSERT_TRUE(loaded.is_ok()) << loaded.status().to_string();
-  fs::remove(info.positions);
+  // The position file of the chunk's highest vertex: missing, or cut inside that vertex.
+  const std::uint32_t highest = loaded->global_vertex.back();
+  const std::string& positions_path = info.vertex_files->positions[position_file(highest)];
+  const std::string position_bytes = testing::read_file(positions_path);
+  fs::remove(positions_path);
   expect_bad_vertices("missing positions file");
-  // Cut inside the chunk's highest vertex.
-  testing::write_file(info.positions, position_bytes.substr(0, std::size_t{loaded->global_vertex.back()} * kPositionRecordBytes + 5));
+  testing::write_file(positions_path, position_bytes.substr(0, position_record(highest) * kPositionRecordBytes + 5));
   expect_bad_vertices("truncated positions file");
-  testing::write_file(info.positions, position_bytes);
-  fs::remove(info.owners);
+  testing::write_file(positions_path, position_bytes);
+  fs::remove(owners_path);
   expect_bad_vertices("missing owners file");
   const auto owned = std::find(loaded->owned_vertex.begin(), loaded->owned_vertex.end(), 1);
   ASSERT_NE(owned, loaded->owned_vertex.end());
@@ -668,9 +674,9 @@ TEST(ChunkPartition, DamagedChunkFilesAreBadInput) {
   std::string other_owner = owner_bytes;
   const std::uint32_t elsewhere = info.id + 1;
   std::memcpy(other_owner.data() + std::size_t{id} * kOwnerRecordBytes, &elsewhere, 4);
-  testing::write_file(info.owners, other_owner);
+  testing::write_file(owners_path, other_owner);
   expect_bad_vertices("owners file names another owner");
-  testing::write_file(info.owners, owner_bytes);
+  testing::write_file(owners_path, owner_bytes);
   EXPECT_TRUE(load_chunk(info).is_ok());
 }
 
