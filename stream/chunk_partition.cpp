@@ -142,10 +142,12 @@ class SpillWriter {
 
 // ---- The bounded block cache over vertex-indexed spill files ---------------------------------
 
-// Slot size: a multiple of 192 so that 12-, 16- and 64-byte records tile a block exactly. Small
-// blocks make a miss cheap on badly ordered input (a miss is one pread of the block); on
+// Slot size: one page, so that a dirty block goes back as a whole page (a write of part of a
+// page the file does not have yet makes the kernel zero the page first: with 3 KiB blocks,
+// 16 % of the 100M ring rounds' thread was that memset) and 4-, 16- and 64-byte records tile it.
+// Small blocks make a miss cheap on badly ordered input (a miss is one pread of the block); on
 // spatially ordered input the hit rate is ~99.9 % at any size (docs/partition.md).
-constexpr std::size_t kSlotBytes = 3072;
+constexpr std::size_t kSlotBytes = 4096;
 
 // Asks for transparent huge pages on the whole 2 MiB pages inside [data, data + bytes). The
 // scans touch the cache's blocks at random: with 4 KiB pages the TLB misses on this VM cost a
@@ -686,7 +688,10 @@ class FaceSpill {
 // `ahead` (a run of --threads 1 reads in the caller's thread).
 class FrameReadAhead {
  public:
-  FrameReadAhead(format::RecordReader& reader, bool ahead) : reader_(reader) {
+  // tag(faces, tags) fills one tag per face of a frame, on the read-ahead thread when there is
+  // one (FaceTags in PartitionRun::scan_faces), before the frame is handed over.
+  using Tagger = std::function<void(const std::vector<Triangle>&, std::vector<std::uint32_t>&)>;
+  FrameReadAhead(format::RecordReader& reader, Tagger tag, bool ahead) : reader_(reader), tag_(std::move(tag)) {
     if (ahead) thread_ = std::thread([this] { run(); });
   }
   ~FrameReadAhead() {
@@ -700,12 +705,13 @@ class FrameReadAhead {
   }
   FrameReadAhead(const FrameReadAhead&) = delete;
   FrameReadAhead& operator=(const FrameReadAhead&) = delete;
-  // The next frame's faces into out (empty at the end), or the reader's error.
-  Status next(std::vector<Triangle>& out) {
-    if (!thread_.joinable()) return read(out);
+  // The next frame's faces and their tags into out (empty at the end), or the reader's error.
+  Status next(std::vector<Triangle>& out, std::vector<std::uint32_t>& tags) {
+    if (!thread_.joinable()) return read(out, tags);
     std::unique_lock lock(mutex_);
     changed_.wait(lock, [&] { return full_; });
     out.swap(ready_);
+    tags.swap(ready_tags_);
     Status status = status_;
     full_ = false;
     changed_.notify_all();
@@ -714,7 +720,7 @@ class FrameReadAhead {
 
  private:
   // Frames are all the same size but the last: resize keeps the buffer (and fills nothing).
-  Status read(std::vector<Triangle>& frame) {
+  Status read(std::vector<Triangle>& frame, std::vector<std::uint32_t>& tags) {
     auto got = reader_.next();
     if (!got) {
       frame.clear();
@@ -722,17 +728,21 @@ class FrameReadAhead {
     }
     frame.resize(got->size() / sizeof(Triangle));
     if (!got->empty()) std::memcpy(frame.data(), got->data(), got->size());
+    tags.resize(frame.size());
+    tag_(frame, tags);
     return {};
   }
   void run() {
     std::vector<Triangle> frame;
+    std::vector<std::uint32_t> tags;
     for (bool more = true; more;) {
-      Status status = read(frame);
+      Status status = read(frame, tags);
       more = status.is_ok() && !frame.empty();
       std::unique_lock lock(mutex_);
       changed_.wait(lock, [&] { return !full_ || stopping_; });
       if (stopping_) return;
       ready_.swap(frame);
+      ready_tags_.swap(tags);
       status_ = status;
       full_ = true;
       changed_.notify_all();
@@ -740,9 +750,11 @@ class FrameReadAhead {
   }
 
   format::RecordReader& reader_;
+  Tagger tag_;
   std::mutex mutex_;
   std::condition_variable changed_;
   std::vector<Triangle> ready_;
+  std::vector<std::uint32_t> ready_tags_;
   Status status_;
   bool full_ = false, stopping_ = false;
   std::thread thread_;  // last: starts once the rest is built (none when not reading ahead)
@@ -1122,10 +1134,9 @@ class PartitionRun {
   Status ingest(const std::string& input_path, const format::ReadOptions& read);
   Status plan();
   // Calls fn(face id, triangle, tag) for every face in order, tag = tag_of(triangle, windows)
-  // computed first for each frame on the run's threads (FaceWindows: owners.bin and, when
-  // bitmap >= 0, that cache file, read through thread-private windows; tag_of must not touch
-  // the cache). After each frame, stops early when the cache or a window has failed or stop()
-  // says so.
+  // computed first for each frame on the read-ahead thread (FaceWindows: owners.bin and, when
+  // bitmap >= 0, that cache file, read through the windows; tag_of must not touch the cache).
+  // After each frame, stops early when the cache or a window has failed or stop() says so.
   struct FaceWindows {
     FileWindow owners;
     std::optional<FileWindow> bitmap;
@@ -1364,10 +1375,10 @@ Status PartitionRun::plan() {
   return {};
 }
 
-// Each thread's two windows: together 2 x threads x this, taken from the cache's half of the
-// budget (64M, 2 threads: 512 KiB each, 2 MiB in all).
+// The scans' two windows (owners, a bitmap), taken from the cache's half of the budget: 1 MiB
+// each at 64M.
 std::size_t PartitionRun::window_bytes() const {
-  return std::clamp<std::size_t>(options_.memory_bytes / 64 / options_.threads, std::size_t{16} << 10, std::size_t{1} << 20);
+  return std::clamp<std::size_t>(options_.memory_bytes / 64, std::size_t{16} << 10, std::size_t{1} << 20);
 }
 
 template <class Tag, class Fn, class Stop>
@@ -1379,42 +1390,24 @@ Status PartitionRun::scan_faces(int bitmap, Tag&& tag_of, Fn&& fn, Stop&& stop) 
     return Status::error(Code::kBadInput, faces_path_, "holds " + std::to_string((*reader)->records()) + " faces, ingest wrote " +
                                                           std::to_string(out_.faces) + " (temporary file damaged)");
   }
-  const int owners_fd = cache_->fd(owners_file_);
-  const int bitmap_fd = bitmap >= 0 ? cache_->fd(bitmap) : -1;
   const std::size_t bytes = window_bytes();
-  tbb::enumerable_thread_specific<std::unique_ptr<FaceWindows>> windows;
-  auto windows_here = [&]() -> FaceWindows& {
-    std::unique_ptr<FaceWindows>& w = windows.local();
-    if (!w) {
-      w.reset(new FaceWindows{FileWindow(owners_fd, bytes), std::nullopt});
-      if (bitmap_fd >= 0) w->bitmap.emplace(bitmap_fd, bytes);
-    }
-    return *w;
-  };
-  auto window_error = [&]() -> Status {
-    for (const auto& w : windows) {
-      if (!w) continue;
-      if (!w->owners.error().empty()) return Status::error(Code::kOutput, owners_path_, "read failed: " + w->owners.error());
-      if (w->bitmap && !w->bitmap->error().empty())
-        return Status::error(Code::kOutput, cache_->path(bitmap), "read failed: " + w->bitmap->error());
-    }
-    return {};
-  };
-  // Frames are read and decompressed one ahead on another thread (the scan's thread is the
-  // partition's bottleneck; the other core is idle in the ring rounds).
-  FrameReadAhead ahead(**reader, options_.threads > 1);
+  FaceWindows windows{FileWindow(cache_->fd(owners_file_), bytes), std::nullopt};
+  if (bitmap >= 0) windows.bitmap.emplace(cache_->fd(bitmap), bytes);
+  // Frames are read, decompressed and tagged one ahead on another thread: the scan's thread is
+  // the partition's bottleneck, and the tags take its owner and bitmap lookups for most faces.
+  FrameReadAhead ahead(**reader, [&](const std::vector<Triangle>& faces, std::vector<std::uint32_t>& tags) {
+    for (std::size_t i = 0; i < faces.size(); ++i) tags[i] = tag_of(faces[i], windows);
+  }, options_.threads > 1);
   std::vector<Triangle> batch;
   std::vector<std::uint32_t> tags;
   std::uint64_t first = 0;
   for (;;) {
-    GM_RETURN_IF_ERROR(ahead.next(batch));
+    GM_RETURN_IF_ERROR(ahead.next(batch, tags));
+    // Written before the frame was handed over (under the read-ahead's mutex).
+    if (!windows.owners.error().empty()) return Status::error(Code::kOutput, owners_path_, "read failed: " + windows.owners.error());
+    if (windows.bitmap && !windows.bitmap->error().empty())
+      return Status::error(Code::kOutput, cache_->path(bitmap), "read failed: " + windows.bitmap->error());
     if (batch.empty()) return {};
-    tags.resize(batch.size());
-    for_pieces(batch.size(), [&](std::size_t begin, std::size_t end) {
-      FaceWindows& w = windows_here();
-      for (std::size_t i = begin; i < end; ++i) tags[i] = tag_of(batch[i], w);
-    });
-    GM_RETURN_IF_ERROR(window_error());
     for (std::size_t i = 0; i < batch.size(); ++i) {
       const Triangle& t = batch[i];
       if (t.v[0] >= nv || t.v[1] >= nv || t.v[2] >= nv) {
@@ -1491,6 +1484,42 @@ Status PartitionRun::expand_rings() {
   return {};
 }
 
+std::string chunk_file_path(const std::string& dir, std::uint32_t chunk) {
+  char name[32];
+  std::snprintf(name, sizeof name, "/chunk-%06u.gmr", chunk);
+  return dir + name;
+}
+
+// Creates the chunk files, empty, on a thread of its own while the ring rounds run: a create
+// cost ~0.35 ms on this machine's ext4 (inode allocation), 0.5 s of the final scan's thread at
+// 100M (1,474 chunks) when its writers made them. The writers open them with O_TRUNC later; a
+// create that fails here is left to the writer to report.
+class ChunkFileMaker {
+ public:
+  ChunkFileMaker(const std::string& dir, std::uint32_t chunks, bool background) {
+    if (!background) return;
+    thread_ = std::thread([this, dir, chunks] {
+      for (std::uint32_t c = 0; c < chunks && !stop_.load(std::memory_order_relaxed); ++c) {
+        const int fd = ::open(chunk_file_path(dir, c).c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0600);
+        if (fd >= 0) ::close(fd);
+      }
+    });
+  }
+  ~ChunkFileMaker() { finish(true); }
+  ChunkFileMaker(const ChunkFileMaker&) = delete;
+  ChunkFileMaker& operator=(const ChunkFileMaker&) = delete;
+  // Waits for the thread (stopping it first when `stop`).
+  void finish(bool stop = false) {
+    if (!thread_.joinable()) return;
+    if (stop) stop_ = true;
+    thread_.join();
+  }
+
+ private:
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
 Status PartitionRun::write_chunks() {
   const std::uint32_t chunks = planner_.chunks;
   out_.chunks.resize(chunks);
@@ -1498,13 +1527,10 @@ Status PartitionRun::write_chunks() {
     ChunkInfo& info = out_.chunks[c];
     info.id = c;
     info.owned_vertices = planner_.owned_vertices[c];
-    char name[32];
-    std::snprintf(name, sizeof name, "/chunk-%06u.gmr", c);
-    info.path = out_.dir + name;
+    info.path = chunk_file_path(out_.dir, c);
     info.vertex_files = vertex_files_;
   }
   if (chunks == 0) return {};
-  if (options_.rings > 1) cache_->flush(has_extras_->file());  // the scan's windows read it
   // Staged frames share memory_bytes / 8; frames of at least 64 records; more chunks than fit
   // are written in several scans. With threads > 1, `threads` threads compress (ChunkOutput).
   const bool background = options_.threads > 1;
@@ -1551,16 +1577,6 @@ Status PartitionRun::write_chunks() {
     }
     ChunkOutput output(writers, frame_bytes, workers);
     bool damaged = false;
-    // Tag: the face's one chunk when its corners share an owner and none is in another chunk's
-    // rings (most faces), else kNoChunk and the scan looks the face up through the cache.
-    constexpr std::uint32_t kNoChunk = 0xFFFFFFFFu;
-    const bool rings = options_.rings > 1;
-    auto tag_of = [&](const Triangle& t, FaceWindows& w) -> std::uint32_t {
-      const std::uint32_t o = w.owners.u32(t.v[0]);
-      if (o >= chunks || w.owners.u32(t.v[1]) != o || w.owners.u32(t.v[2]) != o) return kNoChunk;
-      if (rings && (w.bitmap->bit(t.v[0]) || w.bitmap->bit(t.v[1]) || w.bitmap->bit(t.v[2]))) return kNoChunk;
-      return o;
-    };
     auto emit = [&](std::uint64_t f, const Triangle& t, std::uint32_t c, std::uint8_t flags) {
       std::byte* record = output.slot(c - first);
       std::memcpy(record, &f, 8);
@@ -1571,11 +1587,11 @@ Status PartitionRun::write_chunks() {
       ++info.faces;
       info.owned_faces += (flags & kOwnsFace) != 0;
     };
-    Status scanned = scan_faces(rings ? has_extras_->file() : -1, tag_of, [&](std::uint64_t f, const Triangle& t, std::uint32_t tag) {
-      if (tag != kNoChunk) {
-        if (tag >= first && tag < last) emit(f, t, tag, 7 | kOwnsFace);
-        return;
-      }
+    // No tags here: this scan's thread, its two compression threads and the read-ahead already
+    // keep both cores busy, and tags (six window lookups a face) cost more than they save
+    // (100M, perf: +1.8 s on the read-ahead thread for -0.9 s on this one).
+    const bool rings = options_.rings > 1;
+    Status scanned = scan_faces(-1, [](const Triangle&, FaceWindows&) { return 0u; }, [&](std::uint64_t f, const Triangle& t, std::uint32_t) {
       std::uint32_t owner[3];
       bool extras[3] = {false, false, false};
       for (int j = 0; j < 3; ++j) owner[j] = owners_->get(t.v[j]);
@@ -1592,7 +1608,7 @@ Status PartitionRun::write_chunks() {
         if (face_owner == c) flags |= kOwnsFace;
         emit(f, t, c, flags);
       };
-      // A face the windows could not settle can still have one owner and no extras.
+      // Most faces: one owner, no vertex in another chunk's rings.
       if (!extras[0] && !extras[1] && !extras[2] && owner[0] == owner[1] && owner[1] == owner[2]) {
         if (owner[0] >= first && owner[0] < last) emit_to(owner[0]);
         return;
@@ -1636,12 +1652,13 @@ Status PartitionRun::run(const std::string& input_path, const format::ReadOption
   auto step = std::chrono::steady_clock::now();
   // Half the budget caches vertex-indexed data; an eighth holds chunk writers' frames; the
   // rest is the scan buffer, the cell tables and the zstd context.
-  // The scans' windows (two per thread) come out of the cache's half.
-  cache_ = std::make_unique<BlockCache>(options_.memory_bytes / 2 - 2 * options_.threads * window_bytes());
+  // The scans' two windows come out of the cache's half.
+  cache_ = std::make_unique<BlockCache>(options_.memory_bytes / 2 - 2 * window_bytes());
   auto owners = cache_->open_file(owners_path_);
   if (!owners) return owners.status();
   owners_ = std::make_unique<CachedArray<std::uint32_t>>(*cache_, *owners);
   owners_file_ = *owners;
+  ChunkFileMaker maker(out_.dir, planner_.chunks, options_.threads > 1);
   if (options_.rings > 1) {
     auto index = cache_->add_file(out_.dir + "/set-index.bin");
     auto slots = cache_->add_file(out_.dir + "/sets.bin");
@@ -1660,6 +1677,7 @@ Status PartitionRun::run(const std::string& input_path, const format::ReadOption
   out_.steps.rings = seconds_since(step);
   step = std::chrono::steady_clock::now();
   scan_pass_ = "chunks";
+  maker.finish();
   GM_RETURN_IF_ERROR(write_chunks());
   GM_RETURN_IF_ERROR(cache_->status());
   out_.bytes_spilled = bytes_spilled_ + cache_->bytes_written();
