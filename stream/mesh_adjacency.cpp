@@ -62,7 +62,32 @@ std::size_t build_star(const Triangle* tris, std::uint32_t begin, std::uint32_t 
   // partner's inverse: the incoming edge (p, v) of slot r is manifold iff exactly one slot has
   // prev == p and exactly one d has next == p, and then partner[d] == r — the same two counts.
   std::size_t breaks = 0;
-  if (degree <= 24) {
+  // Most stars (a manifold vertex away from any boundary) have distinct next vertices and
+  // distinct previous vertices: then every count of `out` is one, and the partner of slot r is
+  // the one slot, if any, whose prev is next[r]. Checking that costs half the compares of the
+  // general count below.
+  bool distinct = degree <= 24;
+  for (std::uint32_t r = 0; distinct && r < degree; ++r) {
+    for (std::uint32_t d = r + 1; d < degree; ++d) {
+      if (next[d] == next[r] || prev[d] == prev[r]) {
+        distinct = false;
+        break;
+      }
+    }
+  }
+  if (distinct) {
+    for (std::uint32_t r = 0; r < degree; ++r) {
+      const std::uint32_t a = next[r];
+      std::uint32_t found = kNone;
+      for (std::uint32_t d = 0; d < degree; ++d) {
+        if (prev[d] == a) {
+          found = d;
+          break;
+        }
+      }
+      partner[r] = found;
+    }
+  } else if (degree <= 24) {
     for (std::uint32_t r = 0; r < degree; ++r) {
       const std::uint32_t a = next[r];
       std::uint32_t out = 0, in = 0, in_slot = kNone;
