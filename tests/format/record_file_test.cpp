@@ -118,6 +118,7 @@ TEST(RecordFile, ColumnFramesRoundTripSmallerAndSayTheirLayout) {
   auto items = make_items(50000);
   items[777].id = 3;  // a difference that wraps below zero
   RecordWriterOptions options;
+  options.level = 1;  // the rows' level (write_items): the layouts compared at one level
   options.frame_bytes = 4096 * sizeof(Item);
   options.columns = {{8, true}, {4, false}, {4, false}, {4, false}, {4, true}};
   auto writer = RecordWriter::create(dir.file("c.bin"), 42, sizeof(Item), options);
