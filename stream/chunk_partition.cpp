@@ -440,6 +440,7 @@ class FileWindow {
   bool bit(std::uint64_t i) { return (std::to_integer<unsigned>(*at(i / 8)) >> (i % 8)) & 1u; }
   // The first read error's text, empty when every read worked.
   const std::string& error() const { return error_; }
+  std::uint64_t misses() const { return misses_; }
 
  private:
   static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
@@ -448,6 +449,7 @@ class FileWindow {
     const std::size_t slot = static_cast<std::size_t>(block & mask_);
     std::byte* data = data_.get() + slot * kBlockBytes;
     if (keys_[slot] != block) [[unlikely]] {
+      ++misses_;
       const std::int64_t got = read_some(fd_, data, kBlockBytes, block * kBlockBytes);
       if (got < 0 && error_.empty()) error_ = errno_text();
       const std::size_t kept = got > 0 ? static_cast<std::size_t>(got) : 0;
@@ -457,7 +459,7 @@ class FileWindow {
     return data + byte % kBlockBytes;
   }
   int fd_;
-  std::uint64_t mask_ = 0;
+  std::uint64_t mask_ = 0, misses_ = 0;
   std::vector<std::uint64_t> keys_;
   std::unique_ptr<std::byte[]> data_;
   std::string error_;
@@ -1141,8 +1143,11 @@ class PartitionRun {
     FileWindow owners;
     std::optional<FileWindow> bitmap;
   };
+  // `unknown` is the tag that tells fn to look the face up itself: every later face gets it once
+  // the windows miss more than once per 256 faces of a frame (badly ordered input, where the
+  // cache may still hold what the small windows cannot).
   template <class Tag, class Fn, class Stop>
-  Status scan_faces(int bitmap, Tag&& tag_of, Fn&& fn, Stop&& stop);
+  Status scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of, Fn&& fn, Stop&& stop);
   std::size_t window_bytes() const;
   Status expand_rings();
   Status write_chunks();
@@ -1382,7 +1387,7 @@ std::size_t PartitionRun::window_bytes() const {
 }
 
 template <class Tag, class Fn, class Stop>
-Status PartitionRun::scan_faces(int bitmap, Tag&& tag_of, Fn&& fn, Stop&& stop) {
+Status PartitionRun::scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of, Fn&& fn, Stop&& stop) {
   const std::uint64_t nv = out_.vertices;
   auto reader = format::RecordReader::open(faces_path_, kFaceSpillRecordKind, sizeof(Triangle));
   if (!reader) return reader.status();
@@ -1395,8 +1400,19 @@ Status PartitionRun::scan_faces(int bitmap, Tag&& tag_of, Fn&& fn, Stop&& stop) 
   if (bitmap >= 0) windows.bitmap.emplace(cache_->fd(bitmap), bytes);
   // Frames are read, decompressed and tagged one ahead on another thread: the scan's thread is
   // the partition's bottleneck, and the tags take its owner and bitmap lookups for most faces.
+  // A window miss is a pread (a few µs); a face costs tens of ns. On badly ordered input the
+  // windows would miss on most faces while the cache (memory / 2) may still hold the file.
+  constexpr std::uint64_t kWindowMissFaces = 256;
+  bool tagging = true;
   FrameReadAhead ahead(**reader, [&](const std::vector<Triangle>& faces, std::vector<std::uint32_t>& tags) {
+    if (!tagging) {
+      std::fill(tags.begin(), tags.end(), unknown);
+      return;
+    }
+    const std::uint64_t before = windows.owners.misses() + (windows.bitmap ? windows.bitmap->misses() : 0);
     for (std::size_t i = 0; i < faces.size(); ++i) tags[i] = tag_of(faces[i], windows);
+    const std::uint64_t misses = windows.owners.misses() + (windows.bitmap ? windows.bitmap->misses() : 0) - before;
+    if (misses * kWindowMissFaces > faces.size() + kWindowMissFaces) tagging = false;
   }, options_.threads > 1);
   std::vector<Triangle> batch;
   std::vector<std::uint32_t> tags;
@@ -1451,7 +1467,7 @@ Status PartitionRun::expand_rings() {
       }
       return w.bitmap->bit(t.v[0]) || w.bitmap->bit(t.v[1]) || w.bitmap->bit(t.v[2]);
     };
-    GM_RETURN_IF_ERROR(scan_faces(round > 1 ? previous.file() : -1, tag_of, [&](std::uint64_t, const Triangle& t, std::uint32_t tag) {
+    GM_RETURN_IF_ERROR(scan_faces(round > 1 ? previous.file() : -1, 1, tag_of, [&](std::uint64_t, const Triangle& t, std::uint32_t tag) {
       if (tag == 0) return;
       std::uint32_t owner[3];
       if (round == 1) {
@@ -1591,7 +1607,7 @@ Status PartitionRun::write_chunks() {
     // keep both cores busy, and tags (six window lookups a face) cost more than they save
     // (100M, perf: +1.8 s on the read-ahead thread for -0.9 s on this one).
     const bool rings = options_.rings > 1;
-    Status scanned = scan_faces(-1, [](const Triangle&, FaceWindows&) { return 0u; }, [&](std::uint64_t f, const Triangle& t, std::uint32_t) {
+    Status scanned = scan_faces(-1, 0, [](const Triangle&, FaceWindows&) { return 0u; }, [&](std::uint64_t f, const Triangle& t, std::uint32_t) {
       std::uint32_t owner[3];
       bool extras[3] = {false, false, false};
       for (int j = 0; j < 3; ++j) owner[j] = owners_->get(t.v[j]);
