@@ -149,6 +149,10 @@ int run_simplify_out_of_core(const SimplifyArgs& args, OutputKind kind, const st
                          {"write", seconds_write},
                          {"total", seconds_since(started)}};
     report["partition_seconds"] = partition_seconds(result->partition_steps);
+    report["stitch_seconds"] = {{"pieces", result->stitch_steps.pieces},
+                                {"merge", result->stitch_steps.merge},
+                                {"loops", result->stitch_steps.loops},
+                                {"loop_stitch", result->stitch_steps.loop_stitch}};
     auto status = write_report(args.report, report);
     if (!status.is_ok()) return report_error(status);
   }

@@ -737,6 +737,8 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   start = std::chrono::steady_clock::now();
   auto stitched = stitch_pieces(pieces, **joins, options.partition.memory_bytes);
   if (!stitched) return stitched.status();
+  out.stitch_steps.pieces = seconds_since(start);
+  auto step = std::chrono::steady_clock::now();
   std::vector<ChunkPieces>().swap(pieces);
   release_free_memory(options.partition.memory_bytes);
   PatchGraphInput merge_input = stitched_merge_input(*stitched);
@@ -752,6 +754,8 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     if (merged.is_candidate[k]) corners.push_back(stitched->candidates[k].vertex);
   out.candidates = corners.size();
   out.peak_rss_after_merge = peak_rss();
+  out.stitch_steps.merge = seconds_since(step);
+  step = std::chrono::steady_clock::now();
   // Passes C and D need each piece's merged patch and each merged patch's label; the rest of the
   // stitch and the merge goes now.
   std::vector<StitchedPatches::Star>().swap(stitched->star);
@@ -832,6 +836,8 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     const Vec3d& c = gauss.triangle_center(merged.patch_label[p]);
     plane[p] = {float(c.x), float(c.y), float(c.z)};
   }
+  out.stitch_steps.loops = seconds_since(step);
+  step = std::chrono::steady_clock::now();
   LoopStitchStats stitch_stats;
   auto graph = stitch_loops(loops, merged.patch_label.size(), plane, partition->dir, {}, &stitch_stats,
                             options.partition.memory_bytes);
@@ -840,6 +846,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   out.stitch_half_edges = stitch_stats.half_edges;
   out.stitch_vertices = stitch_stats.vertices;
   out.bytes_spilled += 12 * stitch_stats.vertices;
+  out.stitch_steps.loop_stitch = seconds_since(step);
   out.seconds_stitch = seconds_since(start);
 
   start = std::chrono::steady_clock::now();

@@ -160,6 +160,11 @@ struct OutOfCoreSimplify {
   std::uint64_t loop_faces = 0;
   double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0, seconds_stitch = 0, seconds_mesh = 0;
   PartitionSteps partition_steps;  // seconds_partition by step
+  // seconds_stitch by step: joining the pieces across chunks, the untriangulatable merge, pass C
+  // (loops under the merged patches, on the chunks' threads), the loop stitch.
+  struct StitchSteps {
+    double pieces = 0, merge = 0, loops = 0, loop_stitch = 0;
+  } stitch_steps;
   // The process's peak RSS (getrusage) after passes 0-1, after pass A/B, after the piece stitch
   // and merge, and after pass C: which stage sets the peak.
   std::uint64_t peak_rss_after_partition = 0, peak_rss_after_pieces = 0, peak_rss_after_merge = 0,

@@ -198,6 +198,14 @@ TEST(SimplifyCli, OutOfCoreGivesTheInCoreBytesFromFilesAndPipes) {
       EXPECT_TRUE(report.contains(key)) << key;
     for (const char* key : {"ingest", "partition", "sample", "stitch", "mesh", "write", "total"})
       EXPECT_TRUE(report["seconds"].contains(key)) << key;
+    // The stitch's steps are parts of its time.
+    double steps = 0;
+    for (const char* key : {"pieces", "merge", "loops", "loop_stitch"}) {
+      ASSERT_TRUE(report["stitch_seconds"].contains(key)) << key;
+      EXPECT_GE(report["stitch_seconds"][key].get<double>(), 0.0) << key;
+      steps += report["stitch_seconds"][key].get<double>();
+    }
+    EXPECT_LE(steps, report["seconds"]["stitch"].get<double>() + 1e-6) << name;
     EXPECT_EQ(files_in(tmp.path().string()), 0u) << name;
   }
 }
