@@ -691,8 +691,8 @@ class FaceSpill {
 class FrameReadAhead {
  public:
   // tag(faces, tags) fills one tag per face of a frame, on the read-ahead thread when there is
-  // one (FaceTags in PartitionRun::scan_faces), before the frame is handed over.
-  using Tagger = std::function<void(const std::vector<Triangle>&, std::vector<std::uint32_t>&)>;
+  // one (PartitionRun::scan_faces), before the frame is handed over; its error is the frame's.
+  using Tagger = std::function<Status(const std::vector<Triangle>&, std::vector<std::uint32_t>&)>;
   FrameReadAhead(format::RecordReader& reader, Tagger tag, bool ahead) : reader_(reader), tag_(std::move(tag)) {
     if (ahead) thread_ = std::thread([this] { run(); });
   }
@@ -731,8 +731,7 @@ class FrameReadAhead {
     frame.resize(got->size() / sizeof(Triangle));
     if (!got->empty()) std::memcpy(frame.data(), got->data(), got->size());
     tags.resize(frame.size());
-    tag_(frame, tags);
-    return {};
+    return tag_(frame, tags);
   }
   void run() {
     std::vector<Triangle> frame;
@@ -1398,31 +1397,32 @@ Status PartitionRun::scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of,
   const std::size_t bytes = window_bytes();
   FaceWindows windows{FileWindow(cache_->fd(owners_file_), bytes), std::nullopt};
   if (bitmap >= 0) windows.bitmap.emplace(cache_->fd(bitmap), bytes);
+  const std::string bitmap_path = bitmap >= 0 ? cache_->path(bitmap) : std::string();
   // Frames are read, decompressed and tagged one ahead on another thread: the scan's thread is
   // the partition's bottleneck, and the tags take its owner and bitmap lookups for most faces.
   // A window miss is a pread (a few µs); a face costs tens of ns. On badly ordered input the
   // windows would miss on most faces while the cache (memory / 2) may still hold the file.
   constexpr std::uint64_t kWindowMissFaces = 256;
   bool tagging = true;
-  FrameReadAhead ahead(**reader, [&](const std::vector<Triangle>& faces, std::vector<std::uint32_t>& tags) {
+  FrameReadAhead ahead(**reader, [&](const std::vector<Triangle>& faces, std::vector<std::uint32_t>& tags) -> Status {
     if (!tagging) {
       std::fill(tags.begin(), tags.end(), unknown);
-      return;
+      return {};
     }
     const std::uint64_t before = windows.owners.misses() + (windows.bitmap ? windows.bitmap->misses() : 0);
     for (std::size_t i = 0; i < faces.size(); ++i) tags[i] = tag_of(faces[i], windows);
     const std::uint64_t misses = windows.owners.misses() + (windows.bitmap ? windows.bitmap->misses() : 0) - before;
     if (misses * kWindowMissFaces > faces.size() + kWindowMissFaces) tagging = false;
+    if (!windows.owners.error().empty()) return Status::error(Code::kOutput, owners_path_, "read failed: " + windows.owners.error());
+    if (windows.bitmap && !windows.bitmap->error().empty())
+      return Status::error(Code::kOutput, bitmap_path, "read failed: " + windows.bitmap->error());
+    return {};
   }, options_.threads > 1);
   std::vector<Triangle> batch;
   std::vector<std::uint32_t> tags;
   std::uint64_t first = 0;
   for (;;) {
     GM_RETURN_IF_ERROR(ahead.next(batch, tags));
-    // Written before the frame was handed over (under the read-ahead's mutex).
-    if (!windows.owners.error().empty()) return Status::error(Code::kOutput, owners_path_, "read failed: " + windows.owners.error());
-    if (windows.bitmap && !windows.bitmap->error().empty())
-      return Status::error(Code::kOutput, cache_->path(bitmap), "read failed: " + windows.bitmap->error());
     if (batch.empty()) return {};
     for (std::size_t i = 0; i < batch.size(); ++i) {
       const Triangle& t = batch[i];
