@@ -1145,8 +1145,14 @@ class PartitionRun {
   // `unknown` is the tag that tells fn to look the face up itself: every later face gets it once
   // the windows miss more than once per 256 faces of a frame (badly ordered input, where the
   // cache may still hold what the small windows cannot).
+  // skip(frame) is asked once per frame, in order: true leaves the frame's faces out (fn is not
+  // called for them; an earlier scan has checked them).
+  template <class Tag, class Fn, class Stop, class Skip>
+  Status scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of, Fn&& fn, Stop&& stop, Skip&& skip);
   template <class Tag, class Fn, class Stop>
-  Status scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of, Fn&& fn, Stop&& stop);
+  Status scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of, Fn&& fn, Stop&& stop) {
+    return scan_faces(bitmap, unknown, tag_of, fn, stop, [](std::size_t) { return false; });
+  }
   std::size_t window_bytes() const;
   Status expand_rings();
   Status write_chunks();
@@ -1385,8 +1391,8 @@ std::size_t PartitionRun::window_bytes() const {
   return std::clamp<std::size_t>(options_.memory_bytes / 64, std::size_t{16} << 10, std::size_t{1} << 20);
 }
 
-template <class Tag, class Fn, class Stop>
-Status PartitionRun::scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of, Fn&& fn, Stop&& stop) {
+template <class Tag, class Fn, class Stop, class Skip>
+Status PartitionRun::scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of, Fn&& fn, Stop&& stop, Skip&& skip) {
   const std::uint64_t nv = out_.vertices;
   auto reader = format::RecordReader::open(faces_path_, kFaceSpillRecordKind, sizeof(Triangle));
   if (!reader) return reader.status();
@@ -1421,10 +1427,10 @@ Status PartitionRun::scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of,
   std::vector<Triangle> batch;
   std::vector<std::uint32_t> tags;
   std::uint64_t first = 0;
-  for (;;) {
+  for (std::size_t frame = 0;; ++frame) {
     GM_RETURN_IF_ERROR(ahead.next(batch, tags));
     if (batch.empty()) return {};
-    for (std::size_t i = 0; i < batch.size(); ++i) {
+    for (std::size_t i = 0, n = skip(frame) ? 0 : batch.size(); i < n; ++i) {
       const Triangle& t = batch[i];
       if (t.v[0] >= nv || t.v[1] >= nv || t.v[2] >= nv) {
         return Status::error(Code::kBadInput, faces_path_,
@@ -1582,6 +1588,13 @@ Status PartitionRun::write_chunks() {
 
   std::vector<std::unique_ptr<format::RecordWriter>> writers;
   std::vector<std::uint32_t> set;
+  // With several scans (more chunks than the staged frames allow: 100M under 16M, 8,103 chunks,
+  // six scans), the first records each face frame's lowest and highest chunk, and a later scan
+  // skips the frames that send nothing to its group: faces are in input order, chunks in Morton
+  // order, so on spatially ordered input a group's faces lie in a few runs of frames. 8 bytes a
+  // frame of ~87k faces.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> frame_chunks;
+  const bool several_scans = per_scan < chunks;
   for (std::uint32_t first = 0; first < chunks; first += static_cast<std::uint32_t>(per_scan)) {
     const std::uint32_t last = static_cast<std::uint32_t>(std::min<std::size_t>(first + per_scan, chunks));
     writers.clear();
@@ -1607,6 +1620,22 @@ Status PartitionRun::write_chunks() {
     // keep both cores busy, and tags (six window lookups a face) cost more than they save
     // (100M, perf: +1.8 s on the read-ahead thread for -0.9 s on this one).
     const bool rings = options_.rings > 1;
+    const bool record_frames = several_scans && first == 0;
+    std::size_t frame = 0;
+    auto skip_frame = [&](std::size_t k) {
+      frame = k;
+      if (record_frames) {
+        frame_chunks.emplace_back(~std::uint32_t{0}, 0);
+        return false;
+      }
+      return k < frame_chunks.size() && (frame_chunks[k].second < first || frame_chunks[k].first >= last);
+    };
+    auto went_to = [&](std::uint32_t lowest, std::uint32_t highest) {
+      if (!record_frames) return;
+      auto& [lo, hi] = frame_chunks[frame];
+      lo = std::min(lo, lowest);
+      hi = std::max(hi, highest);
+    };
     Status scanned = scan_faces(-1, 0, [](const Triangle&, FaceWindows&) { return 0u; }, [&](std::uint64_t f, const Triangle& t, std::uint32_t) {
       std::uint32_t owner[3];
       bool extras[3] = {false, false, false};
@@ -1626,6 +1655,7 @@ Status PartitionRun::write_chunks() {
       };
       // Most faces: one owner, no vertex in another chunk's rings.
       if (!extras[0] && !extras[1] && !extras[2] && owner[0] == owner[1] && owner[1] == owner[2]) {
+        went_to(owner[0], owner[0]);
         if (owner[0] >= first && owner[0] < last) emit_to(owner[0]);
         return;
       }
@@ -1635,9 +1665,10 @@ Status PartitionRun::write_chunks() {
       std::sort(set.begin(), set.end());
       set.erase(std::unique(set.begin(), set.end()), set.end());
       if (set.back() >= chunks) damaged = true;
+      went_to(set.front(), set.back());
       for (std::uint32_t c : set)
         if (c >= first && c < last) emit_to(c);
-    }, [&] { return output.failed(); });
+    }, [&] { return output.failed(); }, skip_frame);
     if (output.failed()) return output.finish();  // the writer's own error
     GM_RETURN_IF_ERROR(scanned);
     if (damaged) return Status::error(Code::kBadInput, out_.dir, "a temporary file names a chunk that does not exist (damaged)");
