@@ -535,14 +535,7 @@ const std::byte* RecordReader::fetch(std::uint64_t at, std::uint64_t size) {
   return buffer_.data();
 }
 
-Result<std::span<const std::byte>> RecordReader::next() {
-  if (next_frame_ >= frame_offsets_.size()) {
-    if (records_read_ != records_) {
-      return fail(data_end_, "seek table claims " + std::to_string(records_) + " records, frames hold " +
-                                 std::to_string(records_read_));
-    }
-    return std::span<const std::byte>();
-  }
+Result<RecordReader::FrameHeader> RecordReader::frame_header() {
   const std::uint64_t at = frame_offsets_[next_frame_];
   const std::uint64_t end = next_frame_ + 1 < frame_offsets_.size() ? frame_offsets_[next_frame_ + 1] : data_end_;
   auto frame = [&] { return "frame " + std::to_string(next_frame_) + ": "; };  // built only on failure
@@ -558,6 +551,21 @@ Result<std::span<const std::byte>> RecordReader::next() {
   if (plain == 0 || plain > kMaxRecordFrameBytes || plain % record_size_ != 0) {
     return fail(at + 4, frame() + "uncompressed size " + std::to_string(plain) + " is not a whole number of records within the limit");
   }
+  return FrameHeader{at, bytes, compressed, plain};
+}
+
+Result<std::span<const std::byte>> RecordReader::next() {
+  if (next_frame_ >= frame_offsets_.size()) {
+    if (records_read_ != records_) {
+      return fail(data_end_, "seek table claims " + std::to_string(records_) + " records, frames hold " +
+                                 std::to_string(records_read_));
+    }
+    return std::span<const std::byte>();
+  }
+  auto header = frame_header();
+  if (!header) return header.status();
+  const auto [at, bytes, compressed, plain] = *header;
+  auto frame = [&] { return "frame " + std::to_string(next_frame_) + ": "; };  // built only on failure
   plain_.resize(plain);
   std::vector<std::byte>& target = columns_.empty() ? plain_ : column_buffer_;
   target.resize(plain);
@@ -568,6 +576,15 @@ Result<std::span<const std::byte>> RecordReader::next() {
   ++next_frame_;
   records_read_ += plain / record_size_;
   return std::span<const std::byte>(plain_.data(), plain_.size());
+}
+
+Result<std::uint64_t> RecordReader::skip() {
+  if (next_frame_ >= frame_offsets_.size()) return std::uint64_t{0};
+  auto header = frame_header();
+  if (!header) return header.status();
+  ++next_frame_;
+  records_read_ += header->plain / record_size_;
+  return header->plain / record_size_;
 }
 
 }  // namespace gaussmesh::format

@@ -213,9 +213,19 @@ class RecordReader {
   // Decompresses the next frame's records into a reused buffer; an empty span at the end.
   // The span is valid until the next call.
   Result<std::span<const std::byte>> next();
+  // Passes over the next frame without decompressing it (its header and the seek table are
+  // checked, its checksum is not): how many records it holds, 0 at the end.
+  Result<std::uint64_t> skip();
 
  private:
+  struct FrameHeader {
+    std::uint64_t at;
+    const std::byte* bytes;  // the frame's bytes, header first (valid until the next fetch)
+    std::uint64_t compressed, plain;
+  };
   RecordReader() = default;
+  // The next frame's header, checked against the seek table and the limits.
+  Result<FrameHeader> frame_header();
   static Result<std::unique_ptr<RecordReader>> open_at(const std::string& path, std::uint32_t kind, std::uint32_t record_size,
                                                        const RecordSegment* segment);
   Status fail(std::uint64_t offset, const std::string& message) const;

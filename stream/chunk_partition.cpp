@@ -693,7 +693,11 @@ class FrameReadAhead {
   // tag(faces, tags) fills one tag per face of a frame, on the read-ahead thread when there is
   // one (PartitionRun::scan_faces), before the frame is handed over; its error is the frame's.
   using Tagger = std::function<Status(const std::vector<Triangle>&, std::vector<std::uint32_t>&)>;
-  FrameReadAhead(format::RecordReader& reader, Tagger tag, bool ahead) : reader_(reader), tag_(std::move(tag)) {
+  // skip(frame) true: the frame is passed over undecompressed (RecordReader::skip); called on
+  // the read-ahead thread, in frame order.
+  using Skip = std::function<bool(std::size_t)>;
+  FrameReadAhead(format::RecordReader& reader, Tagger tag, Skip skip, bool ahead)
+      : reader_(reader), tag_(std::move(tag)), skip_(std::move(skip)) {
     if (ahead) thread_ = std::thread([this] { run(); });
   }
   ~FrameReadAhead() {
@@ -707,13 +711,15 @@ class FrameReadAhead {
   }
   FrameReadAhead(const FrameReadAhead&) = delete;
   FrameReadAhead& operator=(const FrameReadAhead&) = delete;
-  // The next frame's faces and their tags into out (empty at the end), or the reader's error.
-  Status next(std::vector<Triangle>& out, std::vector<std::uint32_t>& tags) {
-    if (!thread_.joinable()) return read(out, tags);
+  // The next frame's faces and their tags into out, or, for a skipped frame, none and its
+  // record count in skipped; both empty at the end. Or the reader's error.
+  Status next(std::vector<Triangle>& out, std::vector<std::uint32_t>& tags, std::uint64_t& skipped) {
+    if (!thread_.joinable()) return read(out, tags, skipped);
     std::unique_lock lock(mutex_);
     changed_.wait(lock, [&] { return full_; });
     out.swap(ready_);
     tags.swap(ready_tags_);
+    skipped = ready_skipped_;
     Status status = status_;
     full_ = false;
     changed_.notify_all();
@@ -722,7 +728,15 @@ class FrameReadAhead {
 
  private:
   // Frames are all the same size but the last: resize keeps the buffer (and fills nothing).
-  Status read(std::vector<Triangle>& frame, std::vector<std::uint32_t>& tags) {
+  Status read(std::vector<Triangle>& frame, std::vector<std::uint32_t>& tags, std::uint64_t& skipped) {
+    skipped = 0;
+    if (skip_(frame_++)) {
+      auto passed = reader_.skip();
+      frame.clear();
+      if (!passed) return passed.status();
+      skipped = *passed;
+      return {};
+    }
     auto got = reader_.next();
     if (!got) {
       frame.clear();
@@ -737,13 +751,15 @@ class FrameReadAhead {
     std::vector<Triangle> frame;
     std::vector<std::uint32_t> tags;
     for (bool more = true; more;) {
-      Status status = read(frame, tags);
-      more = status.is_ok() && !frame.empty();
+      std::uint64_t skipped = 0;
+      Status status = read(frame, tags, skipped);
+      more = status.is_ok() && (!frame.empty() || skipped > 0);
       std::unique_lock lock(mutex_);
       changed_.wait(lock, [&] { return !full_ || stopping_; });
       if (stopping_) return;
       ready_.swap(frame);
       ready_tags_.swap(tags);
+      ready_skipped_ = skipped;
       status_ = status;
       full_ = true;
       changed_.notify_all();
@@ -752,6 +768,9 @@ class FrameReadAhead {
 
   format::RecordReader& reader_;
   Tagger tag_;
+  Skip skip_;
+  std::size_t frame_ = 0;  // the reading side's next frame
+  std::uint64_t ready_skipped_ = 0;
   std::mutex mutex_;
   std::condition_variable changed_;
   std::vector<Triangle> ready_;
@@ -1145,14 +1164,14 @@ class PartitionRun {
   // `unknown` is the tag that tells fn to look the face up itself: every later face gets it once
   // the windows miss more than once per 256 faces of a frame (badly ordered input, where the
   // cache may still hold what the small windows cannot).
-  // skip(frame) is asked once per frame, in order: true leaves the frame's faces out (fn is not
-  // called for them; an earlier scan has checked them).
-  template <class Tag, class Fn, class Stop, class Skip>
-  Status scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of, Fn&& fn, Stop&& stop, Skip&& skip);
+  // skip(frame), asked once per frame in order on the read-ahead thread (so it may read only
+  // what no one writes during the scan), true: the frame is passed over undecompressed and fn
+  // is not called for its faces (an earlier scan has checked them). begin(frame) is called on
+  // this thread before the faces of each frame that is not skipped.
   template <class Tag, class Fn, class Stop>
-  Status scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of, Fn&& fn, Stop&& stop) {
-    return scan_faces(bitmap, unknown, tag_of, fn, stop, [](std::size_t) { return false; });
-  }
+  Status scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of, Fn&& fn, Stop&& stop,
+                    FrameReadAhead::Skip skip = [](std::size_t) { return false; },
+                    const std::function<void(std::size_t)>& begin = [](std::size_t) {});
   std::size_t window_bytes() const;
   Status expand_rings();
   Status write_chunks();
@@ -1391,8 +1410,9 @@ std::size_t PartitionRun::window_bytes() const {
   return std::clamp<std::size_t>(options_.memory_bytes / 64, std::size_t{16} << 10, std::size_t{1} << 20);
 }
 
-template <class Tag, class Fn, class Stop, class Skip>
-Status PartitionRun::scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of, Fn&& fn, Stop&& stop, Skip&& skip) {
+template <class Tag, class Fn, class Stop>
+Status PartitionRun::scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of, Fn&& fn, Stop&& stop, FrameReadAhead::Skip skip,
+                                const std::function<void(std::size_t)>& begin) {
   const std::uint64_t nv = out_.vertices;
   auto reader = format::RecordReader::open(faces_path_, kFaceSpillRecordKind, sizeof(Triangle));
   if (!reader) return reader.status();
@@ -1423,14 +1443,23 @@ Status PartitionRun::scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of,
     if (windows.bitmap && !windows.bitmap->error().empty())
       return Status::error(Code::kOutput, bitmap_path, "read failed: " + windows.bitmap->error());
     return {};
-  }, options_.threads > 1);
+  }, std::move(skip), options_.threads > 1);
   std::vector<Triangle> batch;
   std::vector<std::uint32_t> tags;
   std::uint64_t first = 0;
   for (std::size_t frame = 0;; ++frame) {
-    GM_RETURN_IF_ERROR(ahead.next(batch, tags));
-    if (batch.empty()) return {};
-    for (std::size_t i = 0, n = skip(frame) ? 0 : batch.size(); i < n; ++i) {
+    std::uint64_t skipped = 0;
+    GM_RETURN_IF_ERROR(ahead.next(batch, tags, skipped));
+    if (batch.empty() && skipped == 0) {
+      if (first != out_.faces) return Status::error(Code::kBadInput, faces_path_, "holds fewer faces than ingest wrote (temporary file damaged)");
+      return {};
+    }
+    if (skipped > 0) {
+      first += skipped;
+      continue;
+    }
+    begin(frame);
+    for (std::size_t i = 0; i < batch.size(); ++i) {
       const Triangle& t = batch[i];
       if (t.v[0] >= nv || t.v[1] >= nv || t.v[2] >= nv) {
         return Status::error(Code::kBadInput, faces_path_,
@@ -1558,15 +1587,24 @@ Status PartitionRun::write_chunks() {
   const bool background = options_.threads > 1;
   const std::size_t workers = background ? options_.threads : 0;
   const std::size_t writer_budget = options_.memory_bytes / 8;
-  const std::size_t min_frame = std::size_t{64} * kChunkFaceRecordBytes;
-  std::size_t spare = background ? ChunkOutput::spare_frames(0) : 0;
-  std::size_t per_scan = std::max<std::size_t>(writer_budget / min_frame, spare + 1) - spare;
-  if (options_.max_open_chunks > 0) per_scan = std::min<std::size_t>(per_scan, options_.max_open_chunks);
-  per_scan = std::min<std::size_t>(per_scan, chunks);
-  if (background) {
-    spare = ChunkOutput::spare_frames(per_scan);
-    while (per_scan > 1 && (per_scan + spare) * min_frame > writer_budget) spare = ChunkOutput::spare_frames(--per_scan);
-  }
+  // Frames of at least 64 records when one scan holds every chunk. When it cannot, of at least
+  // 256: later scans pass over the frames of faces they do not need (frame_chunks below), so
+  // more, smaller groups cost little, and frames of 64 records (1.3 KB) made the 100M run under
+  // 16M compress and write 1.8M frames.
+  std::size_t min_frame = 0, spare = 0, per_scan = 0;
+  auto fit = [&](std::size_t records) {
+    min_frame = records * kChunkFaceRecordBytes;
+    spare = background ? ChunkOutput::spare_frames(0) : 0;
+    per_scan = std::max<std::size_t>(writer_budget / min_frame, spare + 1) - spare;
+    if (options_.max_open_chunks > 0) per_scan = std::min<std::size_t>(per_scan, options_.max_open_chunks);
+    per_scan = std::min<std::size_t>(per_scan, chunks);
+    if (background) {
+      spare = ChunkOutput::spare_frames(per_scan);
+      while (per_scan > 1 && (per_scan + spare) * min_frame > writer_budget) spare = ChunkOutput::spare_frames(--per_scan);
+    }
+  };
+  fit(64);
+  if (per_scan < chunks) fit(256);
   std::size_t frame_bytes = std::clamp(writer_budget / (per_scan + spare), min_frame, std::size_t{1} << 20);
   frame_bytes -= frame_bytes % kChunkFaceRecordBytes;
   // One zstd context per compression thread, shared by the writers that thread serves.
@@ -1622,13 +1660,13 @@ Status PartitionRun::write_chunks() {
     const bool rings = options_.rings > 1;
     const bool record_frames = several_scans && first == 0;
     std::size_t frame = 0;
-    auto skip_frame = [&](std::size_t k) {
-      frame = k;
-      if (record_frames) {
-        frame_chunks.emplace_back(~std::uint32_t{0}, 0);
-        return false;
-      }
+    auto skip_frame = [&frame_chunks, record_frames, first, last](std::size_t k) {
+      if (record_frames) return false;
       return k < frame_chunks.size() && (frame_chunks[k].second < first || frame_chunks[k].first >= last);
+    };
+    auto begin_frame = [&](std::size_t k) {
+      frame = k;
+      if (record_frames) frame_chunks.emplace_back(~std::uint32_t{0}, 0);
     };
     auto went_to = [&](std::uint32_t lowest, std::uint32_t highest) {
       if (!record_frames) return;
@@ -1668,7 +1706,7 @@ Status PartitionRun::write_chunks() {
       went_to(set.front(), set.back());
       for (std::uint32_t c : set)
         if (c >= first && c < last) emit_to(c);
-    }, [&] { return output.failed(); }, skip_frame);
+    }, [&] { return output.failed(); }, skip_frame, begin_frame);
     if (output.failed()) return output.finish();  // the writer's own error
     GM_RETURN_IF_ERROR(scanned);
     if (damaged) return Status::error(Code::kBadInput, out_.dir, "a temporary file names a chunk that does not exist (damaged)");

@@ -111,6 +111,57 @@ TEST(RecordFile, ManyWritersShareOneContextWithoutHoldingFiles) {
   }
 }
 
+TEST(RecordFile, SkippedFramesAreCountedNotDecompressed) {
+  // Ten frames of 100 records: skip, read, skip the rest; the records read are the right ones,
+  // each skip counts its frame, the end is 0 and an empty span, and a skipped frame whose header
+  // disagrees with the seek table is an error.
+  testing::ScratchDir dir;
+  const auto items = make_items(1000);
+  ASSERT_TRUE(write_items(dir.file("s.bin"), items, 100 * sizeof(Item)).is_ok());
+  auto reader = RecordReader::open(dir.file("s.bin"), 42, sizeof(Item));
+  ASSERT_TRUE(reader.is_ok()) << reader.status().to_string();
+  ASSERT_EQ((*reader)->frame_count(), 10u);
+  auto skipped = (*reader)->skip();
+  ASSERT_TRUE(skipped.is_ok()) << skipped.status().to_string();
+  EXPECT_EQ(*skipped, 100u);
+  auto frame = (*reader)->next();
+  ASSERT_TRUE(frame.is_ok()) << frame.status().to_string();
+  ASSERT_EQ(frame->size(), 100 * sizeof(Item));
+  EXPECT_EQ(std::memcmp(frame->data(), items.data() + 100, frame->size()), 0);
+  std::uint64_t rest = 0;
+  for (int k = 0; k < 8; ++k) {
+    auto more = (*reader)->skip();
+    ASSERT_TRUE(more.is_ok()) << more.status().to_string();
+    rest += *more;
+  }
+  EXPECT_EQ(rest, 800u);
+  auto end = (*reader)->skip();
+  ASSERT_TRUE(end.is_ok());
+  EXPECT_EQ(*end, 0u);
+  auto last = (*reader)->next();
+  ASSERT_TRUE(last.is_ok()) << last.status().to_string();  // every record accounted for
+  EXPECT_TRUE(last->empty());
+
+  // The first frame (after the 32-byte header) claiming 99 uncompressed bytes, not a whole
+  // number of records; then its compressed size one larger than the seek table allows.
+  const std::string bytes = testing::read_file(dir.file("s.bin"));
+  for (const auto& [at, value] : {std::pair<std::size_t, std::uint32_t>{36, 99}, std::pair<std::size_t, std::uint32_t>{32, 0}}) {
+    std::string damaged = bytes;
+    std::uint32_t field = value;
+    if (at == 32) {
+      std::memcpy(&field, damaged.data() + 32, 4);
+      ++field;
+    }
+    std::memcpy(damaged.data() + at, &field, 4);
+    testing::write_file(dir.file("d.bin"), damaged);
+    auto bad = RecordReader::open(dir.file("d.bin"), 42, sizeof(Item));
+    ASSERT_TRUE(bad.is_ok()) << bad.status().to_string();
+    auto refused = (*bad)->skip();
+    ASSERT_FALSE(refused.is_ok()) << "byte " << at;
+    EXPECT_EQ(refused.status().code(), Code::kBadInput) << refused.status().to_string();
+  }
+}
+
 TEST(RecordFile, ColumnFramesRoundTripSmallerAndSayTheirLayout) {
   // Ids in order as differences, positions and labels as bytes: the reader needs no layout of
   // its own (the header carries it), gets every record back, and the file is smaller than rows.
