@@ -1010,19 +1010,14 @@ std::vector<std::uint8_t> faces_the_mesher_skips(std::span<const format::Triangl
       skip[f] = 1;
       continue;
     }
-    // f's three vertices are distinct, so a neighbour is on the same vertex set exactly when it
-    // holds all three.
-    bool suspect = false;
-    for (int i = 0; i < 3 && !suspect; ++i) {
-      const std::uint32_t g = adjacency.edge_neighbor[3 * std::size_t{f} + i];
-      if (g == MeshAdjacency::kNoFace) {
-        suspect = true;
-        break;
-      }
-      const auto& u = tris[g].v;
-      auto holds = [&](std::uint32_t v) { return u[0] == v || u[1] == v || u[2] == v; };
-      suspect = holds(t.v[0]) && holds(t.v[1]) && holds(t.v[2]);
-    }
+    // f's three vertices are distinct, so a face g on the same vertex set holds all three of its
+    // edges: across each one g is the neighbour, or the edge is a break (g and f run it the same
+    // way, or a third face shares it). So f is suspect when an edge is a break or one face is
+    // across all three (and a face across all three holds all three vertices): the same faces
+    // as asking each neighbour whether it holds all three, without reading their corners.
+    const std::uint32_t* nb = adjacency.edge_neighbor.data() + 3 * std::size_t{f};
+    const bool suspect = nb[0] == MeshAdjacency::kNoFace || nb[1] == MeshAdjacency::kNoFace ||
+                         nb[2] == MeshAdjacency::kNoFace || (nb[0] == nb[1] && nb[1] == nb[2]);
     if (suspect) keys.emplace_back(sorted(f), f);
   }
   std::sort(keys.begin(), keys.end());
