@@ -1430,6 +1430,12 @@ Status PartitionRun::scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of,
   // windows would miss on most faces while the cache (memory / 2) may still hold the file.
   constexpr std::uint64_t kWindowMissFaces = 256;
   bool tagging = true;
+  std::atomic<bool> fell_back{false};
+  struct CountFallBack {  // destroyed after the read-ahead below (its thread joined)
+    std::atomic<bool>& fell_back;
+    std::uint32_t& count;
+    ~CountFallBack() { count += fell_back.load() ? 1 : 0; }
+  } count_fall_back{fell_back, out_.untagged_scans};
   FrameReadAhead ahead(**reader, [&](const std::vector<Triangle>& faces, std::vector<std::uint32_t>& tags) -> Status {
     if (!tagging) {
       std::fill(tags.begin(), tags.end(), unknown);
@@ -1438,7 +1444,10 @@ Status PartitionRun::scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of,
     const std::uint64_t before = windows.owners.misses() + (windows.bitmap ? windows.bitmap->misses() : 0);
     for (std::size_t i = 0; i < faces.size(); ++i) tags[i] = tag_of(faces[i], windows);
     const std::uint64_t misses = windows.owners.misses() + (windows.bitmap ? windows.bitmap->misses() : 0) - before;
-    if (misses * kWindowMissFaces > faces.size() + kWindowMissFaces) tagging = false;
+    if (misses * kWindowMissFaces > faces.size() + kWindowMissFaces) {
+      tagging = false;
+      fell_back = true;
+    }
     if (!windows.owners.error().empty()) return Status::error(Code::kOutput, owners_path_, "read failed: " + windows.owners.error());
     if (windows.bitmap && !windows.bitmap->error().empty())
       return Status::error(Code::kOutput, bitmap_path, "read failed: " + windows.bitmap->error());
@@ -1798,6 +1807,7 @@ Partition& Partition::operator=(Partition&& other) noexcept {
   chunks = std::move(other.chunks);
   bytes_spilled = other.bytes_spilled;
   cache_misses = other.cache_misses;
+  untagged_scans = other.untagged_scans;
   seconds_ingest = other.seconds_ingest;
   seconds_partition = other.seconds_partition;
   steps = other.steps;

@@ -144,7 +144,8 @@ std::vector<std::vector<std::uint64_t>> reference_chunks(const Mesh& mesh, const
 // Partitions mesh (written as PLY) and checks every chunk against the reference.
 // threads > 1 compresses on a second thread (the chunk size is max_chunk_faces either way).
 void check_exact(const Mesh& mesh, const std::string& name, std::uint64_t max_chunk_faces, std::uint32_t rings,
-                 std::size_t min_chunks, std::uint32_t max_open_chunks = 0, std::uint32_t threads = 1) {
+                 std::size_t min_chunks, std::uint32_t max_open_chunks = 0, std::uint32_t threads = 1,
+                 std::uint32_t* untagged_scans = nullptr) {
   const std::string tag = name + " rings " + std::to_string(rings) + " threads " + std::to_string(threads);
   testing::ScratchDir dir;
   const std::string input = dir.file("in.ply");
@@ -161,6 +162,7 @@ void check_exact(const Mesh& mesh, const std::string& name, std::uint64_t max_ch
   EXPECT_EQ(partition->vertices, mesh.positions.size()) << tag;
   EXPECT_EQ(partition->faces, mesh.triangles.size()) << tag;
   EXPECT_GE(partition->chunks.size(), min_chunks) << tag;
+  if (untagged_scans) *untagged_scans = partition->untagged_scans;
   const Loaded loaded = load_and_check(*partition, mesh, tag);
   const auto expected = reference_chunks(mesh, loaded.owner, partition->chunks.size(), rings);
   for (std::size_t c = 0; c < expected.size(); ++c) {
@@ -349,13 +351,21 @@ TEST(ChunkPartition, ScatteredIdsTakeTheSortAndGiveExactChunks) {
   std::mt19937 random(17);
   std::shuffle(slots.begin(), slots.end(), random);
   std::copy_n(slots.begin(), n, shuffled.begin());
+  // The ring rounds' tags read owners through a 512 KiB window here (32 MiB budget): the halves
+  // stay tagged, the shuffled ids (owners.bin 1.2 MB, read at random) switch the tags off, and
+  // the cache alone must give the same exact chunks.
   for (const auto& [ids, what] : {std::pair{halves, "sphere, two far halves"}, std::pair{shuffled, "sphere, ids shuffled"}}) {
     Mesh spread;
     spread.positions.resize(n + kGap);
     for (std::size_t k = 0; k < spread.positions.size(); ++k) spread.positions[k] = compact.positions[k % n];
     for (std::uint32_t v = 0; v < n; ++v) spread.positions[ids[v]] = compact.positions[v];
     for (const format::Triangle& t : compact.triangles) spread.triangles.push_back({{ids[t.v[0]], ids[t.v[1]], ids[t.v[2]]}});
-    check_exact(spread, what, 100, 3, 10);
+    for (std::uint32_t threads : {1u, 2u}) {
+      std::uint32_t untagged = 0;
+      check_exact(spread, what, 100, 3, 10, 0, threads, &untagged);
+      if (ids == halves) EXPECT_EQ(untagged, 0u) << what << " threads " << threads;
+      else EXPECT_GE(untagged, 1u) << what << " threads " << threads;
+    }
   }
 }
 
