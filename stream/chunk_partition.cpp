@@ -29,6 +29,7 @@
 #include <span>
 #include <system_error>
 #include <thread>
+#include <type_traits>
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -417,11 +418,11 @@ class CachedBitmap {
   int file_;
 };
 
-// A read-only, thread-private window on one of the cache's files (owners.bin, or a bitmap the
-// cache has flushed): direct-mapped 4 KiB blocks, a pread per miss, zeros past the end of the
-// file (blocks never written read as zeros, as in the cache). The scans' per-face tests run on
-// several threads through these (FaceTags), beside the single-threaded cache. A failed read is
-// sticky and reads as zeros; the scan checks failed() after each frame.
+// A read-only window on one of the cache's files (owners.bin, or a bitmap the cache has
+// flushed), for one thread: direct-mapped 4 KiB blocks, a pread per miss, zeros past the end of
+// the file (blocks never written read as zeros, as in the cache). The ring rounds' tags read
+// through these on the read-ahead thread, beside the single-threaded cache. A failed read reads
+// as zeros and keeps its error (error()), which the tagger returns after the frame.
 class FileWindow {
  public:
   static constexpr std::size_t kBlockBytes = 4096;
@@ -690,8 +691,9 @@ class FaceSpill {
 // `ahead` (a run of --threads 1 reads in the caller's thread).
 class FrameReadAhead {
  public:
-  // tag(faces, tags) fills one tag per face of a frame, on the read-ahead thread when there is
-  // one (PartitionRun::scan_faces), before the frame is handed over; its error is the frame's.
+  // tag(faces, tags), when set, fills one tag per face of a frame, on the read-ahead thread when
+  // there is one (PartitionRun::scan_faces), before the frame is handed over; its error is the
+  // frame's.
   using Tagger = std::function<Status(const std::vector<Triangle>&, std::vector<std::uint32_t>&)>;
   // skip(frame) true: the frame is passed over undecompressed (RecordReader::skip); called on
   // the read-ahead thread, in frame order.
@@ -744,6 +746,7 @@ class FrameReadAhead {
     }
     frame.resize(got->size() / sizeof(Triangle));
     if (!got->empty()) std::memcpy(frame.data(), got->data(), got->size());
+    if (!tag_) return {};
     tags.resize(frame.size());
     return tag_(frame, tags);
   }
@@ -1154,7 +1157,7 @@ class PartitionRun {
   Status ingest(const std::string& input_path, const format::ReadOptions& read);
   Status plan();
   // Calls fn(face id, triangle, tag) for every face in order, tag = tag_of(triangle, windows)
-  // computed first for each frame on the read-ahead thread (FaceWindows: owners.bin and, when
+  // (0 when tag_of is nullptr) computed first for each frame on the read-ahead thread (FaceWindows: owners.bin and, when
   // bitmap >= 0, that cache file, read through the windows; tag_of must not touch the cache).
   // After each frame, stops early when the cache or a window has failed or stop() says so.
   struct FaceWindows {
@@ -1420,49 +1423,46 @@ Status PartitionRun::scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of,
     return Status::error(Code::kBadInput, faces_path_, "holds " + std::to_string((*reader)->records()) + " faces, ingest wrote " +
                                                           std::to_string(out_.faces) + " (temporary file damaged)");
   }
-  const std::size_t bytes = window_bytes();
+  // tag_of == nullptr: no tags, no windows; fn gets 0.
+  constexpr bool kTags = !std::is_same_v<std::decay_t<Tag>, std::nullptr_t>;
+  const std::size_t bytes = kTags ? window_bytes() : FileWindow::kBlockBytes;
   FaceWindows windows{FileWindow(cache_->fd(owners_file_), bytes), std::nullopt};
-  if (bitmap >= 0) windows.bitmap.emplace(cache_->fd(bitmap), bytes);
+  if (kTags && bitmap >= 0) windows.bitmap.emplace(cache_->fd(bitmap), bytes);
   const std::string bitmap_path = bitmap >= 0 ? cache_->path(bitmap) : std::string();
   // Frames are read, decompressed and tagged one ahead on another thread: the scan's thread is
   // the partition's bottleneck, and the tags take its owner and bitmap lookups for most faces.
   // A window miss is a pread (a few µs); a face costs tens of ns. On badly ordered input the
   // windows would miss on most faces while the cache (memory / 2) may still hold the file.
   constexpr std::uint64_t kWindowMissFaces = 256;
-  bool tagging = true;
-  std::atomic<bool> fell_back{false};
-  struct CountFallBack {  // destroyed after the read-ahead below (its thread joined)
-    std::atomic<bool>& fell_back;
+  bool fell_back = false;  // written by the tagger only; read once its thread is joined
+  struct CountFallBack {   // destroyed after the read-ahead below
+    const bool& fell_back;
     std::uint32_t& count;
-    ~CountFallBack() { count += fell_back.load() ? 1 : 0; }
+    ~CountFallBack() { count += fell_back ? 1 : 0; }
   } count_fall_back{fell_back, out_.untagged_scans};
-  FrameReadAhead ahead(**reader, [&](const std::vector<Triangle>& faces, std::vector<std::uint32_t>& tags) -> Status {
-    if (!tagging) {
+  FrameReadAhead::Tagger tagger;
+  if constexpr (kTags) tagger = [&](const std::vector<Triangle>& faces, std::vector<std::uint32_t>& tags) -> Status {
+    if (fell_back) {
       std::fill(tags.begin(), tags.end(), unknown);
       return {};
     }
     const std::uint64_t before = windows.owners.misses() + (windows.bitmap ? windows.bitmap->misses() : 0);
     for (std::size_t i = 0; i < faces.size(); ++i) tags[i] = tag_of(faces[i], windows);
     const std::uint64_t misses = windows.owners.misses() + (windows.bitmap ? windows.bitmap->misses() : 0) - before;
-    if (misses * kWindowMissFaces > faces.size() + kWindowMissFaces) {
-      tagging = false;
-      fell_back = true;
-    }
+    if (misses * kWindowMissFaces > faces.size() + kWindowMissFaces) fell_back = true;
     if (!windows.owners.error().empty()) return Status::error(Code::kOutput, owners_path_, "read failed: " + windows.owners.error());
     if (windows.bitmap && !windows.bitmap->error().empty())
       return Status::error(Code::kOutput, bitmap_path, "read failed: " + windows.bitmap->error());
     return {};
-  }, std::move(skip), options_.threads > 1);
+  };
+  FrameReadAhead ahead(**reader, std::move(tagger), std::move(skip), options_.threads > 1);
   std::vector<Triangle> batch;
   std::vector<std::uint32_t> tags;
   std::uint64_t first = 0;
   for (std::size_t frame = 0;; ++frame) {
     std::uint64_t skipped = 0;
     GM_RETURN_IF_ERROR(ahead.next(batch, tags, skipped));
-    if (batch.empty() && skipped == 0) {
-      if (first != out_.faces) return Status::error(Code::kBadInput, faces_path_, "holds fewer faces than ingest wrote (temporary file damaged)");
-      return {};
-    }
+    if (batch.empty() && skipped == 0) return {};
     if (skipped > 0) {
       first += skipped;
       continue;
@@ -1474,7 +1474,7 @@ Status PartitionRun::scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of,
         return Status::error(Code::kBadInput, faces_path_,
                              "face " + std::to_string(first + i) + " refers to a vertex out of range (temporary file damaged)");
       }
-      fn(first + i, t, tags[i]);
+      fn(first + i, t, kTags ? tags[i] : 0u);
     }
     first += batch.size();
     if (options_.progress) options_.progress(scan_pass_, first, out_.faces);
@@ -1683,7 +1683,7 @@ Status PartitionRun::write_chunks() {
       lo = std::min(lo, lowest);
       hi = std::max(hi, highest);
     };
-    Status scanned = scan_faces(-1, 0, [](const Triangle&, FaceWindows&) { return 0u; }, [&](std::uint64_t f, const Triangle& t, std::uint32_t) {
+    Status scanned = scan_faces(-1, 0, nullptr, [&](std::uint64_t f, const Triangle& t, std::uint32_t) {
       std::uint32_t owner[3];
       bool extras[3] = {false, false, false};
       for (int j = 0; j < 3; ++j) owner[j] = owners_->get(t.v[j]);
