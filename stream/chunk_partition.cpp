@@ -1425,9 +1425,11 @@ Status PartitionRun::scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of,
   }
   // tag_of == nullptr: no tags, no windows; fn gets 0.
   constexpr bool kTags = !std::is_same_v<std::decay_t<Tag>, std::nullptr_t>;
-  const std::size_t bytes = kTags ? window_bytes() : FileWindow::kBlockBytes;
-  FaceWindows windows{FileWindow(cache_->fd(owners_file_), bytes), std::nullopt};
-  if (kTags && bitmap >= 0) windows.bitmap.emplace(cache_->fd(bitmap), bytes);
+  std::optional<FaceWindows> tag_windows;
+  if constexpr (kTags) {
+    tag_windows.emplace(FaceWindows{FileWindow(cache_->fd(owners_file_), window_bytes()), std::nullopt});
+    if (bitmap >= 0) tag_windows->bitmap.emplace(cache_->fd(bitmap), window_bytes());
+  }
   const std::string bitmap_path = bitmap >= 0 ? cache_->path(bitmap) : std::string();
   // Frames are read, decompressed and tagged one ahead on another thread: the scan's thread is
   // the partition's bottleneck, and the tags take its owner and bitmap lookups for most faces.
@@ -1442,6 +1444,7 @@ Status PartitionRun::scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of,
   } count_fall_back{fell_back, out_.untagged_scans};
   FrameReadAhead::Tagger tagger;
   if constexpr (kTags) tagger = [&](const std::vector<Triangle>& faces, std::vector<std::uint32_t>& tags) -> Status {
+    FaceWindows& windows = *tag_windows;
     if (fell_back) {
       std::fill(tags.begin(), tags.end(), unknown);
       return {};
