@@ -1433,26 +1433,42 @@ Status PartitionRun::scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of,
   const std::string bitmap_path = bitmap >= 0 ? cache_->path(bitmap) : std::string();
   // Frames are read, decompressed and tagged one ahead on another thread: the scan's thread is
   // the partition's bottleneck, and the tags take its owner and bitmap lookups for most faces.
-  // A window miss is a pread (a few µs); a face costs tens of ns. On badly ordered input the
-  // windows would miss on most faces while the cache (memory / 2) may still hold the file.
-  constexpr std::uint64_t kWindowMissFaces = 256;
-  bool fell_back = false;  // written by the tagger only; read once its thread is joined
-  struct CountFallBack {   // destroyed after the read-ahead below
-    const bool& fell_back;
-    std::uint32_t& count;
-    ~CountFallBack() { count += fell_back ? 1 : 0; }
-  } count_fall_back{fell_back, out_.untagged_scans};
+  // A window miss is a pread (a few µs); a face costs tens of ns. A frame may miss about once per
+  // 256 faces; past that, the rest of the frame goes untagged (the scan's thread looks through the
+  // cache, which may still hold the file) and so do the next 1, 2, 4 ... 64 frames, doubling while
+  // frames keep missing. Disorder is often local (a stretch of the input that jumps about the
+  // ids: at 100M one frame in 42 did), and a switch that stayed off for the rest of the scan
+  // left the scan's thread every lookup of the round; on ids shuffled throughout, the windows
+  // are read for one frame in 64.
+  constexpr std::uint64_t kWindowMissFaces = 256, kTagSlice = 1024, kMaxBackOff = 64;
+  std::uint64_t untagged = 0, back_off = 0, pass_over = 0;  // the tagger's; read once its thread is joined
+  struct CountUntagged {  // destroyed after the read-ahead below
+    const std::uint64_t& frames;
+    std::uint64_t& count;
+    ~CountUntagged() { count += frames; }
+  } count_untagged{untagged, out_.untagged_frames};
   FrameReadAhead::Tagger tagger;
   if constexpr (kTags) tagger = [&](const std::vector<Triangle>& faces, std::vector<std::uint32_t>& tags) -> Status {
     FaceWindows& windows = *tag_windows;
-    if (fell_back) {
-      std::fill(tags.begin(), tags.end(), unknown);
-      return {};
+    auto misses = [&] { return windows.owners.misses() + (windows.bitmap ? windows.bitmap->misses() : 0); };
+    std::size_t tagged = 0;
+    if (pass_over > 0) {
+      --pass_over;
+    } else {
+      const std::uint64_t before = misses();
+      bool missing = false;
+      while (tagged < faces.size() && !missing) {
+        const std::size_t end = std::min(faces.size(), tagged + kTagSlice);
+        for (; tagged < end; ++tagged) tags[tagged] = tag_of(faces[tagged], windows);
+        missing = (misses() - before) * kWindowMissFaces > tagged + kWindowMissFaces;
+      }
+      back_off = missing ? std::clamp<std::uint64_t>(2 * back_off, 1, kMaxBackOff) : 0;
+      pass_over = back_off;
     }
-    const std::uint64_t before = windows.owners.misses() + (windows.bitmap ? windows.bitmap->misses() : 0);
-    for (std::size_t i = 0; i < faces.size(); ++i) tags[i] = tag_of(faces[i], windows);
-    const std::uint64_t misses = windows.owners.misses() + (windows.bitmap ? windows.bitmap->misses() : 0) - before;
-    if (misses * kWindowMissFaces > faces.size() + kWindowMissFaces) fell_back = true;
+    if (tagged < faces.size()) {
+      ++untagged;
+      std::fill(tags.begin() + static_cast<std::ptrdiff_t>(tagged), tags.end(), unknown);
+    }
     if (!windows.owners.error().empty()) return Status::error(Code::kOutput, owners_path_, "read failed: " + windows.owners.error());
     if (windows.bitmap && !windows.bitmap->error().empty())
       return Status::error(Code::kOutput, bitmap_path, "read failed: " + windows.bitmap->error());
@@ -1810,7 +1826,7 @@ Partition& Partition::operator=(Partition&& other) noexcept {
   chunks = std::move(other.chunks);
   bytes_spilled = other.bytes_spilled;
   cache_misses = other.cache_misses;
-  untagged_scans = other.untagged_scans;
+  untagged_frames = other.untagged_frames;
   seconds_ingest = other.seconds_ingest;
   seconds_partition = other.seconds_partition;
   steps = other.steps;
