@@ -177,6 +177,7 @@ int run_sample_out_of_core(const SampleCommandOptions& o, const std::vector<stre
     j["seconds"] = {{"ingest", sampled->seconds_ingest},
                     {"partition", sampled->seconds_partition},
                     {"sample", sampled->seconds_sample},
+                    {"cleanup", sampled->seconds_cleanup},
                     {"write", secs(t1, t2)},
                     {"total", secs(t0, t2)}};
     j["partition_seconds"] = partition_seconds(sampled->partition_steps);

@@ -146,6 +146,7 @@ int run_simplify_out_of_core(const SimplifyArgs& args, OutputKind kind, const st
                          {"sample", result->seconds_sample},
                          {"stitch", result->seconds_stitch},
                          {"mesh", result->seconds_mesh},
+                         {"cleanup", result->seconds_cleanup},
                          {"write", seconds_write},
                          {"total", seconds_since(started)}};
     report["partition_seconds"] = partition_seconds(result->partition_steps);

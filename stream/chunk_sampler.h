@@ -146,6 +146,7 @@ struct OutOfCoreSampling {
   std::size_t chunks = 0;
   std::uint64_t bytes_spilled = 0;
   double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0;
+  double seconds_cleanup = 0;  // removing the temporary directory (the file system's writeback can stall it)
   PartitionSteps partition_steps;  // seconds_partition by step
   // The process's peak RSS when passes 0-1 had finished (getrusage), to tell which pass peaks.
   std::uint64_t peak_rss_after_partition = 0;

@@ -920,14 +920,16 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     meshed = mesh_patch_loops(std::move(*regraph));
     if (!meshed) return meshed.status();
   }
+  out.seconds_mesh = seconds_since(start);
+  start = std::chrono::steady_clock::now();
   partition->remove_temp();
+  out.seconds_cleanup = seconds_since(start);
   out.mesh = std::move(meshed->mesh.mesh);
   out.birth = std::move(meshed->mesh.birth);
   out.polygon = meshed->stats;
   out.rotation = gauss.options().rotation;
   out.gauss_vertices = gauss.vertex_count();
   out.gauss_triangles = gauss.triangle_count();
-  out.seconds_mesh = seconds_since(start);
   return out;
 }
 

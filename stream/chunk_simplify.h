@@ -159,6 +159,7 @@ struct OutOfCoreSimplify {
   std::size_t loop_chunks = 0;
   std::uint64_t loop_faces = 0;
   double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0, seconds_stitch = 0, seconds_mesh = 0;
+  double seconds_cleanup = 0;  // removing the temporary directory (the file system's writeback can stall it)
   PartitionSteps partition_steps;  // seconds_partition by step
   // seconds_stitch by step: joining the pieces across chunks, the untriangulatable merge, pass C
   // (loops under the merged patches, on the chunks' threads), the loop stitch.
