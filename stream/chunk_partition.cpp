@@ -1176,9 +1176,9 @@ class PartitionRun {
     FileWindow owners;
     std::optional<FileWindow> bitmap;
   };
-  // `unknown` is the tag that tells fn to look the face up itself: every later face gets it once
-  // the windows miss more than once per 256 faces of a frame (badly ordered input, where the
-  // cache may still hold what the small windows cannot).
+  // `unknown` is the tag that tells fn to look the face up itself: the faces of frames whose
+  // windows miss more than once per 256 faces get it (badly ordered input, where the cache may
+  // still hold what the small windows cannot; see the tagger).
   // skip(frame), asked once per frame in order on the read-ahead thread (so it may read only
   // what no one writes during the scan), true: the frame is passed over undecompressed and fn
   // is not called for its faces (an earlier scan has checked them). begin(frame) is called on
@@ -1673,6 +1673,7 @@ Status PartitionRun::write_chunks() {
   // frame of ~87k faces.
   std::vector<std::pair<std::uint32_t, std::uint32_t>> frame_chunks;
   const bool several_scans = per_scan < chunks;
+  if (options_.rings > 1) cache_->flush(has_extras_->file());  // the tags read it through a window
   for (std::uint32_t first = 0; first < chunks; first += static_cast<std::uint32_t>(per_scan)) {
     const std::uint32_t last = static_cast<std::uint32_t>(std::min<std::size_t>(first + per_scan, chunks));
     writers.clear();
@@ -1694,10 +1695,17 @@ Status PartitionRun::write_chunks() {
       ++info.faces;
       info.owned_faces += (flags & kOwnsFace) != 0;
     };
-    // No tags here: this scan's thread, its two compression threads and the read-ahead already
-    // keep both cores busy, and tags (six window lookups a face) cost more than they save
-    // (100M, perf: +1.8 s on the read-ahead thread for -0.9 s on this one).
+    // Tags: chunk + 1 for a face whose corners one chunk owns and no other chunk's rings hold (at
+    // 100M, 9 faces in 10), which goes to that chunk alone and needs no lookup here; 0 for the
+    // others and for untagged frames. The read-ahead thread reads the three owners and the three
+    // has-extras bits through its windows.
     const bool rings = options_.rings > 1;
+    auto tag_of = [&](const Triangle& t, FaceWindows& w) -> std::uint32_t {
+      const std::uint32_t o = w.owners.u32(t.v[0]);
+      if (w.owners.u32(t.v[1]) != o || w.owners.u32(t.v[2]) != o || o >= chunks) return 0;
+      if (rings && (w.bitmap->bit(t.v[0]) || w.bitmap->bit(t.v[1]) || w.bitmap->bit(t.v[2]))) return 0;
+      return o + 1;
+    };
     const bool record_frames = several_scans && first == 0;
     std::size_t frame = 0;
     auto skip_frame = [&frame_chunks, record_frames, first, last](std::size_t k) {
@@ -1714,7 +1722,13 @@ Status PartitionRun::write_chunks() {
       lo = std::min(lo, lowest);
       hi = std::max(hi, highest);
     };
-    Status scanned = scan_faces(-1, 0, nullptr, [&](std::uint64_t f, const Triangle& t, std::uint32_t) {
+    Status scanned = scan_faces(rings ? has_extras_->file() : -1, 0, tag_of, [&](std::uint64_t f, const Triangle& t, std::uint32_t tag) {
+      if (tag != 0) {
+        const std::uint32_t c = tag - 1;
+        went_to(c, c);
+        if (c >= first && c < last) emit(f, t, c, static_cast<std::uint8_t>(7 | kOwnsFace));
+        return;
+      }
       std::uint32_t owner[3];
       bool extras[3] = {false, false, false};
       for (int j = 0; j < 3; ++j) owner[j] = owners_->get(t.v[j]);

@@ -374,8 +374,9 @@ TEST(ChunkPartition, LocalDisorderLeavesTheOtherFramesTagged) {
   // and for a few frames after it, not for the rest of the scan. A torus of ~440k faces is five
   // face-spill frames (87,381 faces of 12 bytes each); 5,000 faces from all over it, moved into
   // the middle of the second frame, reference ids across the whole of owners.bin (880 KB,
-  // read through a 512 KiB window at a 32 MiB budget). Round 1 leaves that frame partly untagged
-  // and passes over the third; the fourth and fifth are tagged again. Round 2 reads the frontier
+  // read through a 512 KiB window at a 32 MiB budget). Round 1 and the final scan each leave
+  // that frame partly untagged and pass over the third; the fourth and fifth are tagged again
+  // (a switch that stayed off would leave four frames in each). Round 2 reads only the frontier
   // bitmap (27 KB) and misses nowhere. The chunks stay exact either way.
   testing::ShapeOptions o;
   o.vertices = 215000;
@@ -401,8 +402,8 @@ TEST(ChunkPartition, LocalDisorderLeavesTheOtherFramesTagged) {
   }
   std::uint64_t untagged = 0;
   check_exact(moved, "torus, a stretch of faces from all over", 20000, 3, 10, 0, 2, &untagged);
-  EXPECT_GE(untagged, 1u);
-  EXPECT_LE(untagged, 2u);
+  EXPECT_GE(untagged, 2u);
+  EXPECT_LE(untagged, 4u);
 }
 
 TEST(ChunkPartition, DenseCellsAreSplitAndChunksStayBounded) {
