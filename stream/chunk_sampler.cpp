@@ -181,7 +181,7 @@ format::Status check_out_of_core_options(const char* command, const SamplerOptio
 }
 
 std::uint64_t pass_two_chunk_faces(std::uint64_t memory_bytes, std::uint32_t threads) {
-  constexpr std::uint64_t kReserve = std::uint64_t{20} << 20, kBytesPerFace = 256;
+  constexpr std::uint64_t kReserve = std::uint64_t{20} << 20, kBytesPerFace = 192;
   const std::uint64_t budget = memory_bytes > 2 * kReserve ? memory_bytes - kReserve : memory_bytes / 2;
   return std::max<std::uint64_t>(budget / std::max<std::uint32_t>(threads, 1) / kBytesPerFace, 1024);
 }

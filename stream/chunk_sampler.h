@@ -61,8 +61,11 @@ format::Status sample_chunk(const ChunkMesh& chunk, const GaussSphere& gauss, co
 // Chunk size for pass 2 from the memory budget: pass 2 holds, per thread in flight, the decoded
 // chunk (~100 B per face while loading) and the sampler's arrays, which keep the capacity of the
 // largest chunk seen (~95 B per face: adjacency 32, normals/areas/smoothing 29, labels and
-// features 5, mesh 30): ~256 B per face with slack; the process itself (binary, TBB, reader
-// window, samples) takes ~20 MiB.
+// features 5, mesh 30); measured, ~130 B per face (1M refined cow under 64M: two chunks of
+// ~100k faces in flight, 26 MB over the process's own), so 192 B per face leaves ~1.5x slack
+// for the average chunk and ~1.2x for the largest (1.23 targets at 100M). The process itself
+// (binary, TBB, reader window, samples) takes ~20 MiB. (256 B per face until session 11: at 100M under
+// 64M, 1,474 chunks instead of 1,106 and 21.3M loop faces in pass C instead of 19.6M.)
 std::uint64_t pass_two_chunk_faces(std::uint64_t memory_bytes, std::uint32_t threads);
 
 // Loads every chunk of `partition`, `threads` at a time (a oneTBB task arena), and calls
