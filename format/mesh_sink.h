@@ -17,6 +17,19 @@ struct MeshHeader {
   // none (OBJ, ascii STL). Untrusted: a sink must never size an allocation by them alone.
   std::optional<std::uint64_t> declared_vertices;
   std::optional<std::uint64_t> declared_faces;  // polygons, before fan triangulation
+  // Where the delivered positions lie in the input, for a sink that would rather read them back
+  // than keep a copy (the out-of-core partition): set when the input's vertices are fixed-size
+  // records of little-endian float32 x, y, z at the start of its body (binary little-endian PLY
+  // whose first element is the vertex element, on a little-endian machine). Vertex v's x, y, z
+  // are the four bytes at first_byte + v * stride + xyz[axis], bit for bit the values the reader
+  // delivers, for v below declared_vertices. Only meaningful when the input is a file the sink
+  // can open again by its name (not standard input).
+  struct RawVertices {
+    std::uint64_t first_byte = 0;
+    std::uint32_t stride = 0;
+    std::uint32_t xyz[3] = {0, 0, 0};
+  };
+  std::optional<RawVertices> raw_vertices;
 };
 
 // Contract a reader keeps:

@@ -179,6 +179,7 @@ class PlyReader {
     mesh_header.declared_vertices = header_.elements[header_.vertex_element].count;
     mesh_header.declared_faces =
         header_.face_element == SIZE_MAX ? 0 : header_.elements[header_.face_element].count;
+    mesh_header.raw_vertices = raw_vertices();
     GM_RETURN_IF_ERROR(sink_.on_header(mesh_header));
     vertex_limit_ = header_.elements[header_.vertex_element].count;
     vertices_.resize(batch_size_);
@@ -450,6 +451,26 @@ class PlyReader {
       return {};
     }
     return read_general_records<kSwap>(element, e);
+  }
+
+  // MeshHeader::raw_vertices: float32 x, y, z in fixed-size little-endian records of the first
+  // element, read as they are (read_fixed_vertices' all_float path on a little-endian machine).
+  std::optional<MeshHeader::RawVertices> raw_vertices() const {
+    const Element& element = header_.elements[header_.vertex_element];
+    if (header_.encoding != Encoding::kBinaryLittle || std::endian::native != std::endian::little ||
+        header_.vertex_element != 0 || element.fixed_size == 0 || element.fixed_size > UINT32_MAX) {
+      return std::nullopt;
+    }
+    MeshHeader::RawVertices raw;
+    raw.first_byte = source_.offset();
+    raw.stride = static_cast<std::uint32_t>(element.fixed_size);
+    for (int axis = 0; axis < 3; ++axis) {
+      if (element.properties[header_.xyz[axis]].type != Scalar::kFloat32) return std::nullopt;
+      std::size_t at = 0;
+      for (std::size_t p = 0; p < header_.xyz[axis]; ++p) at += scalar_size(element.properties[p].type);
+      raw.xyz[axis] = static_cast<std::uint32_t>(at);
+    }
+    return raw;
   }
 
   // Vertex element of scalar properties only: records parsed straight from the window.

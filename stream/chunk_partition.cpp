@@ -892,13 +892,18 @@ class SpillThread {
 // the reader's thread: two threads copy into the page cache at once, each into its own file.
 class IngestSink final : public format::MeshSink {
  public:
+  // input_is_file: the input can be opened again by name, so its own vertex records (when the
+  // reader says where they are) stand in for the position files.
   IngestSink(SpillThread& spills, SpillWriter& positions_here,
-             const std::function<void(const char*, std::uint64_t, std::uint64_t)>& progress)
-      : spills_(spills), positions_here_(positions_here), progress_(progress) {}
+             const std::function<void(const char*, std::uint64_t, std::uint64_t)>& progress, bool input_is_file)
+      : spills_(spills), positions_here_(positions_here), progress_(progress), input_is_file_(input_is_file) {}
   Status on_header(const format::MeshHeader& header) override {
     declared_faces_ = header.declared_faces.value_or(0);
+    if (input_is_file_) raw_vertices_ = header.raw_vertices;
     return {};
   }
+  // Where the input holds the positions, when no copy is written.
+  const std::optional<format::MeshHeader::RawVertices>& raw_vertices() const { return raw_vertices_; }
   Status on_vertices(std::span<const Vec3f> batch) override {
     if (vertices_ + batch.size() > format::kMaxVertices) {
       return Status::error(Code::kResources, "", "more than " + std::to_string(format::kMaxVertices) +
@@ -911,6 +916,10 @@ class IngestSink final : public format::MeshSink {
         lo_[a] = std::min(lo_[a], c[a]);
         hi_[a] = std::max(hi_[a], c[a]);
       }
+    }
+    if (raw_vertices_) {
+      vertices_ += batch.size();
+      return {};
     }
     while (!batch.empty()) {
       const auto v = static_cast<std::uint32_t>(vertices_);  // below kMaxVertices (checked above)
@@ -944,20 +953,79 @@ class IngestSink final : public format::MeshSink {
  private:
   SpillThread& spills_;
   SpillWriter& positions_here_;
+  const std::function<void(const char*, std::uint64_t, std::uint64_t)>& progress_;
+  const bool input_is_file_;
+  std::optional<format::MeshHeader::RawVertices> raw_vertices_;
   std::uint64_t vertices_ = 0, faces_count_ = 0;
   std::uint64_t declared_faces_ = 0;  // the header's count (polygons): untrusted, for progress only
-  const std::function<void(const char*, std::uint64_t, std::uint64_t)>& progress_;
   float lo_[3] = {INFINITY, INFINITY, INFINITY}, hi_[3] = {-INFINITY, -INFINITY, -INFINITY};
 };
 
 // ---- Sequential scans ----------------------------------------------------------------------------
 
 // Reads the positions of vertices 0 .. expected - 1 in order, a stripe (768 KiB) at a time
-// from the two position files: fn(first_index, span). (A larger buffer, once freed, raises
+// from the two position files, or from the input's records (VertexFiles::input): fn(first_index,
+// span). (A larger buffer, once freed, raises
 // glibc's mmap threshold, and later buffers of that size come from the heap and stay resident:
 // 4 MiB here raised the 10M run's peak by 2.6 MB.)
+std::int64_t modified_ns(const struct stat& st) {
+  return static_cast<std::int64_t>(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec;
+}
+
+// Opens the input to read its vertex records back; kBadInput when it is gone, or its size or
+// modification time is not what the ingest saw.
+Result<int> open_input_positions(const VertexFiles::InputPositions& in) {
+  const int fd = ::open(in.path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return Status::error(Code::kBadInput, in.path, "cannot open the input again to read its positions: " + errno_text());
+  struct stat st{};
+  if (::fstat(fd, &st) != 0 || static_cast<std::uint64_t>(st.st_size) != in.size || modified_ns(st) != in.modified_ns) {
+    ::close(fd);
+    return Status::error(Code::kBadInput, in.path, "the input changed during the run");
+  }
+  return fd;
+}
+
+// A position from one of the input's vertex records.
+Vec3f input_position(const VertexFiles::InputPositions& in, const std::byte* record) {
+  float c[3];
+  for (int a = 0; a < 3; ++a) std::memcpy(&c[a], record + in.xyz[a], 4);
+  return {c[0], c[1], c[2]};
+}
+
+// scan_positions from the input's own records: batches of at most 768 KiB of records.
+template <class Fn>
+Status scan_input_positions(const VertexFiles::InputPositions& in, std::uint64_t expected, Fn&& fn) {
+  auto opened = open_input_positions(in);
+  if (!opened) return opened.status();
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{*opened};
+  // Records of x, y, z alone are read straight into the positions.
+  const bool bare = in.stride == sizeof(Vec3f) && in.xyz[0] == 0 && in.xyz[1] == 4 && in.xyz[2] == 8;
+  const std::size_t per_batch = std::max<std::size_t>(kPositionStripeVertices * sizeof(Vec3f) / in.stride, 1);
+  std::unique_ptr<std::byte[]> records(bare ? nullptr : new std::byte[per_batch * in.stride]);
+  std::unique_ptr<Vec3f[]> buffer(new Vec3f[per_batch]);
+  for (std::uint64_t done = 0; done < expected;) {
+    const std::size_t want = static_cast<std::size_t>(std::min<std::uint64_t>(per_batch, expected - done));
+    const std::uint64_t offset = in.first_byte + done * in.stride;
+    void* target = bare ? static_cast<void*>(buffer.get()) : static_cast<void*>(records.get());
+    const std::int64_t got = read_some(*opened, target, want * in.stride, offset);
+    if (got != static_cast<std::int64_t>(want * in.stride)) {
+      return Status::error(Code::kBadInput, in.path + ": byte " + std::to_string(offset),
+                           got < 0 ? "read failed: " + errno_text() : "the input changed during the run");
+    }
+    if (!bare)
+      for (std::size_t i = 0; i < want; ++i) buffer[i] = input_position(in, records.get() + i * in.stride);
+    GM_RETURN_IF_ERROR(fn(done, std::span<const Vec3f>(buffer.get(), want)));
+    done += want;
+  }
+  return {};
+}
+
 template <class Fn>
 Status scan_positions(const VertexFiles& files, std::uint64_t expected, Fn&& fn) {
+  if (files.input) return scan_input_positions(*files.input, expected, fn);
   int fds[kPositionFiles];
   for (std::uint32_t i = 0; i < kPositionFiles; ++i) fds[i] = -1;
   struct Closer {
@@ -1231,7 +1299,9 @@ Status PartitionRun::ingest(const std::string& input_path, const format::ReadOpt
   for (std::uint32_t i = 0; i < kPositionFiles; ++i) GM_RETURN_IF_ERROR(positions[i].open(vertex_files_->positions[i], std::size_t{1} << 20));
   GM_RETURN_IF_ERROR(faces.open(faces_path_));
   SpillThread spills(positions[0], faces, options_.threads > 1);
-  IngestSink sink(spills, positions[1], options_.progress);
+  struct stat input{};
+  const bool input_is_file = input_path != "-" && ::stat(input_path.c_str(), &input) == 0 && S_ISREG(input.st_mode);
+  IngestSink sink(spills, positions[1], options_.progress, input_is_file);
   Status status = format::read_mesh_file(input_path, read, sink);
   // A write error stops the reader (the sink returns it) and is the run's error.
   if (Status written = spills.finish(); !written.is_ok()) return written;
@@ -1245,6 +1315,20 @@ Status PartitionRun::ingest(const std::string& input_path, const format::ReadOpt
     bytes_spilled_ += p.bytes();
   }
   GM_RETURN_IF_ERROR(faces.close());
+  if (const auto& raw = sink.raw_vertices()) {
+    VertexFiles::InputPositions in;
+    in.path = input_path;
+    in.first_byte = raw->first_byte;
+    in.stride = raw->stride;
+    for (int a = 0; a < 3; ++a) in.xyz[a] = raw->xyz[a];
+    struct stat st{};
+    if (::stat(input_path.c_str(), &st) != 0) return Status::error(Code::kBadInput, input_path, "cannot stat the input: " + errno_text());
+    in.size = static_cast<std::uint64_t>(st.st_size);
+    in.modified_ns = modified_ns(st);
+    if (in.first_byte + sink.vertices() * std::uint64_t{in.stride} > in.size)
+      return Status::error(Code::kBadInput, input_path, "the input changed during the run");
+    vertex_files_->input = std::move(in);
+  }
   out_.vertices = sink.vertices();
   out_.faces = sink.faces();
   sink.bounds(out_.lo, out_.hi);
@@ -2121,7 +2205,25 @@ Status read_chunk_positions(const ChunkInfo& info, ChunkMesh& mesh) {
   mesh.positions.resize(ids.size());
   std::vector<std::uint32_t> records, slots, vertices;
   std::vector<Vec3f> positions;
-  for (std::uint32_t file = 0; file < kPositionFiles; ++file) {
+  if (files.input) {
+    const VertexFiles::InputPositions& in = *files.input;
+    auto opened = open_input_positions(in);
+    if (!opened) return opened.status();
+    struct Closer {
+      int fd;
+      ~Closer() { ::close(fd); }
+    } closer{*opened};
+    const std::uint64_t count = (in.size - in.first_byte) / in.stride;
+    std::vector<std::byte> window;
+    const std::size_t served = read_by_ascending_id(
+        *opened, count, in.stride, ids, window,
+        [&](std::size_t i, const std::byte* record) { mesh.positions[i] = input_position(in, record); }, in.first_byte);
+    if (served != ids.size()) {
+      return Status::error(Code::kBadInput, info.path,
+                           "vertex " + std::to_string(ids[served]) + ": no record of it in " + in.path + " (" + std::to_string(count) + " vertices)");
+    }
+  }
+  for (std::uint32_t file = 0; file < kPositionFiles && !files.input; ++file) {
     records.clear();
     slots.clear();
     vertices.clear();

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -95,6 +96,20 @@ inline constexpr std::uint64_t position_record(std::uint32_t v) {
 struct VertexFiles {
   std::array<std::string, kPositionFiles> positions;  // positions-0.bin, positions-1.bin
   std::string owners;                                 // owners.bin
+  // Positions read back from the input itself instead (session 11): a regular file whose
+  // vertices are fixed-size records of little-endian float32 (format::MeshHeader::raw_vertices),
+  // so that pass 0 writes no copy (600 MB at 100M triangles). Vertex v's coordinate `axis` is
+  // the 4 bytes at first_byte + v * stride + xyz[axis]. The file's size and modification time
+  // at ingest are checked at every open: an input changed during the run is kBadInput.
+  struct InputPositions {
+    std::string path;
+    std::uint64_t first_byte = 0;
+    std::uint32_t stride = 0;
+    std::uint32_t xyz[3] = {0, 0, 0};
+    std::uint64_t size = 0;
+    std::int64_t modified_ns = 0;
+  };
+  std::optional<InputPositions> input;
 };
 
 struct ChunkInfo {

@@ -1,6 +1,6 @@
 // Reading fixed-size records by ascending id from a file indexed by id (record i at byte
-// i * record_bytes): the partition's vertex files (load_chunk) and the loop stitch's positions
-// file (the mesher's batched reads).
+// first_byte + i * record_bytes): the partition's vertex files and the input's own vertex records
+// (load_chunk), and the loop stitch's positions file (the mesher's batched reads).
 #pragma once
 
 #include <unistd.h>
@@ -21,7 +21,7 @@ namespace gaussmesh::stream {
 inline constexpr std::size_t kIdWindowRecords = 4096;
 template <class Fn>
 std::size_t read_by_ascending_id(int fd, std::uint64_t count, std::size_t record_bytes, std::span<const std::uint32_t> ids,
-                                 std::vector<std::byte>& window, Fn&& fn) {
+                                 std::vector<std::byte>& window, Fn&& fn, std::uint64_t first_byte = 0) {
   std::size_t i = 0;
   while (i < ids.size()) {
     const std::uint64_t base = ids[i];
@@ -32,7 +32,7 @@ std::size_t read_by_ascending_id(int fd, std::uint64_t count, std::size_t record
     window.resize(bytes);
     std::size_t done = 0;
     while (done < bytes) {
-      const ssize_t got = ::pread(fd, window.data() + done, bytes - done, static_cast<off_t>(base * record_bytes + done));
+      const ssize_t got = ::pread(fd, window.data() + done, bytes - done, static_cast<off_t>(first_byte + base * record_bytes + done));
       if (got < 0 && errno == EINTR) continue;
       if (got <= 0) return i;
       done += static_cast<std::size_t>(got);

@@ -275,6 +275,79 @@ TEST(PlyReader, HandBuiltBigEndianWithExtraPropertiesAndIntCounts) {
   EXPECT_EQ(r.sink.header.declared_faces, 3u);
 }
 
+TEST(PlyReader, RawVerticesSayWhereEachPositionLies) {
+  // Little-endian float x, z, y among other scalars, vertex element first: raw_vertices names
+  // offsets whose bytes are, bit for bit, what on_vertices delivered (negative zero and a NaN
+  // among them). Big-endian, ascii, a double coordinate or another element first: none.
+  std::vector<Vec3f> positions = {{0, -0.0f, 1}, {1.5f, 2, 3}, {std::nanf(""), 4, -5}, {1e-40f, 7, 8}};
+  auto body = [&](bool double_y) {
+    std::string b;
+    for (size_t i = 0; i < positions.size(); ++i) {
+      const double quality = double(i) * 1.5;
+      const uint8_t flags = uint8_t(i);
+      b.append(reinterpret_cast<const char*>(&quality), 8);
+      b.append(reinterpret_cast<const char*>(&flags), 1);
+      b.append(reinterpret_cast<const char*>(&positions[i].x), 4);
+      b.append(reinterpret_cast<const char*>(&positions[i].z), 4);
+      if (double_y) {
+        const double y = positions[i].y;
+        b.append(reinterpret_cast<const char*>(&y), 8);
+      } else {
+        b.append(reinterpret_cast<const char*>(&positions[i].y), 4);
+      }
+    }
+    const uint8_t three = 3;
+    const int32_t v[3] = {0, 1, 2};
+    b.append(reinterpret_cast<const char*>(&three), 1);
+    b.append(reinterpret_cast<const char*>(v), 12);
+    return b;
+  };
+  const std::string vertex = "element vertex 4\nproperty double quality\nproperty uchar flags\nproperty float x\n"
+                             "property float z\nproperty float y\n";
+  const std::string face = "element face 1\nproperty list uchar int vertex_indices\n";
+  const std::string header = "ply\nformat binary_little_endian 1.0\ncomment raw\n" + vertex + face + "end_header\n";
+  const std::string bytes = header + body(false);
+  ReadOutcome r = read_bytes(bytes);
+  ASSERT_TRUE(r.status) << r.status.to_string();
+  // A big-endian machine would have to swap every value: no raw positions there.
+  ASSERT_EQ(r.sink.header.raw_vertices.has_value(), std::endian::native == std::endian::little);
+  if (!r.sink.header.raw_vertices) return;
+  const MeshHeader::RawVertices& raw = *r.sink.header.raw_vertices;
+  EXPECT_EQ(raw.first_byte, header.size());
+  EXPECT_EQ(raw.stride, 8u + 1u + 4u + 4u + 4u);
+  EXPECT_EQ(raw.xyz[0], 9u);
+  EXPECT_EQ(raw.xyz[1], 17u);
+  EXPECT_EQ(raw.xyz[2], 13u);
+  ASSERT_EQ(r.sink.positions.size(), positions.size());
+  for (size_t v = 0; v < positions.size(); ++v) {
+    const Vec3f& got = r.sink.positions[v];
+    const float delivered[3] = {got.x, got.y, got.z};
+    for (int axis = 0; axis < 3; ++axis) {
+      EXPECT_EQ(std::memcmp(bytes.data() + raw.first_byte + v * raw.stride + raw.xyz[axis], &delivered[axis], 4), 0)
+          << "vertex " << v << " axis " << axis;
+    }
+  }
+  auto without = [&](const std::string& other, const std::string& what) {
+    ReadOutcome o = read_bytes(other);
+    ASSERT_TRUE(o.status) << what << ": " << o.status.to_string();
+    EXPECT_FALSE(o.sink.header.raw_vertices.has_value()) << what;
+  };
+  // Big-endian: the same vertex bytes (their values do not matter here), no face.
+  const std::string vertices_only = body(false).substr(0, positions.size() * raw.stride);
+  without("ply\nformat binary_big_endian 1.0\n" + vertex + "element face 0\nproperty list uchar int vertex_indices\nend_header\n" +
+              vertices_only,
+          "big-endian");
+  std::string wide_y = vertex;
+  wide_y.replace(wide_y.find("float y"), 7, "double y");
+  without("ply\nformat binary_little_endian 1.0\n" + wide_y + face + "end_header\n" + body(true), "double y");
+  without("ply\nformat binary_little_endian 1.0\nelement note 1\nproperty uchar n\n" + vertex + face + "end_header\n" +
+              std::string(1, '\x07') + body(false),
+          "another element first");
+  without("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+          "element face 0\nproperty list uchar int vertex_indices\nend_header\n1 2 3\n",
+          "ascii");
+}
+
 TEST(PlyReader, PolygonsAreFanTriangulatedInEveryEncoding) {
   std::vector<Vec3f> positions = {{0, 0, 0}, {1, 0, 0}, {2, 1, 0}, {1, 2, 0}, {0, 1, 0}, {5, 5, 5}};
   std::vector<std::vector<uint32_t>> faces = {{0, 1, 2, 3}, {0, 1, 2, 3, 4}, {5, 4, 3}, {0, 1, 2, 3, 4, 5}};

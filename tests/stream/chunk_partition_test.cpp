@@ -143,13 +143,17 @@ std::vector<std::vector<std::uint64_t>> reference_chunks(const Mesh& mesh, const
 
 // Partitions mesh (written as PLY) and checks every chunk against the reference.
 // threads > 1 compresses on a second thread (the chunk size is max_chunk_faces either way).
+// `write` writes the input file (write_mesh: binary PLY of x, y, z alone). `check` sees the
+// partition before its chunks are checked.
 void check_exact(const Mesh& mesh, const std::string& name, std::uint64_t max_chunk_faces, std::uint32_t rings,
                  std::size_t min_chunks, std::uint32_t max_open_chunks = 0, std::uint32_t threads = 1,
-                 std::uint64_t* untagged_frames = nullptr) {
+                 std::uint64_t* untagged_frames = nullptr,
+                 const std::function<void(const std::string&, const Mesh&)>& write = write_mesh,
+                 const std::function<void(const Partition&)>& check = nullptr) {
   const std::string tag = name + " rings " + std::to_string(rings) + " threads " + std::to_string(threads);
   testing::ScratchDir dir;
   const std::string input = dir.file("in.ply");
-  write_mesh(input, mesh);
+  write(input, mesh);
   PartitionOptions options;
   options.rings = rings;
   options.max_chunk_faces = max_chunk_faces;
@@ -163,6 +167,7 @@ void check_exact(const Mesh& mesh, const std::string& name, std::uint64_t max_ch
   EXPECT_EQ(partition->faces, mesh.triangles.size()) << tag;
   EXPECT_GE(partition->chunks.size(), min_chunks) << tag;
   if (untagged_frames) *untagged_frames = partition->untagged_frames;
+  if (check) check(*partition);
   const Loaded loaded = load_and_check(*partition, mesh, tag);
   const auto expected = reference_chunks(mesh, loaded.owner, partition->chunks.size(), rings);
   for (std::size_t c = 0; c < expected.size(); ++c) {
@@ -404,6 +409,65 @@ TEST(ChunkPartition, LocalDisorderLeavesTheOtherFramesTagged) {
   check_exact(moved, "torus, a stretch of faces from all over", 20000, 3, 10, 0, 2, &untagged);
   EXPECT_GE(untagged, 2u);
   EXPECT_LE(untagged, 4u);
+}
+
+// A binary little-endian PLY whose vertex records carry more than x, y, z, in another order:
+// uchar quality, float x, float nx, double weight, float y, float z (29 bytes; x at 1, y at 17,
+// z at 21).
+void write_wide_ply(const std::string& path, const Mesh& mesh) {
+  std::string out = "ply\nformat binary_little_endian 1.0\nelement vertex " + std::to_string(mesh.positions.size()) +
+                    "\nproperty uchar quality\nproperty float x\nproperty float nx\nproperty double weight\n"
+                    "property float y\nproperty float z\nelement face " + std::to_string(mesh.triangles.size()) +
+                    "\nproperty list uchar int vertex_indices\nend_header\n";
+  auto put = [&](const void* p, std::size_t n) { out.append(static_cast<const char*>(p), n); };
+  for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
+    const std::uint8_t quality = static_cast<std::uint8_t>(v);
+    const float nx = 0.5f;
+    const double weight = static_cast<double>(v) / 3;
+    put(&quality, 1);
+    put(&mesh.positions[v].x, 4);
+    put(&nx, 4);
+    put(&weight, 8);
+    put(&mesh.positions[v].y, 4);
+    put(&mesh.positions[v].z, 4);
+  }
+  for (const format::Triangle& t : mesh.triangles) {
+    const std::uint8_t three = 3;
+    put(&three, 1);
+    put(t.v, 12);
+  }
+  testing::write_file(path, out);
+}
+
+void write_ascii_ply(const std::string& path, const Mesh& mesh) {
+  auto out = format::OutputFile::create(path, true);
+  ASSERT_TRUE(out.is_ok()) << out.status().to_string();
+  format::PlyWriteOptions options;
+  options.binary = false;
+  ASSERT_TRUE(format::write_ply(**out, mesh.view(), options).is_ok());
+  ASSERT_TRUE((*out)->commit().is_ok());
+}
+
+TEST(ChunkPartition, PositionsComeFromTheInputWhenItHoldsThem) {
+  // A binary little-endian PLY names where each vertex's x, y, z lie: the partition reads them
+  // back from the input and writes no position files (they stay empty); an ascii PLY has no such
+  // records, and its positions are spilled. Both give exact chunks with the mesh's positions
+  // (load_and_check compares every loaded position with the mesh's, bit for bit).
+  const Mesh mesh = torus_mesh();
+  auto from_input = [](bool expected) {
+    return [expected](const Partition& partition) {
+      ASSERT_FALSE(partition.chunks.empty());
+      const VertexFiles& files = *partition.chunks[0].vertex_files;
+      EXPECT_EQ(files.input.has_value(), expected);
+      std::uintmax_t spilled = 0;
+      for (const std::string& path : files.positions) spilled += fs::file_size(path);
+      if (expected) EXPECT_EQ(spilled, 0u);
+      else EXPECT_EQ(spilled, 12 * partition.vertices);
+    };
+  };
+  check_exact(mesh, "torus, x y z records", 2000, 3, 5, 0, 2, nullptr, write_mesh, from_input(true));
+  check_exact(mesh, "torus, 29-byte records", 2000, 3, 5, 0, 2, nullptr, write_wide_ply, from_input(true));
+  check_exact(mesh, "torus, ascii", 2000, 3, 5, 0, 2, nullptr, write_ascii_ply, from_input(false));
 }
 
 TEST(ChunkPartition, DenseCellsAreSplitAndChunksStayBounded) {
@@ -704,15 +768,49 @@ TEST(ChunkPartition, DamagedChunkFilesAreBadInput) {
   };
   auto loaded = load_chunk(info);
   ASSERT_TRUE(loaded.is_ok()) << loaded.status().to_string();
-  // The position file of the chunk's highest vertex: missing, or cut inside that vertex.
-  const std::uint32_t highest = loaded->global_vertex.back();
-  const std::string& positions_path = info.vertex_files->positions[position_file(highest)];
-  const std::string position_bytes = testing::read_file(positions_path);
-  fs::remove(positions_path);
-  expect_bad_vertices("missing positions file");
-  testing::write_file(positions_path, position_bytes.substr(0, position_record(highest) * kPositionRecordBytes + 5));
-  expect_bad_vertices("truncated positions file");
-  testing::write_file(positions_path, position_bytes);
+  // The positions come from the input (a binary PLY): missing, cut, or rewritten since the
+  // ingest (the same bytes, a later modification time).
+  ASSERT_TRUE(info.vertex_files->input);
+  const std::string input = dir.file("in.ply");
+  const std::string input_bytes = testing::read_file(input);
+  const auto ingested = fs::last_write_time(input);
+  fs::remove(input);
+  expect_bad_vertices("missing input");
+  testing::write_file(input, input_bytes.substr(0, input_bytes.size() - 5));
+  expect_bad_vertices("truncated input");
+  testing::write_file(input, input_bytes);
+  fs::last_write_time(input, fs::last_write_time(input) + std::chrono::seconds(5));
+  expect_bad_vertices("input rewritten");
+  {
+    // The same chunk of an ascii copy, whose positions are spilled: the position file of the
+    // chunk's highest vertex missing, or cut inside that vertex.
+    testing::ScratchDir ascii_dir;
+    write_ascii_ply(ascii_dir.file("in.ply"), torus_mesh());
+    PartitionOptions ascii_options = options;
+    ascii_options.tmp_dir = ascii_dir.path().string();
+    auto spilled = partition_mesh(ascii_dir.file("in.ply"), {}, ascii_options);
+    ASSERT_TRUE(spilled.is_ok()) << spilled.status().to_string();
+    const ChunkInfo& spilled_info = spilled->chunks[1];
+    ASSERT_FALSE(spilled_info.vertex_files->input);
+    auto spilled_chunk = load_chunk(spilled_info);
+    ASSERT_TRUE(spilled_chunk.is_ok()) << spilled_chunk.status().to_string();
+    const std::uint32_t highest = spilled_chunk->global_vertex.back();
+    const std::string& positions_path = spilled_info.vertex_files->positions[position_file(highest)];
+    const std::string position_bytes = testing::read_file(positions_path);
+    auto expect_bad_spill = [&](const std::string& what) {
+      auto chunk = load_chunk(spilled_info);
+      ASSERT_FALSE(chunk.is_ok()) << what;
+      EXPECT_EQ(chunk.status().code(), Code::kBadInput) << what;
+    };
+    fs::remove(positions_path);
+    expect_bad_spill("missing positions file");
+    testing::write_file(positions_path, position_bytes.substr(0, position_record(highest) * kPositionRecordBytes + 5));
+    expect_bad_spill("truncated positions file");
+  }
+  // The input as the ingest saw it again: its bytes and its modification time.
+  testing::write_file(input, input_bytes);
+  fs::last_write_time(input, ingested);
+  ASSERT_TRUE(load_chunk(info).is_ok());
   fs::remove(owners_path);
   expect_bad_vertices("missing owners file");
   const auto owned = std::find(loaded->owned_vertex.begin(), loaded->owned_vertex.end(), 1);
