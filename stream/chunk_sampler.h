@@ -50,10 +50,12 @@ struct ChunkSamplerWorkspace {
   std::vector<VertexRecord> records;
 };
 
-// Samples one chunk for the exact test: appends the chunk's owned exact samples to `samples`
-// (ascending global id) and adds its counts to `stats`. Precondition: the chunk holds
-// required_overlap_rings(options.smooth_iterations) rings around its owned vertices, and
-// options.sample_test is kExact (asserted). Errors: those of build_mesh_adjacency.
+// Samples one chunk: for the exact test, appends the chunk's owned exact samples to `samples`
+// (ascending global id); for the paper test, whose samples need the stitch (stream/paper_chains.h),
+// appends none and leaves the owned candidates' records in workspace.records (paper decisions
+// only, as sample_mesh makes them). Adds the chunk's counts to `stats` either way. Precondition:
+// the chunk holds required_overlap_rings(options.smooth_iterations) rings around its owned
+// vertices. Errors: those of build_mesh_adjacency.
 format::Status sample_chunk(const ChunkMesh& chunk, const GaussSphere& gauss, const SamplerOptions& options,
                             ChunkSamplerWorkspace& workspace, std::vector<GlobalSample>& samples,
                             ChunkSamplingStats& stats);

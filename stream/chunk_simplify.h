@@ -134,9 +134,13 @@ struct OutOfCoreSimplifyOptions {
   PartitionOptions partition;  // memory, tmp dir; rings and threads follow from the fields below
   std::uint32_t threads = 1;
   std::vector<GaussSphereOptions> spheres = {GaussSphereOptions{}};
-  SamplerOptions sampler;  // the exact test only
+  SamplerOptions sampler;
   // (pass name, chunks done, chunks, input faces) after each chunk.
   std::function<void(const char*, std::size_t, std::size_t, std::uint64_t)> progress;
+  // Stop once the samples are known (after the merge and, for the paper test, the chain pass):
+  // no loops, no mesh; OutOfCoreSimplify::sample_points holds them (`sample --memory` with the
+  // paper test, whose samples need the stitch).
+  bool samples_only = false;
 };
 
 struct OutOfCoreSimplify {
@@ -147,6 +151,13 @@ struct OutOfCoreSimplify {
   std::vector<std::size_t> samples_per_orientation;
   std::size_t gauss_vertices = 0, gauss_triangles = 0;
   std::size_t patches = 0, candidates = 0, samples = 0, merged_patches = 0, merge_rounds = 0;
+  // samples_only: the samples, ascending vertex, with their positions.
+  std::vector<GlobalSample> sample_points;
+  ChunkSamplingStats sampling_stats;  // pass A's counts, of the chosen orientation
+  // The paper test: candidate pairs along feature chains, chain fragments that left their chunk
+  // (joined on disk, stream/paper_chains.h), and what the filters removed.
+  std::size_t candidate_pairs = 0, chain_fragments = 0;
+  std::size_t tree_filtered = 0, unwinding_filtered = 0, noisy_filtered = 0;
   PolygonMesherStats polygon;
   std::uint64_t vertices = 0, faces = 0;
   std::size_t chunks = 0;
@@ -161,9 +172,10 @@ struct OutOfCoreSimplify {
   double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0, seconds_stitch = 0, seconds_mesh = 0;
   PartitionSteps partition_steps;  // seconds_partition by step
   // seconds_stitch by step: joining the pieces across chunks, the untriangulatable merge, pass C
-  // (loops under the merged patches, on the chunks' threads), the loop stitch.
+  // (loops under the merged patches, on the chunks' threads), the loop stitch; and for the paper
+  // test, its candidates' records, chains and filters (after the merge, before pass C).
   struct StitchSteps {
-    double pieces = 0, merge = 0, loops = 0, loop_stitch = 0;
+    double pieces = 0, merge = 0, chains = 0, loops = 0, loop_stitch = 0;
   } stitch_steps;
   // The process's peak RSS (getrusage) after passes 0-1, after pass A/B, after the piece stitch
   // and merge, and after pass C: which stage sets the peak.

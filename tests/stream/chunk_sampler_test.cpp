@@ -23,11 +23,12 @@ struct Case {
   std::size_t orientations = 1;
   std::uint64_t chunk_faces = 24;
   std::uint32_t threads = 2;
+  SampleTest test = SampleTest::kExact;
 };
 
 void expect_same_as_in_core(const Case& c, const std::string& tmp) {
   SCOPED_TRACE(c.path + " smooth " + std::to_string(c.smooth) + " orientations " + std::to_string(c.orientations) +
-               " chunk faces " + std::to_string(c.chunk_faces));
+               " chunk faces " + std::to_string(c.chunk_faces) + " test " + sample_test_name(c.test));
   auto mesh = load_mesh(c.path);
   ASSERT_TRUE(mesh.is_ok()) << mesh.status().to_string();
   OutOfCoreSamplingOptions options;
@@ -39,6 +40,7 @@ void expect_same_as_in_core(const Case& c, const std::string& tmp) {
     options.spheres.push_back(g);
   }
   options.sampler.smooth_iterations = c.smooth;
+  options.sampler.sample_test = c.test;
   options.threads = c.threads;
   options.partition.max_chunk_faces = c.chunk_faces;
   options.partition.memory_bytes = std::uint64_t{64} << 20;
@@ -108,9 +110,40 @@ TEST(ChunkSampler, NoisyShapeWithSmoothing) {
   expect_same_as_in_core({path, 3, 2, 100, 2}, runs.string());
 }
 
-TEST(ChunkSampler, PaperTestIsRefusedOutOfCore) {
+// The paper test runs the stitch up to its samples: the untriangulatable merge, the candidates'
+// records after it, candidate chains across chunks and the noisy filter.
+TEST(ChunkSampler, PaperTestGivesTheInCoreSamplesWithHundredsOfChunks) {
+  testing::ScratchDir tmp;
+  for (std::uint32_t smooth : {0u, 2u})
+    for (const char* name : {"cow.off", "fandisk.off", "homer.off", "knot1.off", "mech-holes-shark.off",
+                             "mushroom.off", "bunny-lowres.ply"})
+      expect_same_as_in_core({testing::fixture(std::string("real/") + name), smooth, 1, 24, 2, SampleTest::kPaper},
+                             tmp.path().string());
+}
+
+TEST(ChunkSampler, PaperTestNoisyShapeWithSmoothing) {
+  testing::ScratchDir tmp;
+  testing::ShapeOptions shape;
+  shape.vertices = 6000;
+  shape.noise = 0.01;
+  const Mesh sphere = testing::make_sphere(shape);
+  const std::string path = tmp.file("noisy.ply");
+  {
+    auto out = format::OutputFile::create(path, true);
+    ASSERT_TRUE(out.is_ok());
+    ASSERT_TRUE(format::write_ply(**out, sphere.view(), {}).is_ok());
+    ASSERT_TRUE((*out)->commit().is_ok());
+  }
+  const std::filesystem::path runs = tmp.path() / "runs";
+  std::filesystem::create_directory(runs);
+  expect_same_as_in_core({path, 0, 1, 100, 2, SampleTest::kPaper}, runs.string());
+  expect_same_as_in_core({path, 3, 1, 60, 1, SampleTest::kPaper}, runs.string());
+}
+
+TEST(ChunkSampler, PaperTestWithSeveralOrientationsIsRefusedOutOfCore) {
   OutOfCoreSamplingOptions options;
   options.sampler.sample_test = SampleTest::kPaper;
+  options.spheres.resize(2);
   auto r = sample_out_of_core(testing::fixture("real/cow.off"), {}, options);
   ASSERT_FALSE(r.is_ok());
   EXPECT_EQ(r.status().code(), format::Code::kUsage);

@@ -29,11 +29,12 @@ struct Case {
   std::size_t orientations = 1;
   std::uint64_t chunk_faces = 32;
   std::uint32_t threads = 2;
+  SampleTest test = SampleTest::kExact;
 };
 
 void expect_same_as_in_core(const Case& c) {
   SCOPED_TRACE(c.name + " smooth " + std::to_string(c.smooth) + " orientations " + std::to_string(c.orientations) +
-               " chunk faces " + std::to_string(c.chunk_faces));
+               " chunk faces " + std::to_string(c.chunk_faces) + " test " + sample_test_name(c.test));
   testing::ScratchDir tmp;
   const std::string path = c.name.find('/') == std::string::npos ? testing::fixture("real/" + c.name) : c.name;
   auto mesh = load_mesh(path);
@@ -47,6 +48,7 @@ void expect_same_as_in_core(const Case& c) {
     options.spheres.push_back(g);
   }
   options.sampler.smooth_iterations = c.smooth;
+  options.sampler.sample_test = c.test;
   options.threads = c.threads;
   options.partition.max_chunk_faces = c.chunk_faces;
   options.partition.memory_bytes = std::uint64_t{64} << 20;
@@ -63,6 +65,12 @@ void expect_same_as_in_core(const Case& c) {
   EXPECT_EQ(ooc->samples_per_orientation, in_core->samples_per_orientation);
   EXPECT_EQ(ooc->patches, in_core->patches);
   EXPECT_EQ(ooc->candidates, in_core->candidates);
+  EXPECT_EQ(ooc->samples, in_core->samples);
+  if (c.test == SampleTest::kPaper) {
+    EXPECT_EQ(ooc->tree_filtered, in_core->sampling.tree_filtered);
+    EXPECT_EQ(ooc->unwinding_filtered, in_core->sampling.unwinding_filtered);
+    EXPECT_EQ(ooc->noisy_filtered, in_core->sampling.noisy_filtered);
+  }
   EXPECT_EQ(ooc->birth, in_core->birth);
   EXPECT_EQ(ooc->mesh.positions, in_core->mesh.positions);
   ASSERT_EQ(ooc->mesh.triangles.size(), in_core->mesh.triangles.size());
@@ -75,15 +83,41 @@ void expect_same_as_in_core(const Case& c) {
   EXPECT_EQ(different, 0u);
   EXPECT_GE(ooc->chunks, mesh->triangles.size() / (2 * c.chunk_faces));
   EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
-  std::printf("%s: %zu chunks, %zu output faces, %zu half-edges stitched, %zu faces of %zu patches fetched\n",
+  std::printf("%s: %zu chunks, %zu output faces, %zu half-edges stitched, %zu faces of %zu patches fetched, "
+              "%zu samples, %zu candidate pairs, %zu chain fragments\n",
               c.name.c_str(), ooc->chunks, ooc->mesh.triangles.size(), ooc->stitch_half_edges, ooc->fetched_faces,
-              ooc->fetched_patches);
+              ooc->fetched_patches, ooc->samples, ooc->candidate_pairs, ooc->chain_fragments);
 }
 
 TEST(ChunkSimplify, EveryFixtureWithHundredsOfChunksGivesTheInCoreOutput) {
   for (const char* name : {"cow.off", "fandisk.off", "homer.off", "knot1.off", "mech-holes-shark.off", "mushroom.off",
                            "bunny-lowres.ply"})
     expect_same_as_in_core({name});
+}
+
+// The paper test: its noisy filter follows candidate chains across chunks (stream/paper_chains.h)
+// and its candidates are re-evaluated after the merge from their star geometry; hundreds of
+// chunks cut most chains.
+TEST(ChunkSimplify, PaperTestOnEveryFixtureWithHundredsOfChunksGivesTheInCoreOutput) {
+  for (std::uint32_t smooth : {0u, 2u})
+    for (const char* name : {"cow.off", "fandisk.off", "homer.off", "knot1.off", "mech-holes-shark.off", "mushroom.off",
+                             "bunny-lowres.ply"})
+      expect_same_as_in_core({name, smooth, 1, 32, 2, SampleTest::kPaper});
+}
+
+TEST(ChunkSimplify, PaperTestChunkSizesAndThreads) {
+  expect_same_as_in_core({"cow.off", 1, 1, 12, 1, SampleTest::kPaper});  // ~1000 chunks
+  expect_same_as_in_core({"homer.off", 0, 1, 1000, 2, SampleTest::kPaper});
+  expect_same_as_in_core({"knot1.off", 0, 1, 1u << 20, 2, SampleTest::kPaper});  // one chunk
+}
+
+TEST(ChunkSimplify, PaperTestWithSeveralOrientationsIsRefused) {
+  OutOfCoreSimplifyOptions options;
+  options.sampler.sample_test = SampleTest::kPaper;
+  options.spheres.resize(2);
+  auto r = simplify_out_of_core(testing::fixture("real/cow.off"), {}, options);
+  ASSERT_FALSE(r.is_ok());
+  EXPECT_EQ(r.status().code(), format::Code::kUsage);
 }
 
 TEST(ChunkSimplify, SmoothingOrientationsAndChunkSizes) {
@@ -113,6 +147,7 @@ TEST(ChunkSimplify, NoisyTorusWithDefectsFetchesPatchFaces) {
     ASSERT_TRUE((*out)->commit().is_ok());
   }
   expect_same_as_in_core({path, 1, 2, 200, 2});
+  expect_same_as_in_core({path, 1, 1, 200, 2, SampleTest::kPaper});
 }
 
 // Repeats of a face's vertex set (CAD exports have them): the mesher leaves them out of its
@@ -137,6 +172,7 @@ TEST(ChunkSimplify, RepeatedFacesGiveTheInCoreOutput) {
     ASSERT_TRUE((*out)->commit().is_ok());
   }
   expect_same_as_in_core({path, 0, 1, 120, 2});
+  expect_same_as_in_core({path, 0, 1, 120, 2, SampleTest::kPaper});
 }
 
 // A square patch 0 whose loop runs through two chunks: chunk 0 holds half-edges 30, 31 (from
