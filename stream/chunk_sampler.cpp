@@ -214,6 +214,8 @@ format::Result<OutOfCoreSampling> sample_paper_out_of_core(const std::string& in
   out.chosen = run->chosen;
   out.samples_per_orientation = run->samples_per_orientation;
   out.samples = std::move(run->sample_points);
+  out.candidate_pairs = run->candidate_pairs;
+  out.candidate_pairs_digest = run->candidate_pairs_digest;
   out.stats = run->sampling_stats;
   out.vertices = run->vertices;
   out.faces = run->faces;

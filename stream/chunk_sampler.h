@@ -143,6 +143,10 @@ struct OutOfCoreSampling {
   std::size_t chosen = 0;            // index into spheres
   std::vector<std::size_t> samples_per_orientation;
   std::vector<GlobalSample> samples;  // of the chosen orientation, ascending vertex id
+  // The paper test: its candidate pairs along feature chains, and their digest
+  // (candidate_pairs_digest, stream/paper_chains.h).
+  std::size_t candidate_pairs = 0;
+  std::uint64_t candidate_pairs_digest = 0;
   ChunkSamplingStats stats;           // of the chosen orientation
   std::uint64_t vertices = 0, faces = 0;
   std::size_t chunks = 0;

@@ -885,6 +885,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     std::sort(candidate_pairs.begin(), candidate_pairs.end());
     candidate_pairs.erase(std::unique(candidate_pairs.begin(), candidate_pairs.end()), candidate_pairs.end());
     out.candidate_pairs = candidate_pairs.size();
+    out.candidate_pairs_digest = candidate_pairs_digest(candidate_pairs);
     std::vector<NoisyFilterInput> survivors;
     std::vector<std::uint32_t> survivor_of;  // index into paper_candidates
     for (std::uint32_t k = 0; k < paper_candidates.size(); ++k) {

@@ -157,6 +157,7 @@ struct OutOfCoreSimplify {
   // The paper test: candidate pairs along feature chains, chain fragments that left their chunk
   // (joined on disk, stream/paper_chains.h), and what the filters removed.
   std::size_t candidate_pairs = 0, chain_fragments = 0;
+  std::uint64_t candidate_pairs_digest = 0;  // candidate_pairs_digest (stream/paper_chains.h) of the pairs
   std::size_t tree_filtered = 0, unwinding_filtered = 0, noisy_filtered = 0;
   PolygonMesherStats polygon;
   std::uint64_t vertices = 0, faces = 0;

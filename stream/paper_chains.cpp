@@ -376,4 +376,19 @@ format::Status join_chain_fragments(std::span<const ChunkRecordSegment> files, s
   return format::Status();
 }
 
+std::uint64_t candidate_pairs_digest(std::span<const std::pair<std::uint32_t, std::uint32_t>> pairs) {
+  std::uint64_t h = 0xcbf29ce484222325ull;
+  auto mix = [&](std::uint32_t x) {
+    for (int k = 0; k < 4; ++k) {
+      h ^= (x >> (8 * k)) & 0xFF;
+      h *= 0x100000001b3ull;
+    }
+  };
+  for (const auto& [a, b] : pairs) {
+    mix(a);
+    mix(b);
+  }
+  return h;
+}
+
 }  // namespace gaussmesh::stream

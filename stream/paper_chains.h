@@ -118,4 +118,8 @@ format::Result<ChunkRecordSegment> write_chain_fragments(std::span<const ChainFr
 format::Status join_chain_fragments(std::span<const ChunkRecordSegment> files, std::uint64_t memory_bytes,
                                     std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs);
 
+// A digest of a sorted, duplicate-free pair list (FNV-1a over the ids): the report's and the
+// tests' check that out of core finds find_candidate_adjacency's pairs.
+std::uint64_t candidate_pairs_digest(std::span<const std::pair<std::uint32_t, std::uint32_t>> pairs);
+
 }  // namespace gaussmesh::stream
