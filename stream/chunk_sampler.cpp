@@ -171,13 +171,8 @@ format::Result<Partition> partition_for_chunks(const std::string& input_path, co
   return partition_mesh(input_path, read, o);
 }
 
-format::Status check_out_of_core_options(const char* command, const SamplerOptions& sampler,
+format::Status check_out_of_core_options(const char* command,
                                          const std::vector<GaussSphereOptions>& spheres, std::uint32_t threads) {
-  if (sampler.sample_test == SampleTest::kPaper && spheres.size() > 1) {
-    return format::Status::error(format::Code::kUsage, command,
-                                 "out of core (--memory), the paper sample test takes one orientation: choosing among "
-                                 "several needs its merge and noisy filter once per orientation, which is not built");
-  }
   if (spheres.empty() || threads == 0) return format::Status::error(format::Code::kUsage, command, "no orientation, or 0 threads");
   return format::Status();
 }
@@ -233,7 +228,7 @@ format::Result<OutOfCoreSampling> sample_paper_out_of_core(const std::string& in
 
 format::Result<OutOfCoreSampling> sample_out_of_core(const std::string& input_path, const format::ReadOptions& read,
                                                      const OutOfCoreSamplingOptions& options) {
-  GM_RETURN_IF_ERROR(check_out_of_core_options("sample", options.sampler, options.spheres, options.threads));
+  GM_RETURN_IF_ERROR(check_out_of_core_options("sample", options.spheres, options.threads));
   if (options.sampler.sample_test == SampleTest::kPaper) return sample_paper_out_of_core(input_path, read, options);
   auto spheres = create_spheres(options.spheres);
   if (!spheres) return spheres.status();

@@ -2,9 +2,9 @@
 // of a Partition is loaded, sampled for the vertices it owns with the sampler's local functions
 // (stream/sampler.h, steps 1-2), and released, chunks in parallel (oneTBB) in bounded memory.
 // The exact sample test is a per-vertex decision, so the samples equal the in-core run's for any
-// chunking (the locality contract, tests/stream/locality_test.cpp). The patch-level filters —
-// the untriangulatable merge and the paper test's noisy filter — need the stitch of patch
-// pieces across chunks, which is not built yet: the paper test is in core only.
+// chunking (the locality contract, tests/stream/locality_test.cpp). The paper test's patch-level
+// filters — the untriangulatable merge and the noisy filter — need the stitch of patch pieces and
+// candidate chains across chunks: sample_out_of_core runs simplify's stitch up to the samples.
 #pragma once
 
 #include <cstdint>
@@ -94,9 +94,8 @@ format::Result<Partition> partition_for_chunks(const std::string& input_path, co
                                                std::uint32_t threads);
 
 // kUsage when an out-of-core run (`command` names it in the message) cannot take these options:
-// the paper sample test (its noisy-sample filter needs candidate chains across chunks, which are
-// not stitched), no orientation, or 0 threads.
-format::Status check_out_of_core_options(const char* command, const SamplerOptions& sampler,
+// no orientation, or 0 threads.
+format::Status check_out_of_core_options(const char* command,
                                          const std::vector<GaussSphereOptions>& spheres, std::uint32_t threads);
 
 // The process's peak RSS so far (getrusage), in bytes.
@@ -159,10 +158,12 @@ struct OutOfCoreSampling {
 
 // Passes 0-2 for `gaussmesh sample --memory`: partition input_path ("-": stdin), then sample
 // every chunk once for all orientations, keeping the one with the fewest samples (ties: the
-// earliest). Memory: the partition's budget; pass 2 holds `threads` chunks (the partition sizes
-// them for it) plus the samples. Errors: kUsage for the paper test or bad G options; the
-// partition's (bad input, temp files, resources); kBadInput for a damaged chunk file. The
-// temporary directory is gone when this returns.
+// earliest). The paper test's samples need the stitch: it runs simplify's passes up to them
+// (simplify_out_of_core with samples_only, stream/chunk_simplify.h), once per orientation.
+// Memory: the partition's budget; pass 2 holds `threads` chunks (the partition sizes them for it)
+// plus the samples. Errors: kUsage for bad G options; the partition's (bad input, temp files,
+// resources); kBadInput for a damaged chunk file or record. The temporary directory is gone when
+// this returns.
 format::Result<OutOfCoreSampling> sample_out_of_core(const std::string& input_path, const format::ReadOptions& read,
                                                      const OutOfCoreSamplingOptions& options);
 

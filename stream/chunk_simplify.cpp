@@ -633,16 +633,15 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
   return g;
 }
 
-format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_path, const format::ReadOptions& read,
-                                                       const OutOfCoreSimplifyOptions& options) {
-  GM_RETURN_IF_ERROR(check_out_of_core_options("simplify", options.sampler, options.spheres, options.threads));
-  auto created = create_spheres(options.spheres);
-  if (!created) return created.status();
-  std::vector<GaussSphere>& spheres = *created;
-  auto partition = partition_for_chunks(input_path, read, options.partition, options.sampler, options.threads);
-  if (!partition) return partition.status();
-  OutOfCoreSimplify out;
-  record_partition(*partition, out);
+namespace {
+
+// Passes A-D and the stitch over a partition, for `spheres` (the exact test: every orientation
+// in pass A; the paper test: one). `out` comes with the partition's figures. The temporary
+// directory is removed at the end when remove_temp (the paper test's runs per orientation keep
+// it for the next run; each run's files replace the last one's).
+format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::span<const GaussSphere> spheres,
+                                                     const OutOfCoreSimplifyOptions& options, OutOfCoreSimplify out,
+                                                     bool remove_temp) {
   const std::size_t nc = partition->chunks.size(), no = spheres.size();
 
   // Pass A: samples of every orientation (and, with one orientation, the pieces too). Each
@@ -927,7 +926,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   }
   if (options.samples_only) {
     out.bytes_spilled = partition->bytes_spilled;
-    partition->remove_temp();
+    if (remove_temp) partition->remove_temp();
     out.seconds_stitch = seconds_since(start);
     out.rotation = gauss.options().rotation;
     out.gauss_vertices = gauss.vertex_count();
@@ -1069,7 +1068,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     meshed = mesh_patch_loops(std::move(*regraph));
     if (!meshed) return meshed.status();
   }
-  partition->remove_temp();
+  if (remove_temp) partition->remove_temp();
   out.mesh = std::move(meshed->mesh.mesh);
   out.birth = std::move(meshed->mesh.birth);
   out.polygon = meshed->stats;
@@ -1078,6 +1077,61 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   out.gauss_triangles = gauss.triangle_count();
   out.seconds_mesh = seconds_since(start);
   return out;
+}
+
+}  // namespace
+
+format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_path, const format::ReadOptions& read,
+                                                       const OutOfCoreSimplifyOptions& options) {
+  GM_RETURN_IF_ERROR(check_out_of_core_options("simplify", options.spheres, options.threads));
+  auto created = create_spheres(options.spheres);
+  if (!created) return created.status();
+  const std::vector<GaussSphere>& spheres = *created;
+  auto partition = partition_for_chunks(input_path, read, options.partition, options.sampler, options.threads);
+  if (!partition) return partition.status();
+  OutOfCoreSimplify base;
+  record_partition(*partition, base);
+  const std::size_t no = spheres.size();
+  if (options.sampler.sample_test != SampleTest::kPaper || no == 1)
+    return simplify_partition(&*partition, spheres, options, std::move(base), true);
+
+  // The paper test's samples come after the merge and the chains, so each orientation runs the
+  // passes up to its samples (as sample_mesh_best_orientation samples the mesh once per
+  // orientation); the one with the fewest (ties: the first) is kept — with `samples_only` as it
+  // is, else run again to the end.
+  OutOfCoreSimplifyOptions counting = options;
+  counting.samples_only = true;
+  std::vector<std::size_t> counts;
+  std::size_t chosen = 0;
+  double seconds_sample = 0, seconds_stitch = 0;
+  std::optional<OutOfCoreSimplify> best;
+  for (std::size_t k = 0; k < no; ++k) {
+    const bool last = options.samples_only && k + 1 == no;
+    auto run = simplify_partition(&*partition, std::span(&spheres[k], 1), counting, base, last);
+    if (!run) return run.status();
+    counts.push_back(run->samples);
+    seconds_sample += run->seconds_sample;
+    seconds_stitch += run->seconds_stitch;
+    if (k == 0 || run->samples < counts[chosen]) {
+      chosen = k;
+      if (options.samples_only) best = std::move(run).value();
+    }
+    release_free_memory(options.partition.memory_bytes);
+  }
+  if (!options.samples_only) {
+    auto run = simplify_partition(&*partition, std::span(&spheres[chosen], 1), options, base, true);
+    if (!run) return run.status();
+    best = std::move(run).value();
+    best->seconds_sample += seconds_sample;
+    best->seconds_stitch += seconds_stitch;
+  } else {
+    best->seconds_sample = seconds_sample;
+    best->seconds_stitch = seconds_stitch;
+    best->bytes_spilled = partition->bytes_spilled;
+  }
+  best->chosen = chosen;
+  best->samples_per_orientation = counts;
+  return std::move(best).value();
 }
 
 }  // namespace gaussmesh::stream

@@ -184,7 +184,9 @@ struct OutOfCoreSimplify {
                 peak_rss_after_loops = 0;
 };
 
-// The whole job. Errors: kUsage for the paper test or bad options; the partition's and the
+// The whole job. With the paper test and several orientations, the passes up to the samples run
+// once per orientation, and once more to the end for the chosen one (unless samples_only).
+// Errors: kUsage for bad options; the partition's and the
 // chunks' (bad input, temp files, resources); kProcessing from the stitch or the mesher
 // (including a patch that only its input faces could mesh, which is not fetched yet).
 format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_path, const format::ReadOptions& read,

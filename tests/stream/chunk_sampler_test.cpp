@@ -84,7 +84,7 @@ void expect_same_as_in_core(const Case& c, const std::string& tmp) {
   }
   if (c.test == SampleTest::kPaper) {
     std::size_t pairs = 0;
-    const std::uint64_t digest = in_core_pairs_digest(*mesh, options.spheres[0], options.sampler, &pairs);
+    const std::uint64_t digest = in_core_pairs_digest(*mesh, options.spheres[ooc->chosen], options.sampler, &pairs);
     EXPECT_EQ(ooc->candidate_pairs, pairs);
     EXPECT_EQ(ooc->candidate_pairs_digest, digest);
   }
@@ -165,13 +165,12 @@ TEST(ChunkSampler, PaperTestNoisyShapeWithSmoothing) {
   expect_same_as_in_core({path, 3, 1, 60, 1, SampleTest::kPaper}, runs.string());
 }
 
-TEST(ChunkSampler, PaperTestWithSeveralOrientationsIsRefusedOutOfCore) {
-  OutOfCoreSamplingOptions options;
-  options.sampler.sample_test = SampleTest::kPaper;
-  options.spheres.resize(2);
-  auto r = sample_out_of_core(testing::fixture("real/cow.off"), {}, options);
-  ASSERT_FALSE(r.is_ok());
-  EXPECT_EQ(r.status().code(), format::Code::kUsage);
+// Several orientations: each runs the stitch up to its samples, the fewest win (ties: the first).
+TEST(ChunkSampler, PaperTestWithSeveralOrientations) {
+  testing::ScratchDir tmp;
+  expect_same_as_in_core({testing::fixture("real/cow.off"), 0, 3, 24, 2, SampleTest::kPaper}, tmp.path().string());
+  expect_same_as_in_core({testing::fixture("real/homer.off"), 0, 2, 48, 1, SampleTest::kPaper}, tmp.path().string());  // the second wins
+  expect_same_as_in_core({testing::fixture("real/fandisk.off"), 2, 2, 48, 1, SampleTest::kPaper}, tmp.path().string());
 }
 
 }  // namespace
