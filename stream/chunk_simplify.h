@@ -2,7 +2,10 @@
 // Pass 0-1 partition the input (stream/chunk_partition.h); pass A samples every chunk for every
 // orientation (stream/chunk_sampler.h); pass B finds the patch pieces of the chosen orientation
 // and the stitch joins them and runs the untriangulatable merge on the patch graph
-// (stream/chunk_pieces.h); pass C — from each chunk's adjacency and the pieces pass A/B wrote
+// (stream/chunk_pieces.h); for the paper sample test, whose samples come after the merge, the
+// candidates are re-evaluated from their star geometry and a chain pass finds the candidate
+// pairs along feature chains for the noisy filter (stream/paper_chains.h), once per orientation;
+// pass C — from each chunk's adjacency and the pieces pass A/B wrote
 // for its owned faces, without labelling the chunk again — gives every owned feature half-edge
 // its successor around its end vertex under the merged patches, with the role of every owned
 // kept vertex (find_chunk_loops, in runs); the stitch chains the runs into patch loops and the
