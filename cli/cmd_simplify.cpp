@@ -136,6 +136,13 @@ int run_simplify_out_of_core(const SimplifyArgs& args, OutputKind kind, const st
     report["fetched_faces"] = result->fetched_faces;
     report["loop_chunks"] = result->loop_chunks;
     report["loop_faces"] = result->loop_faces;
+    if (sampler.sample_test == stream::SampleTest::kPaper) {
+      report["candidate_pairs"] = result->candidate_pairs;
+      report["chain_fragments"] = result->chain_fragments;
+      report["paper_filters"] = {{"tree_filtered", result->tree_filtered},
+                                       {"unwinding_filtered", result->unwinding_filtered},
+                                       {"noisy_filtered", result->noisy_filtered}};
+    }
     report["peak_rss_bytes"] = peak_rss_bytes();
     report["peak_rss_after_partition_bytes"] = result->peak_rss_after_partition;
     report["peak_rss_after_pieces_bytes"] = result->peak_rss_after_pieces;
@@ -152,6 +159,7 @@ int run_simplify_out_of_core(const SimplifyArgs& args, OutputKind kind, const st
     report["partition_seconds"] = partition_seconds(result->partition_steps);
     report["stitch_seconds"] = {{"pieces", result->stitch_steps.pieces},
                                 {"merge", result->stitch_steps.merge},
+                                {"chains", result->stitch_steps.chains},
                                 {"loops", result->stitch_steps.loops},
                                 {"loop_stitch", result->stitch_steps.loop_stitch}};
     auto status = write_report(args.report, report);

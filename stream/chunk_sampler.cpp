@@ -2,6 +2,8 @@
 // vertices, chunks in parallel. See chunk_sampler.h.
 #include "stream/chunk_sampler.h"
 
+#include "stream/chunk_simplify.h"
+
 #ifdef __GLIBC__
 #include <malloc.h>
 #endif
@@ -35,7 +37,7 @@ void ChunkSamplingStats::add(const ChunkSamplingStats& o) {
 
 format::Status sample_chunk(const ChunkMesh& chunk, const GaussSphere& gauss, const SamplerOptions& options,
                             ChunkSamplerWorkspace& ws, std::vector<GlobalSample>& samples, ChunkSamplingStats& stats) {
-  assert(options.sample_test == SampleTest::kExact);
+  const bool exact = options.sample_test == SampleTest::kExact;
   const format::MeshView mesh = chunk.view();
   GM_RETURN_IF_ERROR(build_mesh_adjacency(mesh, ws.adjacency));
   compute_face_normals(mesh, ws.adjacency, options.smooth_iterations, ws.normals, ws.area, ws.smoothed);
@@ -46,7 +48,7 @@ format::Status sample_chunk(const ChunkMesh& chunk, const GaussSphere& gauss, co
     if (chunk.owned_vertex[v]) ws.owned.push_back(v);
   }
   ws.records.clear();
-  evaluate_vertex_list(mesh, ws.adjacency, ws.normals, ws.labels, ws.feature, gauss, true, ws.owned, ws.records);
+  evaluate_vertex_list(mesh, ws.adjacency, ws.normals, ws.labels, ws.feature, gauss, exact, ws.owned, ws.records);
   ChunkSamplingStats s;
   s.owned_vertices = ws.owned.size();
   s.chunk_faces = chunk.triangles.size();
@@ -58,7 +60,7 @@ format::Status sample_chunk(const ChunkMesh& chunk, const GaussSphere& gauss, co
   }
   for (const VertexRecord& r : ws.records) {
     s.candidates_initial += r.is_candidate;
-    if (!r.is_exact_sample) continue;
+    if (!exact || !r.is_exact_sample) continue;
     ++s.exact_samples;
     samples.push_back({chunk.global_vertex[r.vertex], chunk.positions[r.vertex], r.exact_gauss_vertex,
                        r.exact_characteristic});
@@ -169,13 +171,8 @@ format::Result<Partition> partition_for_chunks(const std::string& input_path, co
   return partition_mesh(input_path, read, o);
 }
 
-format::Status check_out_of_core_options(const char* command, const SamplerOptions& sampler,
+format::Status check_out_of_core_options(const char* command,
                                          const std::vector<GaussSphereOptions>& spheres, std::uint32_t threads) {
-  if (sampler.sample_test != SampleTest::kExact) {
-    return format::Status::error(format::Code::kUsage, command,
-                                 "out of core (--memory) runs the exact sample test only: the paper test's "
-                                 "noisy-sample filter needs candidate chains across chunks, which are not stitched yet");
-  }
   if (spheres.empty() || threads == 0) return format::Status::error(format::Code::kUsage, command, "no orientation, or 0 threads");
   return format::Status();
 }
@@ -186,9 +183,54 @@ std::uint64_t pass_two_chunk_faces(std::uint64_t memory_bytes, std::uint32_t thr
   return std::max<std::uint64_t>(budget / std::max<std::uint32_t>(threads, 1) / kBytesPerFace, 1024);
 }
 
+namespace {
+
+// The paper test: its samples need the stitch (patch pieces, the untriangulatable merge,
+// candidate chains across chunks), which simplify's passes run up to the samples.
+format::Result<OutOfCoreSampling> sample_paper_out_of_core(const std::string& input_path, const format::ReadOptions& read,
+                                                           const OutOfCoreSamplingOptions& options) {
+  OutOfCoreSimplifyOptions o;
+  o.partition = options.partition;
+  o.threads = options.threads;
+  o.spheres = options.spheres;
+  o.sampler = options.sampler;
+  o.samples_only = true;
+  if (options.progress) {
+    o.progress = [&](const char*, std::size_t done, std::size_t total, std::uint64_t faces) {
+      options.progress(done, total, faces);
+    };
+  }
+  auto run = simplify_out_of_core(input_path, read, o);
+  if (!run) return run.status();
+  OutOfCoreSampling out;
+  auto gauss = GaussSphere::create(options.spheres[run->chosen]);
+  if (!gauss) return gauss.status();
+  out.gauss.emplace(std::move(gauss).value());
+  out.chosen = run->chosen;
+  out.samples_per_orientation = run->samples_per_orientation;
+  out.samples = std::move(run->sample_points);
+  out.candidate_pairs = run->candidate_pairs;
+  out.candidate_pairs_digest = run->candidate_pairs_digest;
+  out.stats = run->sampling_stats;
+  out.vertices = run->vertices;
+  out.faces = run->faces;
+  out.chunks = run->chunks;
+  out.bytes_spilled = run->bytes_spilled;
+  out.seconds_ingest = run->seconds_ingest;
+  out.seconds_partition = run->seconds_partition;
+  out.seconds_sample = run->seconds_sample + run->seconds_stitch;
+  out.seconds_cleanup = run->seconds_cleanup;
+  out.partition_steps = run->partition_steps;
+  out.peak_rss_after_partition = run->peak_rss_after_partition;
+  return out;
+}
+
+}  // namespace
+
 format::Result<OutOfCoreSampling> sample_out_of_core(const std::string& input_path, const format::ReadOptions& read,
                                                      const OutOfCoreSamplingOptions& options) {
-  GM_RETURN_IF_ERROR(check_out_of_core_options("sample", options.sampler, options.spheres, options.threads));
+  GM_RETURN_IF_ERROR(check_out_of_core_options("sample", options.spheres, options.threads));
+  if (options.sampler.sample_test == SampleTest::kPaper) return sample_paper_out_of_core(input_path, read, options);
   auto spheres = create_spheres(options.spheres);
   if (!spheres) return spheres.status();
   auto partition = partition_for_chunks(input_path, read, options.partition, options.sampler, options.threads);

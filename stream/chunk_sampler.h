@@ -2,9 +2,9 @@
 // of a Partition is loaded, sampled for the vertices it owns with the sampler's local functions
 // (stream/sampler.h, steps 1-2), and released, chunks in parallel (oneTBB) in bounded memory.
 // The exact sample test is a per-vertex decision, so the samples equal the in-core run's for any
-// chunking (the locality contract, tests/stream/locality_test.cpp). The patch-level filters —
-// the untriangulatable merge and the paper test's noisy filter — need the stitch of patch
-// pieces across chunks, which is not built yet: the paper test is in core only.
+// chunking (the locality contract, tests/stream/locality_test.cpp). The paper test's patch-level
+// filters — the untriangulatable merge and the noisy filter — need the stitch of patch pieces and
+// candidate chains across chunks: sample_out_of_core runs simplify's stitch up to the samples.
 #pragma once
 
 #include <cstdint>
@@ -50,10 +50,12 @@ struct ChunkSamplerWorkspace {
   std::vector<VertexRecord> records;
 };
 
-// Samples one chunk for the exact test: appends the chunk's owned exact samples to `samples`
-// (ascending global id) and adds its counts to `stats`. Precondition: the chunk holds
-// required_overlap_rings(options.smooth_iterations) rings around its owned vertices, and
-// options.sample_test is kExact (asserted). Errors: those of build_mesh_adjacency.
+// Samples one chunk: for the exact test, appends the chunk's owned exact samples to `samples`
+// (ascending global id); for the paper test, whose samples need the stitch (stream/paper_chains.h),
+// appends none and leaves the owned candidates' records in workspace.records (paper decisions
+// only, as sample_mesh makes them). Adds the chunk's counts to `stats` either way. Precondition:
+// the chunk holds required_overlap_rings(options.smooth_iterations) rings around its owned
+// vertices. Errors: those of build_mesh_adjacency.
 format::Status sample_chunk(const ChunkMesh& chunk, const GaussSphere& gauss, const SamplerOptions& options,
                             ChunkSamplerWorkspace& workspace, std::vector<GlobalSample>& samples,
                             ChunkSamplingStats& stats);
@@ -95,9 +97,8 @@ format::Result<Partition> partition_for_chunks(const std::string& input_path, co
                                                std::uint32_t threads);
 
 // kUsage when an out-of-core run (`command` names it in the message) cannot take these options:
-// the paper sample test (its noisy-sample filter needs candidate chains across chunks, which are
-// not stitched), no orientation, or 0 threads.
-format::Status check_out_of_core_options(const char* command, const SamplerOptions& sampler,
+// no orientation, or 0 threads.
+format::Status check_out_of_core_options(const char* command,
                                          const std::vector<GaussSphereOptions>& spheres, std::uint32_t threads);
 
 // The process's peak RSS so far (getrusage), in bytes.
@@ -144,6 +145,10 @@ struct OutOfCoreSampling {
   std::size_t chosen = 0;            // index into spheres
   std::vector<std::size_t> samples_per_orientation;
   std::vector<GlobalSample> samples;  // of the chosen orientation, ascending vertex id
+  // The paper test: its candidate pairs along feature chains, and their digest
+  // (candidate_pairs_digest, stream/paper_chains.h).
+  std::size_t candidate_pairs = 0;
+  std::uint64_t candidate_pairs_digest = 0;
   ChunkSamplingStats stats;           // of the chosen orientation
   std::uint64_t vertices = 0, faces = 0;
   std::size_t chunks = 0;
@@ -157,10 +162,12 @@ struct OutOfCoreSampling {
 
 // Passes 0-2 for `gaussmesh sample --memory`: partition input_path ("-": stdin), then sample
 // every chunk once for all orientations, keeping the one with the fewest samples (ties: the
-// earliest). Memory: the partition's budget; pass 2 holds `threads` chunks (the partition sizes
-// them for it) plus the samples. Errors: kUsage for the paper test or bad G options; the
-// partition's (bad input, temp files, resources); kBadInput for a damaged chunk file. The
-// temporary directory is gone when this returns.
+// earliest). The paper test's samples need the stitch: it runs simplify's passes up to them
+// (simplify_out_of_core with samples_only, stream/chunk_simplify.h), once per orientation.
+// Memory: the partition's budget; pass 2 holds `threads` chunks (the partition sizes them for it)
+// plus the samples. Errors: kUsage for bad G options; the partition's (bad input, temp files,
+// resources); kBadInput for a damaged chunk file or record. The temporary directory is gone when
+// this returns.
 format::Result<OutOfCoreSampling> sample_out_of_core(const std::string& input_path, const format::ReadOptions& read,
                                                      const OutOfCoreSamplingOptions& options);
 

@@ -12,12 +12,14 @@
 #include <filesystem>
 #include <iterator>
 #include <map>
+#include <mutex>
 #include <numbers>
 #include <span>
 
 #include "format/record_file.h"
 
 #include "stream/id_indexed_file.h"
+#include "stream/paper_chains.h"
 #include "stream/piece_joins.h"
 
 namespace gaussmesh::stream {
@@ -631,23 +633,27 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
   return g;
 }
 
-format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_path, const format::ReadOptions& read,
-                                                       const OutOfCoreSimplifyOptions& options) {
-  GM_RETURN_IF_ERROR(check_out_of_core_options("simplify", options.sampler, options.spheres, options.threads));
-  auto created = create_spheres(options.spheres);
-  if (!created) return created.status();
-  std::vector<GaussSphere>& spheres = *created;
-  auto partition = partition_for_chunks(input_path, read, options.partition, options.sampler, options.threads);
-  if (!partition) return partition.status();
-  OutOfCoreSimplify out;
-  record_partition(*partition, out);
+namespace {
+
+// Passes A-D and the stitch over a partition, for `spheres` (the exact test: every orientation
+// in pass A; the paper test: one). `out` comes with the partition's figures. The temporary
+// directory is removed at the end when remove_temp (the paper test's runs per orientation keep
+// it for the next run; each run's files replace the last one's).
+format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::span<const GaussSphere> spheres,
+                                                     const OutOfCoreSimplifyOptions& options, OutOfCoreSimplify out,
+                                                     bool remove_temp) {
   const std::size_t nc = partition->chunks.size(), no = spheres.size();
 
   // Pass A: samples of every orientation (and, with one orientation, the pieces too). Each
   // chunk's border edges and face answers go to disk (stream/piece_joins.h) as it finishes.
   auto start = std::chrono::steady_clock::now();
   std::vector<std::vector<GlobalSample>> samples(nc * no);
+  std::vector<ChunkSamplingStats> chunk_stats(nc * no);
   std::vector<ChunkPieces> pieces(nc);
+  // The paper test: each chunk's candidates' star geometry (stream/paper_chains.h), for their
+  // records after the merge.
+  const bool paper = options.sampler.sample_test == SampleTest::kPaper;
+  std::vector<ChunkRecordSegment> star_geometry(paper ? nc : 0);
   // Border-edge records: about one per face of each chunk's first overlap ring, whose size is
   // about the overlap's over the rings (a guess: a wrong one costs reads, not memory).
   std::uint64_t expected_border = 0;
@@ -696,15 +702,26 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     }
     return (*joins)->spill(static_cast<std::uint32_t>(c), pieces[c]);
   };
+  std::mutex geometry_mutex;
+  auto write_geometry = [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) -> format::Status {
+    format::RecordSegmentPool::Lease lease((*joins)->segments());
+    GM_RETURN_IF_ERROR(lease.status());
+    auto written = write_star_geometry(chunk, ws.adjacency, ws.normals, ws.records, lease.file());
+    if (!written) return written.status();
+    star_geometry[c] = std::move(written).value();
+    std::lock_guard<std::mutex> lock(geometry_mutex);
+    partition->bytes_spilled += star_geometry[c].segment.bytes;
+    return format::Status();
+  };
   GM_RETURN_IF_ERROR(for_each_chunk(*partition, options.threads, "sample", options,
                                     [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
-                                      ChunkSamplingStats stats;
                                       for (std::size_t k = 0; k < no; ++k) {
                                         GM_RETURN_IF_ERROR(sample_chunk(chunk, spheres[k], options.sampler, ws,
-                                                                        samples[c * no + k], stats));
+                                                                        samples[c * no + k], chunk_stats[c * no + k]));
                                       }
-                                      if (no == 1) return find_pieces(c, chunk, ws, samples[c]);
-                                      return format::Status();
+                                      if (no > 1) return format::Status();
+                                      if (paper) GM_RETURN_IF_ERROR(write_geometry(c, chunk, ws));
+                                      return find_pieces(c, chunk, ws, samples[c]);
                                     }));
   for (std::size_t k = 0; k < no; ++k) {
     std::size_t n = 0;
@@ -717,7 +734,9 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   for (std::size_t c = 0; c < nc; ++c) {
     chosen[c] = std::move(samples[c * no + out.chosen]);
     out.samples += chosen[c].size();
+    out.sampling_stats.add(chunk_stats[c * no + out.chosen]);
   }
+  std::vector<ChunkSamplingStats>().swap(chunk_stats);
   samples = {};
   if (no > 1) {
     GM_RETURN_IF_ERROR(for_each_chunk(*partition, options.threads, "pieces", options,
@@ -725,6 +744,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
                                         std::vector<GlobalSample> unused;
                                         ChunkSamplingStats stats;
                                         GM_RETURN_IF_ERROR(sample_chunk(chunk, gauss, options.sampler, ws, unused, stats));
+                                        if (paper) GM_RETURN_IF_ERROR(write_geometry(c, chunk, ws));
                                         return find_pieces(c, chunk, ws, chosen[c]);
                                       }));
   }
@@ -756,6 +776,32 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   out.peak_rss_after_merge = peak_rss();
   out.stitch_steps.merge = seconds_since(step);
   step = std::chrono::steady_clock::now();
+  // The paper test: the surviving candidates' records under the merged labels, from their star
+  // geometry and their stars' patches (what sample_mesh's merge leaves in its records).
+  std::vector<PaperCandidate> paper_candidates;
+  if (paper) {
+    auto merged_label = [&](std::uint32_t p) { return merged.patch_label[merged.patch_of[p]]; };
+    const MergedStar star = [&](std::uint32_t vertex, std::vector<StarSlotLabel>& slots) {
+      const auto& cands = stitched->candidates;
+      const auto it = std::lower_bound(cands.begin(), cands.end(), vertex,
+                                       [](const StitchedPatches::Candidate& a, std::uint32_t v) { return a.vertex < v; });
+      if (it == cands.end() || it->vertex != vertex || !merged.is_candidate[it - cands.begin()]) return false;
+      for (std::uint32_t k = it->first; k < it->first + it->count; ++k) {
+        const auto& e = stitched->star[k];
+        const std::uint32_t label = merged_label(e.patch);
+        slots.push_back({label, e.next_patch == kNone || merged_label(e.next_patch) != label});
+      }
+      return true;
+    };
+    for (std::size_t c = 0; c < nc; ++c)
+      GM_RETURN_IF_ERROR(reevaluate_candidates(star_geometry[c], static_cast<std::uint32_t>(c), gauss, star, paper_candidates));
+    if (paper_candidates.size() != corners.size())
+      return damaged("the star geometry holds " + std::to_string(paper_candidates.size()) + " of " +
+                     std::to_string(corners.size()) + " candidates");
+    std::sort(paper_candidates.begin(), paper_candidates.end(),
+              [](const PaperCandidate& a, const PaperCandidate& b) { return a.vertex < b.vertex; });
+    std::vector<ChunkRecordSegment>().swap(star_geometry);
+  }
   // Passes C and D need each piece's merged patch and each merged patch's label; the rest of the
   // stitch and the merge goes now.
   std::vector<StitchedPatches::Star>().swap(stitched->star);
@@ -790,6 +836,112 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     for (std::uint32_t f = 0; f < patch.size(); ++f) patch[f] = merged_patch_of_piece(face_piece[f]);
     return format::Status();
   };
+
+  // The paper test's samples: candidate chains under the merged labels, chunk by chunk (loop
+  // chunks hold every vertex on a feature edge with its whole star), joined across chunks, then
+  // the non-sample and noisy filters (sample_mesh's last steps).
+  if (paper) {
+    std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> chunk_pairs(nc);
+    std::vector<ChunkRecordSegment> fragment_files(nc);
+    GM_RETURN_IF_ERROR(for_each_chunk(
+        nc, loop_info_of, partition->faces, options.threads, "chains", options,
+        [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
+          std::vector<std::uint32_t> patch;
+          std::vector<PieceRecord> piece_records;
+          if (!chunk.core_face.empty()) GM_RETURN_IF_ERROR((*joins)->read_pieces(static_cast<std::uint32_t>(c), piece_records));
+          GM_RETURN_IF_ERROR(merged_patches_of_chunk(chunk, ws, patch, piece_records));
+          std::vector<std::uint32_t> label(patch.size(), 0);
+          std::vector<std::uint8_t> known(patch.size(), 0);
+          for (std::size_t f = 0; f < patch.size(); ++f) {
+            if (patch[f] == kNone) continue;
+            label[f] = merged.patch_label[patch[f]];
+            known[f] = 1;
+          }
+          auto is_candidate = [&](std::uint32_t v) { return std::binary_search(corners.begin(), corners.end(), v); };
+          std::vector<ChainFragment> fragments;
+          GM_RETURN_IF_ERROR(find_chunk_chains(chunk, ws.adjacency, label, known, is_candidate, chunk_pairs[c], fragments));
+          std::sort(chunk_pairs[c].begin(), chunk_pairs[c].end());
+          chunk_pairs[c].erase(std::unique(chunk_pairs[c].begin(), chunk_pairs[c].end()), chunk_pairs[c].end());
+          chunk_pairs[c].shrink_to_fit();
+          if (fragments.empty()) return format::Status();
+          format::RecordSegmentPool::Lease lease((*joins)->segments());
+          GM_RETURN_IF_ERROR(lease.status());
+          auto written = write_chain_fragments(fragments, lease.file());
+          if (!written) return written.status();
+          fragment_files[c] = std::move(written).value();
+          return format::Status();
+        }));
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> candidate_pairs;
+    for (auto& p : chunk_pairs) {
+      candidate_pairs.insert(candidate_pairs.end(), p.begin(), p.end());
+      std::vector<std::pair<std::uint32_t, std::uint32_t>>().swap(p);
+    }
+    for (const ChunkRecordSegment& f : fragment_files) {
+      out.chain_fragments += f.records;
+      partition->bytes_spilled += f.segment.bytes;
+    }
+    GM_RETURN_IF_ERROR(join_chain_fragments(fragment_files, options.partition.memory_bytes, candidate_pairs));
+    std::sort(candidate_pairs.begin(), candidate_pairs.end());
+    candidate_pairs.erase(std::unique(candidate_pairs.begin(), candidate_pairs.end()), candidate_pairs.end());
+    out.candidate_pairs = candidate_pairs.size();
+    out.candidate_pairs_digest = candidate_pairs_digest(candidate_pairs);
+    std::vector<NoisyFilterInput> survivors;
+    std::vector<std::uint32_t> survivor_of;  // index into paper_candidates
+    for (std::uint32_t k = 0; k < paper_candidates.size(); ++k) {
+      const PaperCandidate& r = paper_candidates[k];
+      if (r.is_tree) {
+        ++out.tree_filtered;
+        continue;
+      }
+      if (options.sampler.drop_unwinding_candidates && r.gauss_vertex != kNoGaussVertex &&
+          r.characteristic == Characteristic::kNone) {
+        ++out.unwinding_filtered;
+        continue;
+      }
+      survivors.push_back({r.vertex, r.gauss_vertex, static_cast<std::uint8_t>(r.characteristic), r.cover_mask});
+      survivor_of.push_back(k);
+    }
+    const std::vector<std::uint8_t> keep = noisy_sample_filter(survivors, candidate_pairs);
+    std::vector<std::pair<std::uint32_t, std::uint32_t>>().swap(candidate_pairs);
+    out.samples = 0;
+    for (std::size_t k = 0; k < survivors.size(); ++k) {
+      if (!keep[k]) {
+        ++out.noisy_filtered;
+        continue;
+      }
+      const PaperCandidate& r = paper_candidates[survivor_of[k]];
+      const GlobalSample sample{r.vertex, r.position, r.gauss_vertex, r.characteristic};
+      if (options.samples_only) {
+        out.sample_points.push_back(sample);
+      } else {
+        if (r.chunk >= nc) return damaged("a candidate names chunk " + std::to_string(r.chunk));
+        chosen[r.chunk].push_back(sample);
+      }
+      ++out.samples;
+    }
+    out.samples_per_orientation.assign(1, out.samples);
+    std::vector<PaperCandidate>().swap(paper_candidates);
+    out.stitch_steps.chains = seconds_since(step);
+    step = std::chrono::steady_clock::now();
+  }
+  if (options.samples_only) {
+    out.bytes_spilled = partition->bytes_spilled;
+    out.seconds_stitch = seconds_since(start);
+    if (remove_temp) {
+      const auto cleanup = std::chrono::steady_clock::now();
+      partition->remove_temp();
+      out.seconds_cleanup = seconds_since(cleanup);
+    }
+    out.rotation = gauss.options().rotation;
+    out.gauss_vertices = gauss.vertex_count();
+    out.gauss_triangles = gauss.triangle_count();
+    if (!paper) {
+      for (auto& part : chosen) out.sample_points.insert(out.sample_points.end(), part.begin(), part.end());
+      std::sort(out.sample_points.begin(), out.sample_points.end(),
+                [](const GlobalSample& a, const GlobalSample& b) { return a.vertex < b.vertex; });
+    }
+    return out;
+  }
 
   // Pass C: loops under the merged patches; each chunk's run vertices go to a file. A loop chunk
   // carries its owned faces' pieces, and its areas come from pass A's per-piece sums.
@@ -921,9 +1073,11 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     if (!meshed) return meshed.status();
   }
   out.seconds_mesh = seconds_since(start);
-  start = std::chrono::steady_clock::now();
-  partition->remove_temp();
-  out.seconds_cleanup = seconds_since(start);
+  if (remove_temp) {
+    start = std::chrono::steady_clock::now();
+    partition->remove_temp();
+    out.seconds_cleanup = seconds_since(start);
+  }
   out.mesh = std::move(meshed->mesh.mesh);
   out.birth = std::move(meshed->mesh.birth);
   out.polygon = meshed->stats;
@@ -931,6 +1085,63 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   out.gauss_vertices = gauss.vertex_count();
   out.gauss_triangles = gauss.triangle_count();
   return out;
+}
+
+}  // namespace
+
+format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_path, const format::ReadOptions& read,
+                                                       const OutOfCoreSimplifyOptions& options) {
+  GM_RETURN_IF_ERROR(check_out_of_core_options("simplify", options.spheres, options.threads));
+  auto created = create_spheres(options.spheres);
+  if (!created) return created.status();
+  const std::vector<GaussSphere>& spheres = *created;
+  auto partition = partition_for_chunks(input_path, read, options.partition, options.sampler, options.threads);
+  if (!partition) return partition.status();
+  OutOfCoreSimplify base;
+  record_partition(*partition, base);
+  const std::size_t no = spheres.size();
+  if (options.sampler.sample_test != SampleTest::kPaper || no == 1)
+    return simplify_partition(&*partition, spheres, options, std::move(base), true);
+
+  // The paper test's samples come after the merge and the chains, so each orientation runs the
+  // passes up to its samples (as sample_mesh_best_orientation samples the mesh once per
+  // orientation); the one with the fewest (ties: the first) is kept — with `samples_only` as it
+  // is, else run again to the end.
+  OutOfCoreSimplifyOptions counting = options;
+  counting.samples_only = true;
+  std::vector<std::size_t> counts;
+  std::size_t chosen = 0;
+  double seconds_sample = 0, seconds_stitch = 0, seconds_cleanup = 0;
+  std::optional<OutOfCoreSimplify> best;
+  for (std::size_t k = 0; k < no; ++k) {
+    const bool last = options.samples_only && k + 1 == no;
+    auto run = simplify_partition(&*partition, std::span(&spheres[k], 1), counting, base, last);
+    if (!run) return run.status();
+    counts.push_back(run->samples);
+    seconds_sample += run->seconds_sample;
+    seconds_stitch += run->seconds_stitch;
+    seconds_cleanup += run->seconds_cleanup;
+    if (k == 0 || run->samples < counts[chosen]) {
+      chosen = k;
+      if (options.samples_only) best = std::move(run).value();
+    }
+    release_free_memory(options.partition.memory_bytes);
+  }
+  if (!options.samples_only) {
+    auto run = simplify_partition(&*partition, std::span(&spheres[chosen], 1), options, base, true);
+    if (!run) return run.status();
+    best = std::move(run).value();
+    best->seconds_sample += seconds_sample;
+    best->seconds_stitch += seconds_stitch;
+  } else {
+    best->seconds_sample = seconds_sample;
+    best->seconds_stitch = seconds_stitch;
+    best->seconds_cleanup = seconds_cleanup;
+    best->bytes_spilled = partition->bytes_spilled;
+  }
+  best->chosen = chosen;
+  best->samples_per_orientation = counts;
+  return std::move(best).value();
 }
 
 }  // namespace gaussmesh::stream

@@ -2,7 +2,10 @@
 // Pass 0-1 partition the input (stream/chunk_partition.h); pass A samples every chunk for every
 // orientation (stream/chunk_sampler.h); pass B finds the patch pieces of the chosen orientation
 // and the stitch joins them and runs the untriangulatable merge on the patch graph
-// (stream/chunk_pieces.h); pass C — from each chunk's adjacency and the pieces pass A/B wrote
+// (stream/chunk_pieces.h); for the paper sample test, whose samples come after the merge, the
+// candidates are re-evaluated from their star geometry and a chain pass finds the candidate
+// pairs along feature chains for the noisy filter (stream/paper_chains.h), once per orientation;
+// pass C — from each chunk's adjacency and the pieces pass A/B wrote
 // for its owned faces, without labelling the chunk again — gives every owned feature half-edge
 // its successor around its end vertex under the merged patches, with the role of every owned
 // kept vertex (find_chunk_loops, in runs); the stitch chains the runs into patch loops and the
@@ -134,9 +137,13 @@ struct OutOfCoreSimplifyOptions {
   PartitionOptions partition;  // memory, tmp dir; rings and threads follow from the fields below
   std::uint32_t threads = 1;
   std::vector<GaussSphereOptions> spheres = {GaussSphereOptions{}};
-  SamplerOptions sampler;  // the exact test only
+  SamplerOptions sampler;
   // (pass name, chunks done, chunks, input faces) after each chunk.
   std::function<void(const char*, std::size_t, std::size_t, std::uint64_t)> progress;
+  // Stop once the samples are known (after the merge and, for the paper test, the chain pass):
+  // no loops, no mesh; OutOfCoreSimplify::sample_points holds them (`sample --memory` with the
+  // paper test, whose samples need the stitch).
+  bool samples_only = false;
 };
 
 struct OutOfCoreSimplify {
@@ -147,6 +154,14 @@ struct OutOfCoreSimplify {
   std::vector<std::size_t> samples_per_orientation;
   std::size_t gauss_vertices = 0, gauss_triangles = 0;
   std::size_t patches = 0, candidates = 0, samples = 0, merged_patches = 0, merge_rounds = 0;
+  // samples_only: the samples, ascending vertex, with their positions.
+  std::vector<GlobalSample> sample_points;
+  ChunkSamplingStats sampling_stats;  // pass A's counts, of the chosen orientation
+  // The paper test: candidate pairs along feature chains, chain fragments that left their chunk
+  // (joined on disk, stream/paper_chains.h), and what the filters removed.
+  std::size_t candidate_pairs = 0, chain_fragments = 0;
+  std::uint64_t candidate_pairs_digest = 0;  // candidate_pairs_digest (stream/paper_chains.h) of the pairs
+  std::size_t tree_filtered = 0, unwinding_filtered = 0, noisy_filtered = 0;
   PolygonMesherStats polygon;
   std::uint64_t vertices = 0, faces = 0;
   std::size_t chunks = 0;
@@ -162,9 +177,10 @@ struct OutOfCoreSimplify {
   double seconds_cleanup = 0;  // removing the temporary directory (the file system's writeback can stall it)
   PartitionSteps partition_steps;  // seconds_partition by step
   // seconds_stitch by step: joining the pieces across chunks, the untriangulatable merge, pass C
-  // (loops under the merged patches, on the chunks' threads), the loop stitch.
+  // (loops under the merged patches, on the chunks' threads), the loop stitch; and for the paper
+  // test, its candidates' records, chains and filters (after the merge, before pass C).
   struct StitchSteps {
-    double pieces = 0, merge = 0, loops = 0, loop_stitch = 0;
+    double pieces = 0, merge = 0, chains = 0, loops = 0, loop_stitch = 0;
   } stitch_steps;
   // The process's peak RSS (getrusage) after passes 0-1, after pass A/B, after the piece stitch
   // and merge, and after pass C: which stage sets the peak.
@@ -172,7 +188,9 @@ struct OutOfCoreSimplify {
                 peak_rss_after_loops = 0;
 };
 
-// The whole job. Errors: kUsage for the paper test or bad options; the partition's and the
+// The whole job. With the paper test and several orientations, the passes up to the samples run
+// once per orientation, and once more to the end for the chosen one (unless samples_only).
+// Errors: kUsage for bad options; the partition's and the
 // chunks' (bad input, temp files, resources); kProcessing from the stitch or the mesher
 // (including a patch that only its input faces could mesh, which is not fetched yet).
 format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_path, const format::ReadOptions& read,

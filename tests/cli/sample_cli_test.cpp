@@ -100,6 +100,35 @@ TEST(SampleCli, OutOfCoreGivesTheInCoreBytesFromFilesAndPipes) {
   }
 }
 
+// The paper sample test out of core: the same samples PLY as in core, from a file and a pipe.
+TEST(SampleCli, OutOfCorePaperTestGivesTheInCoreBytesFromFilesAndPipes) {
+  ScratchDir dir, tmp;
+  const std::string bin = q(gaussmesh_binary());
+  for (const char* name : {"real/cow.off", "real/fandisk.off", "real/homer.off", "real/knot1.off",
+                           "real/mech-holes-shark.off", "real/mushroom.off", "real/bunny-lowres.ply"}) {
+    for (const char* smooth : {"0", "2 --orientations 2"}) {
+      const std::string in = q(fixture(name));
+      const std::string flags = std::string(" --sample-test paper --smooth ") + smooth;
+      ASSERT_EQ(run_command(bin + " sample " + in + " -o " + q(dir.file("a.ply")) + flags).exit_code, 0);
+      const CommandResult ooc = run_command(bin + " sample " + in + " -o " + q(dir.file("b.ply")) + flags +
+                                            " --memory 16M --threads 2 --tmp " + q(tmp.path().string()) +
+                                            " --report " + q(dir.file("r.json")));
+      ASSERT_EQ(ooc.exit_code, 0) << ooc.err;
+      const CommandResult piped = run_command("cat " + in + " | " + bin + " sample - -o -" + flags +
+                                              " --memory 16M --tmp " + q(tmp.path().string()) + " > " +
+                                              q(dir.file("c.ply")));
+      ASSERT_EQ(piped.exit_code, 0) << piped.err;
+      const std::string a = read_file(dir.file("a.ply"));
+      EXPECT_GT(a.size(), 100u);
+      EXPECT_EQ(a, read_file(dir.file("b.ply"))) << name << " smooth " << smooth;
+      EXPECT_EQ(a, read_file(dir.file("c.ply"))) << name << " smooth " << smooth;
+      const auto report = nlohmann::json::parse(read_file(dir.file("r.json")));
+      EXPECT_EQ(report["sample_test"], "paper");
+      EXPECT_EQ(files_in(tmp.path().string()), 0u) << "temporary files left by " << name;
+    }
+  }
+}
+
 TEST(SampleCli, OutOfCoreBadInputAndOptions) {
   ScratchDir dir, tmp;
   const std::string bin = q(gaussmesh_binary());
@@ -112,8 +141,7 @@ TEST(SampleCli, OutOfCoreBadInputAndOptions) {
     EXPECT_FALSE(std::filesystem::exists(dir.file("s.ply"))) << bad;
     EXPECT_EQ(files_in(tmp.path().string()), 0u) << bad;
   }
-  for (const std::string bad : {"--memory 0", "--memory 12Q", "--memory 1M", "--memory 16M --patches p.ply",
-                                "--memory 16M --sample-test paper"}) {
+  for (const std::string bad : {"--memory 0", "--memory 12Q", "--memory 1M", "--memory 16M --patches p.ply"}) {
     const CommandResult r = run_command(bin + " sample " + q(fixture("real/cow.off")) + " -o " + q(dir.file("s.ply")) +
                                         " --tmp " + q(tmp.path().string()) + " " + bad);
     EXPECT_EQ(r.exit_code, 1) << bad << ": " << r.err;

@@ -11,6 +11,7 @@
 #include "format/mesh_writer.h"
 #include "format/output_file.h"
 #include "stream/mesh.h"
+#include "stream/paper_chains.h"
 #include "tests/support/shapes.h"
 #include "tests/support/test_util.h"
 
@@ -23,11 +24,30 @@ struct Case {
   std::size_t orientations = 1;
   std::uint64_t chunk_faces = 24;
   std::uint32_t threads = 2;
+  SampleTest test = SampleTest::kExact;
 };
+
+// The in-core paper test's candidate pairs (find_candidate_adjacency under the merged labels),
+// as candidate_pairs_digest: out of core must find the same pairs, not only the same samples
+// (on the fixtures, pairs along chains that cross chunks rarely change which samples survive).
+std::uint64_t in_core_pairs_digest(const Mesh& mesh, const GaussSphereOptions& sphere, const SamplerOptions& sampler,
+                                   std::size_t* count) {
+  auto gauss = GaussSphere::create(sphere);
+  EXPECT_TRUE(gauss.is_ok());
+  auto sampled = sample_mesh(mesh.view(), *gauss, sampler);
+  EXPECT_TRUE(sampled.is_ok());
+  auto adjacency = build_mesh_adjacency(mesh.view());
+  EXPECT_TRUE(adjacency.is_ok());
+  std::vector<std::uint8_t> is_candidate(mesh.positions.size(), 0);
+  for (const VertexRecord& r : sampled->candidates) is_candidate[r.vertex] = 1;
+  const auto pairs = find_candidate_adjacency(mesh.view(), *adjacency, sampled->face_feature, is_candidate);
+  *count = pairs.size();
+  return candidate_pairs_digest(pairs);
+}
 
 void expect_same_as_in_core(const Case& c, const std::string& tmp) {
   SCOPED_TRACE(c.path + " smooth " + std::to_string(c.smooth) + " orientations " + std::to_string(c.orientations) +
-               " chunk faces " + std::to_string(c.chunk_faces));
+               " chunk faces " + std::to_string(c.chunk_faces) + " test " + sample_test_name(c.test));
   auto mesh = load_mesh(c.path);
   ASSERT_TRUE(mesh.is_ok()) << mesh.status().to_string();
   OutOfCoreSamplingOptions options;
@@ -39,6 +59,7 @@ void expect_same_as_in_core(const Case& c, const std::string& tmp) {
     options.spheres.push_back(g);
   }
   options.sampler.smooth_iterations = c.smooth;
+  options.sampler.sample_test = c.test;
   options.threads = c.threads;
   options.partition.max_chunk_faces = c.chunk_faces;
   options.partition.memory_bytes = std::uint64_t{64} << 20;
@@ -60,6 +81,12 @@ void expect_same_as_in_core(const Case& c, const std::string& tmp) {
     EXPECT_EQ(s.gauss_vertex, want[k].gauss_vertex) << "vertex " << s.vertex;
     EXPECT_EQ(s.characteristic, want[k].characteristic) << "vertex " << s.vertex;
     EXPECT_EQ(s.position, mesh->positions[s.vertex]) << "vertex " << s.vertex;
+  }
+  if (c.test == SampleTest::kPaper) {
+    std::size_t pairs = 0;
+    const std::uint64_t digest = in_core_pairs_digest(*mesh, options.spheres[ooc->chosen], options.sampler, &pairs);
+    EXPECT_EQ(ooc->candidate_pairs, pairs);
+    EXPECT_EQ(ooc->candidate_pairs_digest, digest);
   }
   // Owned counts add up to the whole mesh's.
   EXPECT_EQ(ooc->stats.owned_faces, mesh->triangles.size());
@@ -108,12 +135,42 @@ TEST(ChunkSampler, NoisyShapeWithSmoothing) {
   expect_same_as_in_core({path, 3, 2, 100, 2}, runs.string());
 }
 
-TEST(ChunkSampler, PaperTestIsRefusedOutOfCore) {
-  OutOfCoreSamplingOptions options;
-  options.sampler.sample_test = SampleTest::kPaper;
-  auto r = sample_out_of_core(testing::fixture("real/cow.off"), {}, options);
-  ASSERT_FALSE(r.is_ok());
-  EXPECT_EQ(r.status().code(), format::Code::kUsage);
+// The paper test runs the stitch up to its samples: the untriangulatable merge, the candidates'
+// records after it, candidate chains across chunks and the noisy filter.
+TEST(ChunkSampler, PaperTestGivesTheInCoreSamplesWithHundredsOfChunks) {
+  testing::ScratchDir tmp;
+  for (std::uint32_t smooth : {0u, 2u})
+    for (const char* name : {"cow.off", "fandisk.off", "homer.off", "knot1.off", "mech-holes-shark.off",
+                             "mushroom.off", "bunny-lowres.ply"})
+      expect_same_as_in_core({testing::fixture(std::string("real/") + name), smooth, 1, 24, 2, SampleTest::kPaper},
+                             tmp.path().string());
+}
+
+TEST(ChunkSampler, PaperTestNoisyShapeWithSmoothing) {
+  testing::ScratchDir tmp;
+  testing::ShapeOptions shape;
+  shape.vertices = 6000;
+  shape.noise = 0.01;
+  const Mesh sphere = testing::make_sphere(shape);
+  const std::string path = tmp.file("noisy.ply");
+  {
+    auto out = format::OutputFile::create(path, true);
+    ASSERT_TRUE(out.is_ok());
+    ASSERT_TRUE(format::write_ply(**out, sphere.view(), {}).is_ok());
+    ASSERT_TRUE((*out)->commit().is_ok());
+  }
+  const std::filesystem::path runs = tmp.path() / "runs";
+  std::filesystem::create_directory(runs);
+  expect_same_as_in_core({path, 0, 1, 100, 2, SampleTest::kPaper}, runs.string());
+  expect_same_as_in_core({path, 3, 1, 60, 1, SampleTest::kPaper}, runs.string());
+}
+
+// Several orientations: each runs the stitch up to its samples, the fewest win (ties: the first).
+TEST(ChunkSampler, PaperTestWithSeveralOrientations) {
+  testing::ScratchDir tmp;
+  expect_same_as_in_core({testing::fixture("real/cow.off"), 0, 3, 24, 2, SampleTest::kPaper}, tmp.path().string());
+  expect_same_as_in_core({testing::fixture("real/homer.off"), 0, 2, 48, 1, SampleTest::kPaper}, tmp.path().string());  // the second wins
+  expect_same_as_in_core({testing::fixture("real/fandisk.off"), 2, 2, 48, 1, SampleTest::kPaper}, tmp.path().string());
 }
 
 }  // namespace
