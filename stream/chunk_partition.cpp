@@ -968,6 +968,12 @@ class IngestSink final : public format::MeshSink {
 // span). (A larger buffer, once freed, raises
 // glibc's mmap threshold, and later buffers of that size come from the heap and stay resident:
 // 4 MiB here raised the 10M run's peak by 2.6 MB.)
+// Closes a descriptor when it goes out of scope.
+struct FdCloser {
+  int fd;
+  ~FdCloser() { ::close(fd); }
+};
+
 std::int64_t modified_ns(const struct stat& st) {
   return static_cast<std::int64_t>(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec;
 }
@@ -997,10 +1003,7 @@ template <class Fn>
 Status scan_input_positions(const VertexFiles::InputPositions& in, std::uint64_t expected, Fn&& fn) {
   auto opened = open_input_positions(in);
   if (!opened) return opened.status();
-  struct Closer {
-    int fd;
-    ~Closer() { ::close(fd); }
-  } closer{*opened};
+  FdCloser closer{*opened};
   // Records of x, y, z alone are read straight into the positions.
   const bool bare = in.stride == sizeof(Vec3f) && in.xyz[0] == 0 && in.xyz[1] == 4 && in.xyz[2] == 8;
   const std::size_t per_batch = std::max<std::size_t>(kPositionStripeVertices * sizeof(Vec3f) / in.stride, 1);
@@ -2176,10 +2179,7 @@ Status read_vertex_records(const std::string& path, std::size_t record_bytes, co
   auto vertex = [&](std::size_t i) { return std::to_string(vertices ? (*vertices)[i] : ids[i]); };
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) return Status::error(Code::kBadInput, path, "cannot open a vertex file: " + errno_text());
-  struct Closer {
-    int fd;
-    ~Closer() { ::close(fd); }
-  } closer{fd};
+  FdCloser closer{fd};
   struct stat st {};
   if (::fstat(fd, &st) != 0) return Status::error(Code::kBadInput, path, "cannot stat a vertex file: " + errno_text());
   const std::uint64_t count = static_cast<std::uint64_t>(st.st_size) / record_bytes;
@@ -2209,10 +2209,7 @@ Status read_chunk_positions(const ChunkInfo& info, ChunkMesh& mesh) {
     const VertexFiles::InputPositions& in = *files.input;
     auto opened = open_input_positions(in);
     if (!opened) return opened.status();
-    struct Closer {
-      int fd;
-      ~Closer() { ::close(fd); }
-    } closer{*opened};
+    FdCloser closer{*opened};
     const std::uint64_t count = (in.size - in.first_byte) / in.stride;
     std::vector<std::byte> window;
     const std::size_t served = read_by_ascending_id(

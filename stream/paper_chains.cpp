@@ -2,6 +2,7 @@
 // merge, candidate chains per chunk and their join across chunks (paper §4 "Noisy Sample
 // Filtering"). See paper_chains.h.
 #include "stream/paper_chains.h"
+#include "stream/disjoint_sets.h"
 
 #include <algorithm>
 #include <bit>
@@ -73,20 +74,6 @@ format::Result<ChunkRecordSegment> write_records(std::span<const std::byte> byte
   out.records = bytes.size() / size;
   return out;
 }
-
-struct DisjointSets {
-  std::vector<std::uint32_t> parent;
-  explicit DisjointSets(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
-  std::uint32_t find(std::uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  }
-  void unite(std::uint32_t a, std::uint32_t b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
-};
 
 }  // namespace
 

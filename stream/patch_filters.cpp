@@ -1,6 +1,7 @@
 // Patch-level steps of the sampler (paper §4, "Untriangulatable Patch Filtering" Fig. 6 and
 // "Noisy Sample Filtering" Figs. 9-10; DESIGN §1 "Per patch").
 #include "stream/patch_filters.h"
+#include "stream/disjoint_sets.h"
 
 #include <algorithm>
 #include <cassert>
@@ -9,20 +10,6 @@
 
 namespace gaussmesh::stream {
 namespace {
-
-struct DisjointSets {
-  std::vector<std::uint32_t> parent;
-  explicit DisjointSets(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
-  std::uint32_t find(std::uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  }
-  void unite(std::uint32_t a, std::uint32_t b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
-};
 
 }  // namespace
 

@@ -18,6 +18,7 @@
 #include "stream/simplify.h"
 #include "tests/support/records.h"
 #include "stream/paper_chains.h"
+#include "tests/support/paper_pairs.h"
 #include "tests/support/shapes.h"
 #include "tests/support/test_util.h"
 
@@ -34,23 +35,6 @@ struct Case {
   std::uint64_t seed = 1;  // orientation k is gauss_rotation_from_seed(seed + k)
 };
 
-// The in-core paper test's candidate pairs (find_candidate_adjacency under the merged labels),
-// as candidate_pairs_digest: out of core must find the same pairs, not only the same samples
-// (on the fixtures, pairs along chains that cross chunks rarely change which samples survive).
-std::uint64_t in_core_pairs_digest(const Mesh& mesh, const GaussSphereOptions& sphere, const SamplerOptions& sampler,
-                                   std::size_t* count) {
-  auto gauss = GaussSphere::create(sphere);
-  EXPECT_TRUE(gauss.is_ok());
-  auto sampled = sample_mesh(mesh.view(), *gauss, sampler);
-  EXPECT_TRUE(sampled.is_ok());
-  auto adjacency = build_mesh_adjacency(mesh.view());
-  EXPECT_TRUE(adjacency.is_ok());
-  std::vector<std::uint8_t> is_candidate(mesh.positions.size(), 0);
-  for (const VertexRecord& r : sampled->candidates) is_candidate[r.vertex] = 1;
-  const auto pairs = find_candidate_adjacency(mesh.view(), *adjacency, sampled->face_feature, is_candidate);
-  *count = pairs.size();
-  return candidate_pairs_digest(pairs);
-}
 
 void expect_same_as_in_core(const Case& c) {
   SCOPED_TRACE(c.name + " smooth " + std::to_string(c.smooth) + " orientations " + std::to_string(c.orientations) +
