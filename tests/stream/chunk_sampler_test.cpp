@@ -117,6 +117,9 @@ TEST(ChunkSampler, NoisyShapeWithSmoothing) {
   const std::filesystem::path runs = tmp.path() / "runs";
   std::filesystem::create_directory(runs);
   expect_same_as_in_core({path, 3, 2, 100, 2}, runs.string());
+  // The paper test too (its samples after the merge, the chains and the noisy filter).
+  expect_same_as_in_core({path, 0, 1, 100, 2, SampleTest::kPaper}, runs.string());
+  expect_same_as_in_core({path, 3, 1, 60, 1, SampleTest::kPaper}, runs.string());
 }
 
 // The paper test runs the stitch up to its samples: the untriangulatable merge, the candidates'
@@ -128,25 +131,6 @@ TEST(ChunkSampler, PaperTestGivesTheInCoreSamplesWithHundredsOfChunks) {
                              "mushroom.off", "bunny-lowres.ply"})
       expect_same_as_in_core({testing::fixture(std::string("real/") + name), smooth, 1, 24, 2, SampleTest::kPaper},
                              tmp.path().string());
-}
-
-TEST(ChunkSampler, PaperTestNoisyShapeWithSmoothing) {
-  testing::ScratchDir tmp;
-  testing::ShapeOptions shape;
-  shape.vertices = 6000;
-  shape.noise = 0.01;
-  const Mesh sphere = testing::make_sphere(shape);
-  const std::string path = tmp.file("noisy.ply");
-  {
-    auto out = format::OutputFile::create(path, true);
-    ASSERT_TRUE(out.is_ok());
-    ASSERT_TRUE(format::write_ply(**out, sphere.view(), {}).is_ok());
-    ASSERT_TRUE((*out)->commit().is_ok());
-  }
-  const std::filesystem::path runs = tmp.path() / "runs";
-  std::filesystem::create_directory(runs);
-  expect_same_as_in_core({path, 0, 1, 100, 2, SampleTest::kPaper}, runs.string());
-  expect_same_as_in_core({path, 3, 1, 60, 1, SampleTest::kPaper}, runs.string());
 }
 
 // Several orientations: each runs the stitch up to its samples, the fewest win (ties: the first).
