@@ -1789,9 +1789,9 @@ Status PartitionRun::write_chunks() {
       ++info.faces;
       info.owned_faces += (flags & kOwnsFace) != 0;
     };
-    // Tags: chunk + 1 for a face whose corners one chunk owns and no other chunk's rings hold (at
-    // 100M, 9 faces in 10), which goes to that chunk alone and needs no lookup here; 0 for the
-    // others and for untagged frames. The read-ahead thread reads the three owners and the three
+    // Tags: chunk + 1 for a face whose corners one chunk owns and no other chunk's rings hold
+    // (most faces: all but the chunks' overlaps), which goes to that chunk alone and needs no
+    // lookup here; 0 for the others and for untagged frames. The read-ahead thread reads the three owners and the three
     // has-extras bits through its windows.
     const bool rings = options_.rings > 1;
     auto tag_of = [&](const Triangle& t, FaceWindows& w) -> std::uint32_t {
