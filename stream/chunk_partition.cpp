@@ -1324,10 +1324,8 @@ Status PartitionRun::ingest(const std::string& input_path, const format::ReadOpt
     in.first_byte = raw->first_byte;
     in.stride = raw->stride;
     for (int a = 0; a < 3; ++a) in.xyz[a] = raw->xyz[a];
-    struct stat st{};
-    if (::stat(input_path.c_str(), &st) != 0) return Status::error(Code::kBadInput, input_path, "cannot stat the input: " + errno_text());
-    in.size = static_cast<std::uint64_t>(st.st_size);
-    in.modified_ns = modified_ns(st);
+    in.size = static_cast<std::uint64_t>(input.st_size);  // as before the read: a change during it counts too
+    in.modified_ns = modified_ns(input);
     if (in.first_byte + sink.vertices() * std::uint64_t{in.stride} > in.size)
       return Status::error(Code::kBadInput, input_path, "the input changed during the run");
     vertex_files_->input = std::move(in);
@@ -2195,32 +2193,29 @@ Status read_vertex_records(const std::string& path, std::size_t record_bytes, co
   return Status::error(Code::kBadInput, path, "cannot read the record of vertex " + vertex(served));
 }
 
-// Positions and owners of the chunk's vertices from the partition's vertex files (positions:
-// each file's ids in order, translated to its records); the owner read back must agree with the
-// chunk's owned flags.
-Status read_chunk_positions(const ChunkInfo& info, ChunkMesh& mesh) {
-  if (!info.vertex_files) return Status::error(Code::kProcessing, info.path, "no vertex files for the chunk");
-  const VertexFiles& files = *info.vertex_files;
+// The chunk's positions from the input's own vertex records (VertexFiles::input).
+Status read_input_positions(const VertexFiles::InputPositions& in, const ChunkInfo& info, ChunkMesh& mesh) {
   const std::vector<std::uint32_t>& ids = mesh.global_vertex;
-  mesh.positions.resize(ids.size());
+  auto opened = open_input_positions(in);
+  if (!opened) return opened.status();
+  FdCloser closer{*opened};
+  const std::uint64_t count = (in.size - in.first_byte) / in.stride;
+  std::vector<std::byte> window;
+  const std::size_t served = read_by_ascending_id(
+      *opened, count, in.stride, ids, window,
+      [&](std::size_t i, const std::byte* record) { mesh.positions[i] = input_position(in, record); }, in.first_byte);
+  if (served == ids.size()) return {};
+  return Status::error(Code::kBadInput, info.path,
+                       "vertex " + std::to_string(ids[served]) + ": no record of it in " + in.path + " (" + std::to_string(count) + " vertices)");
+}
+
+// The chunk's positions from pass 0's two position files: each file's ids in order, translated
+// to its records.
+Status read_spilled_positions(const VertexFiles& files, const ChunkInfo& info, ChunkMesh& mesh) {
+  const std::vector<std::uint32_t>& ids = mesh.global_vertex;
   std::vector<std::uint32_t> records, slots, vertices;
   std::vector<Vec3f> positions;
-  if (files.input) {
-    const VertexFiles::InputPositions& in = *files.input;
-    auto opened = open_input_positions(in);
-    if (!opened) return opened.status();
-    FdCloser closer{*opened};
-    const std::uint64_t count = (in.size - in.first_byte) / in.stride;
-    std::vector<std::byte> window;
-    const std::size_t served = read_by_ascending_id(
-        *opened, count, in.stride, ids, window,
-        [&](std::size_t i, const std::byte* record) { mesh.positions[i] = input_position(in, record); }, in.first_byte);
-    if (served != ids.size()) {
-      return Status::error(Code::kBadInput, info.path,
-                           "vertex " + std::to_string(ids[served]) + ": no record of it in " + in.path + " (" + std::to_string(count) + " vertices)");
-    }
-  }
-  for (std::uint32_t file = 0; file < kPositionFiles && !files.input; ++file) {
+  for (std::uint32_t file = 0; file < kPositionFiles; ++file) {
     records.clear();
     slots.clear();
     vertices.clear();
@@ -2236,6 +2231,17 @@ Status read_chunk_positions(const ChunkInfo& info, ChunkMesh& mesh) {
                                            reinterpret_cast<std::byte*>(positions.data()), &vertices));
     for (std::size_t k = 0; k < slots.size(); ++k) mesh.positions[slots[k]] = positions[k];
   }
+  return {};
+}
+
+// Positions and owners of the chunk's vertices from the partition's vertex files (or the input);
+// the owner read back must agree with the chunk's owned flags.
+Status read_chunk_positions(const ChunkInfo& info, ChunkMesh& mesh) {
+  if (!info.vertex_files) return Status::error(Code::kProcessing, info.path, "no vertex files for the chunk");
+  const VertexFiles& files = *info.vertex_files;
+  const std::vector<std::uint32_t>& ids = mesh.global_vertex;
+  mesh.positions.resize(ids.size());
+  GM_RETURN_IF_ERROR(files.input ? read_input_positions(*files.input, info, mesh) : read_spilled_positions(files, info, mesh));
   std::vector<std::uint32_t>& owners = mesh.vertex_owner;
   owners.resize(ids.size());
   GM_RETURN_IF_ERROR(read_vertex_records(files.owners, kOwnerRecordBytes, ids, info.path, reinterpret_cast<std::byte*>(owners.data())));

@@ -67,25 +67,34 @@ std::size_t files_in(const std::string& dir) {
   return n;
 }
 
-TEST(SampleCli, OutOfCoreGivesTheInCoreBytesFromFilesAndPipes) {
+// `sample IN flags` in core, then out of core from the file (with a report, into `report`) and
+// from a pipe: the same samples PLY every time, and no temporary file left.
+void expect_in_core_bytes(const std::string& name, const std::string& flags, nlohmann::json& report) {
   ScratchDir dir, tmp;
   const std::string bin = q(gaussmesh_binary());
+  const std::string in = q(fixture(name));
+  const std::string tag = name + flags;
+  ASSERT_EQ(run_command(bin + " sample " + in + " -o " + q(dir.file("a.ply")) + flags).exit_code, 0) << tag;
+  const CommandResult ooc = run_command(bin + " sample " + in + " -o " + q(dir.file("b.ply")) + flags +
+                                        " --memory 16M --threads 2 --tmp " + q(tmp.path().string()) +
+                                        " --report " + q(dir.file("r.json")));
+  ASSERT_EQ(ooc.exit_code, 0) << tag << ": " << ooc.err;
+  const CommandResult piped = run_command("cat " + in + " | " + bin + " sample - -o -" + flags + " --memory 16M --tmp " +
+                                          q(tmp.path().string()) + " > " + q(dir.file("c.ply")));
+  ASSERT_EQ(piped.exit_code, 0) << tag << ": " << piped.err;
+  const std::string a = read_file(dir.file("a.ply"));
+  EXPECT_GT(a.size(), 100u) << tag;
+  EXPECT_EQ(a, read_file(dir.file("b.ply"))) << tag;
+  EXPECT_EQ(a, read_file(dir.file("c.ply"))) << tag;
+  EXPECT_EQ(files_in(tmp.path().string()), 0u) << "temporary files left by " << tag;
+  report = nlohmann::json::parse(read_file(dir.file("r.json")));
+}
+
+TEST(SampleCli, OutOfCoreGivesTheInCoreBytesFromFilesAndPipes) {
   for (const char* name : {"real/cow.off", "real/fandisk.off", "real/bunny-lowres.ply"}) {
-    const std::string in = q(fixture(name));
-    const std::string flags = " --orientations 2 --smooth 1";
-    ASSERT_EQ(run_command(bin + " sample " + in + " -o " + q(dir.file("a.ply")) + flags).exit_code, 0);
-    const CommandResult ooc = run_command(bin + " sample " + in + " -o " + q(dir.file("b.ply")) + flags +
-                                          " --memory 16M --threads 2 --tmp " + q(tmp.path().string()) +
-                                          " --report " + q(dir.file("r.json")));
-    ASSERT_EQ(ooc.exit_code, 0) << ooc.err;
-    const CommandResult piped = run_command("cat " + in + " | " + bin + " sample - -o -" + flags +
-                                            " --memory 16M --tmp " + q(tmp.path().string()) + " > " + q(dir.file("c.ply")));
-    ASSERT_EQ(piped.exit_code, 0) << piped.err;
-    const std::string a = read_file(dir.file("a.ply"));
-    EXPECT_GT(a.size(), 100u);
-    EXPECT_EQ(a, read_file(dir.file("b.ply"))) << name;
-    EXPECT_EQ(a, read_file(dir.file("c.ply"))) << name;
-    const auto report = nlohmann::json::parse(read_file(dir.file("r.json")));
+    nlohmann::json report;
+    expect_in_core_bytes(name, " --orientations 2 --smooth 1", report);
+    ASSERT_FALSE(report.is_null()) << name;
     EXPECT_EQ(report["out_of_core"], true);
     EXPECT_GE(report["chunks"].get<std::size_t>(), 1u);
     EXPECT_GT(report["bytes_spilled"].get<std::size_t>(), 0u);
@@ -96,35 +105,18 @@ TEST(SampleCli, OutOfCoreGivesTheInCoreBytesFromFilesAndPipes) {
       passes += report["seconds"][key].get<double>();
     }
     EXPECT_LE(passes, report["seconds"]["total"].get<double>() + 1e-6) << name;
-    EXPECT_EQ(files_in(tmp.path().string()), 0u) << "temporary files left by " << name;
   }
 }
 
 // The paper sample test out of core: the same samples PLY as in core, from a file and a pipe.
 TEST(SampleCli, OutOfCorePaperTestGivesTheInCoreBytesFromFilesAndPipes) {
-  ScratchDir dir, tmp;
-  const std::string bin = q(gaussmesh_binary());
   for (const char* name : {"real/cow.off", "real/fandisk.off", "real/homer.off", "real/knot1.off",
                            "real/mech-holes-shark.off", "real/mushroom.off", "real/bunny-lowres.ply"}) {
     for (const char* smooth : {"0", "2 --orientations 2"}) {
-      const std::string in = q(fixture(name));
-      const std::string flags = std::string(" --sample-test paper --smooth ") + smooth;
-      ASSERT_EQ(run_command(bin + " sample " + in + " -o " + q(dir.file("a.ply")) + flags).exit_code, 0);
-      const CommandResult ooc = run_command(bin + " sample " + in + " -o " + q(dir.file("b.ply")) + flags +
-                                            " --memory 16M --threads 2 --tmp " + q(tmp.path().string()) +
-                                            " --report " + q(dir.file("r.json")));
-      ASSERT_EQ(ooc.exit_code, 0) << ooc.err;
-      const CommandResult piped = run_command("cat " + in + " | " + bin + " sample - -o -" + flags +
-                                              " --memory 16M --tmp " + q(tmp.path().string()) + " > " +
-                                              q(dir.file("c.ply")));
-      ASSERT_EQ(piped.exit_code, 0) << piped.err;
-      const std::string a = read_file(dir.file("a.ply"));
-      EXPECT_GT(a.size(), 100u);
-      EXPECT_EQ(a, read_file(dir.file("b.ply"))) << name << " smooth " << smooth;
-      EXPECT_EQ(a, read_file(dir.file("c.ply"))) << name << " smooth " << smooth;
-      const auto report = nlohmann::json::parse(read_file(dir.file("r.json")));
+      nlohmann::json report;
+      expect_in_core_bytes(name, std::string(" --sample-test paper --smooth ") + smooth, report);
+      ASSERT_FALSE(report.is_null()) << name << " smooth " << smooth;
       EXPECT_EQ(report["sample_test"], "paper");
-      EXPECT_EQ(files_in(tmp.path().string()), 0u) << "temporary files left by " << name;
     }
   }
 }
