@@ -150,13 +150,10 @@ void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const
 }
 
 std::int64_t StitchedPatches::piece_index(PieceId piece) const {
-  const auto chunk = static_cast<std::uint32_t>(piece >> 32), index = static_cast<std::uint32_t>(piece);
-  auto it = std::lower_bound(chunk_first.begin(), chunk_first.end(), chunk,
-                             [](const auto& e, std::uint32_t c) { return e.first < c; });
-  if (it == chunk_first.end() || it->first != chunk) return -1;
-  const std::uint64_t end = it + 1 == chunk_first.end() ? piece_patch.size() : (it + 1)->second;
-  const std::uint64_t at = std::uint64_t{it->second} + index;
-  return at < end ? static_cast<std::int64_t>(at) : -1;
+  const std::uint64_t chunk = piece >> 32, index = piece & 0xFFFFFFFFu;
+  if (chunk + 1 >= chunk_first.size()) return -1;
+  const std::uint64_t at = chunk_first[chunk] + index;
+  return at < chunk_first[chunk + 1] ? static_cast<std::int64_t>(at) : -1;
 }
 
 std::int64_t StitchedPatches::patch_of_piece(PieceId piece) const {
@@ -188,7 +185,7 @@ format::Status chunk_face_pieces(const Partition& partition, const ChunkMesh& ch
 }
 
 format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, const PieceJoinFiles& joins,
-                                              std::uint64_t memory_bytes) {
+                                              std::uint64_t memory_bytes, std::uint32_t threads) {
   // Pieces in one array, chunk after chunk, each chunk's in index order: a piece's dense index
   // is its chunk's first plus its index (no sort, no id table). The chunks' copies are freed.
   StitchedPatches out;
@@ -229,8 +226,10 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
   // Pieces and their feature edges inside a chunk; what pass B spilled comes back from the
   // files, a chunk at a time. Adjacency records name pieces of their own chunk.
   std::vector<PieceAdjacencyRecord> spilled_adjacency;
+  out.chunk_first.assign(chunks.size() + 1, 0);
   for (std::size_t k = 0; k < chunks.size(); ++k) {
     ChunkPieces& c = chunks[k];
+    out.chunk_first[k] = static_cast<std::uint32_t>(pieces.size());
     spilled_adjacency.clear();
     if (c.pieces.empty()) GM_RETURN_IF_ERROR(joins.read_pieces(static_cast<std::uint32_t>(k), c.pieces, spilled_adjacency));
     if (c.pieces.empty()) {
@@ -239,9 +238,7 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
     }
     if (pieces.size() + c.pieces.size() >= 0xFFFFFFFFu)
       return format::Status::error(format::Code::kResources, "stitch", "more than 2^32 - 1 patch pieces");
-    const auto chunk = static_cast<std::uint32_t>(c.pieces[0].piece >> 32);
-    if (!out.chunk_first.empty() && out.chunk_first.back().first >= chunk) return damaged("chunks' pieces out of order");
-    out.chunk_first.emplace_back(chunk, static_cast<std::uint32_t>(pieces.size()));
+    const auto chunk = static_cast<std::uint32_t>(k);
     const std::size_t first = pieces.size();
     for (std::size_t i = 0; i < c.pieces.size(); ++i) {
       const PieceRecord& r = c.pieces[i];
@@ -260,6 +257,7 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
     std::vector<PieceAdjacencyRecord>().swap(c.adjacency);
   }
   const std::size_t np = pieces.size();
+  out.chunk_first[chunks.size()] = static_cast<std::uint32_t>(np);
   out.piece_patch.resize(np);  // sized now: piece_index() reads it
   auto dense = [&](PieceId id) { return out.piece_index(id); };
   std::vector<std::uint32_t> parent(np);
@@ -282,7 +280,8 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
           if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
         }
         return format::Status();
-      }));
+      },
+      threads));
   // Patches, numbered by lowest face: each root gathers its pieces' lowest face and size.
   for (std::uint32_t i = 0; i < np; ++i) {
     const std::uint32_t r = find(i);

@@ -156,9 +156,9 @@ struct StitchedPatches {
   };
   std::vector<Adjacent> adjacency;
   std::vector<std::uint32_t> piece_patch;  // patch of every piece, in the order of all pieces given
-  // (chunk, index of its first piece in piece_patch), ascending chunk: a piece id's index is its
-  // chunk's first plus its index in the chunk.
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> chunk_first;
+  // Per chunk (and one past the last): the index of its first piece in piece_patch. A piece id's
+  // index is its chunk's first plus its index in the chunk, below the next chunk's first.
+  std::vector<std::uint32_t> chunk_first;
   std::int64_t piece_index(PieceId piece) const;  // -1 when unknown
   // Patch of a piece; -1 when unknown (kNoPiece included).
   std::int64_t patch_of_piece(PieceId piece) const;
@@ -183,7 +183,8 @@ struct StitchedPatches {
 };
 
 // Joins the pieces of every chunk over the border edges in `joins` (spilled and finished; the
-// join holds about bucket_bytes(memory_bytes) of them at a time) and resolves the candidates'
+// join holds about bucket_bytes(memory_bytes) of them per thread at a time, read and sorted on
+// `threads` threads) and resolves the candidates'
 // stars to patches through the answer files of the faces' owners (each read once).
 // chunks[c] holds chunk c's pieces, adjacency, candidates with their stars, and collapsed faces
 // (border and border_faces are ignored: they are in `joins`). Records are untrusted (they come
@@ -192,7 +193,7 @@ struct StitchedPatches {
 // pieces, their union-find and piece-pair feature-edge counts, the candidates' stars and the
 // output — nothing per border edge or border face.
 format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, const PieceJoinFiles& joins,
-                                              std::uint64_t memory_bytes);
+                                              std::uint64_t memory_bytes, std::uint32_t threads = 1);
 
 // Step 3: the untriangulatable-patch merge (stream/patch_filters.h, the patch-graph merge that
 // sample_mesh runs in core) on the stitched patches, for the exact sample test: a touched

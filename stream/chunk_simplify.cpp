@@ -398,6 +398,37 @@ class FilePositions final : public VertexPositionSource {
   std::vector<std::byte> window_;
 };
 
+// The dense id of a global id: its lower bound in `global` (ascending, distinct), searched only
+// among the ids that share its high bits, through a table of where each block of 2^shift ids
+// starts — a quarter of global's size at most. A binary search over all of global took a third of
+// the loop stitch at 100M triangles (2.7M half-edges, 1.3M vertices, three lookups per vertex).
+class DenseIds {
+ public:
+  explicit DenseIds(const std::vector<std::uint32_t>& global) : global_(global) {
+    const std::uint64_t span = global.empty() ? 1 : std::uint64_t{global.back()} + 1;
+    const std::uint64_t entries = std::max<std::uint64_t>(global.size() / 4, 1);
+    while ((span >> shift_) > entries) ++shift_;
+    first_.resize((span >> shift_) + 2);
+    std::size_t at = 0;
+    for (std::size_t b = 0; b < first_.size(); ++b) {
+      const std::uint64_t lo = std::uint64_t{b} << shift_;
+      while (at < global.size() && global[at] < lo) ++at;
+      first_[b] = static_cast<std::uint32_t>(at);
+    }
+  }
+  std::uint32_t operator()(std::uint32_t v) const {
+    const std::size_t b = v >> shift_;
+    if (b + 1 >= first_.size()) return static_cast<std::uint32_t>(global_.size());
+    const auto begin = global_.begin() + first_[b], end = global_.begin() + first_[b + 1];
+    return static_cast<std::uint32_t>(std::lower_bound(begin, end, v) - global_.begin());
+  }
+
+ private:
+  const std::vector<std::uint32_t>& global_;
+  unsigned shift_ = 0;
+  std::vector<std::uint32_t> first_;
+};
+
 // Calls body(run index in chunk, index in run, entry) for every run vertex of a chunk's file,
 // checking the file against the summary (its runs tile the records in order).
 template <class Body>
@@ -549,9 +580,7 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
   }
   release_free_memory(memory_bytes);  // the gathering's spare capacity
   const std::size_t nv = global.size();
-  auto dense = [&](std::uint32_t v) {
-    return static_cast<std::uint32_t>(std::lower_bound(global.begin(), global.end(), v) - global.begin());
-  };
+  const DenseIds dense(global);
   // Positions in dense order, to a file, one range of dense ids at a time (the run files read
   // once per range), before the loops exist: the range buffer and the loops are never held
   // together.
@@ -755,7 +784,7 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::
 
   // Stitch: patches, merge.
   start = std::chrono::steady_clock::now();
-  auto stitched = stitch_pieces(pieces, **joins, options.partition.memory_bytes);
+  auto stitched = stitch_pieces(pieces, **joins, options.partition.memory_bytes, options.threads);
   if (!stitched) return stitched.status();
   out.stitch_steps.pieces = seconds_since(start);
   auto step = std::chrono::steady_clock::now();

@@ -2,8 +2,12 @@
 #include "stream/piece_joins.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cstring>
+#include <memory>
 #include <numeric>
+
+#include <tbb/parallel_pipeline.h>
 
 namespace gaussmesh::stream {
 namespace {
@@ -401,57 +405,107 @@ Status PieceJoinFiles::finish() {
 
 Status PieceJoinFiles::join_border_edges(
     std::uint64_t memory_bytes,
-    const std::function<Status(const BorderEdgeRecord&, const BorderEdgeRecord&)>& on_edge) const {
+    const std::function<Status(const BorderEdgeRecord&, const BorderEdgeRecord&)>& on_edge,
+    std::uint32_t threads) const {
   if (!finished_) return Status::error(Code::kProcessing, "stitch", "border edges joined before finish");
   const std::size_t nb = bucket_paths_.size();
   const std::uint64_t per = bucket_bytes(memory_bytes);
-  std::vector<BorderEdgeRecord> edges;
+  // A bucket larger than the aim is read once per part, each read keeping one part.
+  struct Task {
+    std::size_t bucket, part, parts;
+  };
+  std::vector<Task> tasks;
   for (std::size_t b = 0; b < nb; ++b) {
-    // A bucket larger than the aim is read once per part, each read keeping one part.
     const std::uint64_t bytes = bucket_records_[b] * sizeof(BorderEdgeRecord);
     const std::size_t parts = static_cast<std::size_t>(std::max<std::uint64_t>((bytes + per - 1) / per, 1));
-    for (std::size_t part = 0; part < parts; ++part) {
-      auto reader = format::RecordReader::open(bucket_paths_[b], kBorderEdgeRecordKind, kBorderEdgeRecordBytes);
-      if (!reader) return reader.status();
-      edges.clear();
-      for (;;) {
-        auto frame = (*reader)->next();
-        if (!frame) return frame.status();
-        if (frame->empty()) break;
-        for (std::size_t at = 0; at + kBorderEdgeRecordBytes <= frame->size(); at += kBorderEdgeRecordBytes) {
-          const std::byte* r = frame->data() + at;
-          BorderEdgeRecord e;
-          e.face = get_u64(r);
-          e.other = get_u64(r + 8);
-          e.piece = get_u64(r + 16);
-          const auto feature = std::to_integer<std::uint8_t>(r[24]);
-          if (feature > 1) return damaged(bucket_paths_[b] + ": a border edge with feature byte " + std::to_string(feature));
-          e.feature = feature == 1;
-          if (border_bucket(e.face, e.other, nb) != b)
-            return damaged(bucket_paths_[b] + ": the edge between faces " + std::to_string(e.face) + " and " +
-                           std::to_string(e.other) + " is in the wrong bucket");
-          if (parts > 1 && border_bucket_part(e.face, e.other, parts) != part) continue;
-          edges.push_back(e);
-        }
-      }
-      std::sort(edges.begin(), edges.end(), [](const BorderEdgeRecord& x, const BorderEdgeRecord& y) {
-        return edge_key(x) != edge_key(y) ? edge_key(x) < edge_key(y) : x.face < y.face;
-      });
-      for (std::size_t k = 0; k < edges.size(); k += 2) {
-        if (k + 1 >= edges.size() || edge_key(edges[k]) != edge_key(edges[k + 1]) ||
-            (k + 2 < edges.size() && edge_key(edges[k + 2]) == edge_key(edges[k])) || edges[k].face == edges[k + 1].face) {
-          return damaged("border edge between faces " + std::to_string(edges[k].face) + " and " +
-                         std::to_string(edges[k].other) + " is not seen once from each side");
-        }
-        if (edges[k].feature != edges[k + 1].feature) {
-          return damaged("the two sides of the edge between faces " + std::to_string(edges[k].face) + " and " +
-                         std::to_string(edges[k].other) + " disagree on whether it is a feature edge");
-        }
-        GM_RETURN_IF_ERROR(on_edge(edges[k], edges[k + 1]));
+    for (std::size_t part = 0; part < parts; ++part) tasks.push_back({b, part, parts});
+  }
+  // One task's edges, checked and sorted by (face pair, face): the two sides of an edge side by side.
+  auto load = [&](const Task& t, std::vector<BorderEdgeRecord>& edges) -> Status {
+    auto reader = format::RecordReader::open(bucket_paths_[t.bucket], kBorderEdgeRecordKind, kBorderEdgeRecordBytes);
+    if (!reader) return reader.status();
+    edges.clear();
+    for (;;) {
+      auto frame = (*reader)->next();
+      if (!frame) return frame.status();
+      if (frame->empty()) break;
+      for (std::size_t at = 0; at + kBorderEdgeRecordBytes <= frame->size(); at += kBorderEdgeRecordBytes) {
+        const std::byte* r = frame->data() + at;
+        BorderEdgeRecord e;
+        e.face = get_u64(r);
+        e.other = get_u64(r + 8);
+        e.piece = get_u64(r + 16);
+        const auto feature = std::to_integer<std::uint8_t>(r[24]);
+        if (feature > 1) return damaged(bucket_paths_[t.bucket] + ": a border edge with feature byte " + std::to_string(feature));
+        e.feature = feature == 1;
+        if (border_bucket(e.face, e.other, nb) != t.bucket)
+          return damaged(bucket_paths_[t.bucket] + ": the edge between faces " + std::to_string(e.face) + " and " +
+                         std::to_string(e.other) + " is in the wrong bucket");
+        if (t.parts > 1 && border_bucket_part(e.face, e.other, t.parts) != t.part) continue;
+        edges.push_back(e);
       }
     }
+    std::sort(edges.begin(), edges.end(), [](const BorderEdgeRecord& x, const BorderEdgeRecord& y) {
+      return edge_key(x) != edge_key(y) ? edge_key(x) < edge_key(y) : x.face < y.face;
+    });
+    return {};
+  };
+  auto join = [&](const std::vector<BorderEdgeRecord>& edges) -> Status {
+    for (std::size_t k = 0; k < edges.size(); k += 2) {
+      if (k + 1 >= edges.size() || edge_key(edges[k]) != edge_key(edges[k + 1]) ||
+          (k + 2 < edges.size() && edge_key(edges[k + 2]) == edge_key(edges[k])) || edges[k].face == edges[k + 1].face) {
+        return damaged("border edge between faces " + std::to_string(edges[k].face) + " and " +
+                       std::to_string(edges[k].other) + " is not seen once from each side");
+      }
+      if (edges[k].feature != edges[k + 1].feature) {
+        return damaged("the two sides of the edge between faces " + std::to_string(edges[k].face) + " and " +
+                       std::to_string(edges[k].other) + " disagree on whether it is a feature edge");
+      }
+      GM_RETURN_IF_ERROR(on_edge(edges[k], edges[k + 1]));
+    }
+    return {};
+  };
+  if (threads <= 1 || tasks.size() <= 1) {
+    std::vector<BorderEdgeRecord> edges;
+    for (const Task& t : tasks) {
+      GM_RETURN_IF_ERROR(load(t, edges));
+      GM_RETURN_IF_ERROR(join(edges));
+    }
+    return {};
   }
-  return {};
+  // Tasks read and sorted on the threads, at most `threads` in flight, joined one at a time in
+  // task order (so on_edge sees the serial loop's order, and the first error in that order is
+  // the one returned).
+  struct Loaded {
+    std::vector<BorderEdgeRecord> edges;
+    Status status;
+  };
+  std::size_t next = 0;
+  Status result;
+  std::atomic<bool> failed{false};
+  tbb::parallel_pipeline(
+      threads,
+      tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
+                                          [&](tbb::flow_control& fc) -> std::size_t {
+                                            if (next == tasks.size() || failed) {
+                                              fc.stop();
+                                              return 0;
+                                            }
+                                            return next++;
+                                          }) &
+          tbb::make_filter<std::size_t, std::shared_ptr<Loaded>>(tbb::filter_mode::parallel,
+                                                                 [&](std::size_t k) {
+                                                                   auto loaded = std::make_shared<Loaded>();
+                                                                   if (!failed) loaded->status = load(tasks[k], loaded->edges);
+                                                                   return loaded;
+                                                                 }) &
+          tbb::make_filter<std::shared_ptr<Loaded>, void>(tbb::filter_mode::serial_in_order,
+                                                          [&](const std::shared_ptr<Loaded>& loaded) {
+                                                            if (!result.is_ok()) return;
+                                                            result = loaded->status.is_ok() ? join(loaded->edges) : loaded->status;
+                                                            if (!result.is_ok()) failed = true;
+                                                          }));
+  return result;
 }
 
 Status PieceJoinFiles::look_up(std::span<const std::uint32_t> owners, std::span<const std::uint64_t> faces,

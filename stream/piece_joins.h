@@ -93,12 +93,15 @@ class PieceJoinFiles {
 
   // Joins the two sides of every border edge, a bucket at a time, holding about
   // bucket_bytes(memory_bytes) of records: on_edge(side of the lower face, side of the higher
-  // face) once per edge, in no particular order. Errors: the files' (kBadInput), an edge not seen
-  // exactly once from each side or whose sides disagree on the feature bit (kBadInput), and
-  // on_edge's.
+  // face) once per edge, in no particular order. With threads > 1 the buckets are read and
+  // sorted on that many threads (up to `threads` of them in memory at once) while on_edge runs
+  // on one thread at a time, in the order one thread would call it. Errors: the files'
+  // (kBadInput), an edge not seen exactly once from each side or whose sides disagree on the
+  // feature bit (kBadInput), and on_edge's; the first in that order.
   format::Status join_border_edges(std::uint64_t memory_bytes,
                                    const std::function<format::Status(const BorderEdgeRecord&, const BorderEdgeRecord&)>&
-                                       on_edge) const;
+                                       on_edge,
+                                   std::uint32_t threads = 1) const;
 
   // The pieces of faces: faces[k] owned by chunk owners[k] gets pieces[k] from that chunk's
   // answers, or kNoPiece when it has none for it. Each owner's file is read once, a frame at a
