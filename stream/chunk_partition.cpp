@@ -963,11 +963,6 @@ class IngestSink final : public format::MeshSink {
 
 // ---- Sequential scans ----------------------------------------------------------------------------
 
-// Reads the positions of vertices 0 .. expected - 1 in order, a stripe (768 KiB) at a time
-// from the two position files, or from the input's records (VertexFiles::input): fn(first_index,
-// span). (A larger buffer, once freed, raises
-// glibc's mmap threshold, and later buffers of that size come from the heap and stay resident:
-// 4 MiB here raised the 10M run's peak by 2.6 MB.)
 // Closes a descriptor when it goes out of scope.
 struct FdCloser {
   int fd;
@@ -1026,6 +1021,10 @@ Status scan_input_positions(const VertexFiles::InputPositions& in, std::uint64_t
   return {};
 }
 
+// Reads the positions of vertices 0 .. expected - 1 in order, a stripe (768 KiB) at a time
+// from the two position files, or from the input's records (VertexFiles::input): fn(first_index,
+// span). (A larger buffer, once freed, raises glibc's mmap threshold, and later buffers of that
+// size come from the heap and stay resident: 4 MiB here raised the 10M run's peak by 2.6 MB.)
 template <class Fn>
 Status scan_positions(const VertexFiles& files, std::uint64_t expected, Fn&& fn) {
   if (files.input) return scan_input_positions(*files.input, expected, fn);

@@ -1085,10 +1085,7 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::
     auto regraph = stitch_loops(loops, merged.patch_label.size(), plane, partition->dir, extra, nullptr,
                                 options.partition.memory_bytes);
     if (!regraph) return regraph.status();
-    const std::vector<std::uint32_t>& global = regraph->global;
-    auto dense = [&](std::uint32_t v) {
-      return static_cast<std::uint32_t>(std::lower_bound(global.begin(), global.end(), v) - global.begin());
-    };
+    const DenseIds dense(regraph->global);
     std::map<std::uint32_t, PatchFaces> by_patch;
     for (const Fetched& r : fetched) {
       PatchFaces& pf = by_patch[r.patch];

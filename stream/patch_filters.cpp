@@ -9,9 +9,6 @@
 #include <numeric>
 
 namespace gaussmesh::stream {
-namespace {
-
-}  // namespace
 
 void find_patches(const MeshAdjacency& adjacency, const std::vector<std::uint32_t>& labels,
                   const std::vector<std::uint8_t>& feature, Patches& p, std::vector<std::uint32_t>& stack) {
