@@ -398,6 +398,33 @@ class FilePositions final : public VertexPositionSource {
   std::vector<std::byte> window_;
 };
 
+// The loop stitch's loop file: one dense vertex id (4 bytes) per entry, written at its place by
+// write and read back a loop at a time by the mesher.
+class FileLoopVertices final : public LoopVertexSource {
+ public:
+  FileLoopVertices(int fd, std::string path, std::uint64_t entries) : fd_(fd), path_(std::move(path)), entries_(entries) {}
+  ~FileLoopVertices() override { ::close(fd_); }
+  format::Status write(std::uint64_t first, std::span<const std::uint32_t> ids) {
+    if (first + ids.size() > entries_) return damaged("a loop run lies outside its loop");
+    if (!write_all_at(fd_, ids.data(), ids.size_bytes(), first * sizeof(std::uint32_t)))
+      return format::Status::error(format::Code::kOutput, path_, "cannot write loop vertices: " + std::string(std::strerror(errno)));
+    return format::Status();
+  }
+  bool read(std::uint64_t first, std::span<std::uint32_t> out) override {
+    if (first + out.size() <= entries_ && read_all_at(fd_, out.data(), out.size_bytes(), first * sizeof(std::uint32_t))) return true;
+    if (status_.is_ok())
+      status_ = format::Status::error(format::Code::kOutput, path_, "cannot read loop vertices " + std::to_string(first) + " on");
+    return false;
+  }
+  format::Status status() const override { return status_; }
+
+ private:
+  int fd_;
+  std::string path_;
+  std::uint64_t entries_;
+  format::Status status_;
+};
+
 // The dense id of a global id: its lower bound in `global` (ascending, distinct), searched only
 // among the ids that share its high bits, through a table of where each block of 2^shift ids
 // starts — a quarter of global's size at most. A binary search over all of global took a third of
@@ -610,16 +637,22 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
       for (const auto& [v, p] : extra_vertices) put(v, p);
       if (std::find(filled.begin(), filled.end(), 0) != filled.end()) return damaged("a loop vertex has no position");
       const std::size_t bytes = buffer.size() * sizeof(format::Vec3f);
-      if (::pwrite(fd, buffer.data(), bytes, static_cast<off_t>(lo * sizeof(format::Vec3f))) != static_cast<ssize_t>(bytes))
+      if (!write_all_at(fd, buffer.data(), bytes, lo * sizeof(format::Vec3f)))
         return format::Status::error(format::Code::kOutput, path, "cannot write loop vertex positions: " + std::string(std::strerror(errno)));
     }
   }
   release_free_memory(memory_bytes);  // the range buffer
-  // The loops, in dense ids.
-  g.loops.resize(infos.size());
-  for (std::uint32_t l = 0; l < infos.size(); ++l) {
-    g.loops[l].patch = infos[l].patch;
-    g.loops[l].vertices.resize(infos[l].length);
+  // The loops, in dense ids, to a file: loop l is entries loop_offset[l] .. of it, starting at
+  // its lowest half-edge. Each run's vertices go to their place in one write (two when the
+  // loop's start lies inside it), so only one run is held at a time.
+  const std::size_t nl = infos.size();
+  g.loop_patch.resize(nl);
+  g.loop_offset.assign(nl + 1, 0);
+  std::vector<std::uint32_t> rotation(nl);
+  for (std::uint32_t l = 0; l < nl; ++l) {
+    g.loop_patch[l] = infos[l].patch;
+    g.loop_offset[l + 1] = g.loop_offset[l] + infos[l].length;
+    rotation[l] = run_of(infos[l].start).min_index;
     std::uint32_t at = 0, k = infos[l].start;
     do {
       run_loop[k] = l;
@@ -629,16 +662,49 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
     } while (k != infos[l].start);
   }
   succ = {};
-  for (std::uint32_t c = 0; c < chunks.size(); ++c) {
-    GM_RETURN_IF_ERROR(read_run_vertices(chunks[c], [&](std::size_t run, std::uint32_t i, const LoopVertexEntry& e) {
-      const std::uint32_t k = chunk_run[c][run];
-      g.loops[run_loop[k]].vertices[run_at[k] + i] = dense(e.vertex);
-    }));
+  const std::string loop_path = dir + "/loop-vertices.bin";
+  const int loop_fd = ::open(loop_path.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+  if (loop_fd < 0) return format::Status::error(format::Code::kOutput, loop_path, std::strerror(errno));
+  auto loop_source = std::make_shared<FileLoopVertices>(loop_fd, loop_path, g.loop_offset.back());
+  {
+    std::vector<std::uint32_t> run_ids;
+    std::size_t run_index = kNone;  // in by_first
+    // Writes run_ids at entry `at` of loop l onwards (wrapping round to its start).
+    auto put = [&](std::uint32_t l, std::uint64_t at, std::span<const std::uint32_t> ids) -> format::Status {
+      const std::uint64_t length = infos[l].length;
+      while (!ids.empty()) {
+        const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(ids.size(), length - at));
+        GM_RETURN_IF_ERROR(loop_source->write(g.loop_offset[l] + at, ids.first(n)));
+        ids = ids.subspan(n);
+        at = 0;
+      }
+      return format::Status();
+    };
+    auto flush = [&]() -> format::Status {
+      if (run_index == kNone || run_ids.empty()) return format::Status();
+      const std::uint32_t l = run_loop[run_index];
+      const std::uint64_t length = infos[l].length;
+      const std::uint64_t at = (run_at[run_index] + length - rotation[l]) % length;
+      GM_RETURN_IF_ERROR(put(l, at, run_ids));
+      run_ids.clear();
+      return format::Status();
+    };
+    for (std::uint32_t c = 0; c < chunks.size(); ++c) {
+      format::Status written;
+      GM_RETURN_IF_ERROR(read_run_vertices(chunks[c], [&](std::size_t run, std::uint32_t, const LoopVertexEntry& e) {
+        const std::uint32_t k = chunk_run[c][run];
+        if (k != run_index) {
+          if (written.is_ok()) written = flush();
+          run_index = k;
+        }
+        run_ids.push_back(dense(e.vertex));
+      }));
+      GM_RETURN_IF_ERROR(written);
+      GM_RETURN_IF_ERROR(flush());
+      run_index = kNone;
+    }
   }
-  for (std::uint32_t l = 0; l < infos.size(); ++l) {
-    auto& v = g.loops[l].vertices;
-    std::rotate(v.begin(), v.begin() + run_of(infos[l].start).min_index, v.end());
-  }
+  g.loop_source = std::move(loop_source);
   g.role.assign(nv, VertexRole::kNone);
   g.interior_samples.assign(patches, {});
   std::vector<std::uint8_t> has_record(nv, 0);
@@ -663,6 +729,39 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
 }
 
 namespace {
+
+// A graph's dense-to-input id table moves to a file in dir before the mesher runs (1.3M ids at
+// 100M input triangles): the mesher then gives dense ids as birth indices, and only those —
+// the output's vertices — are read back.
+format::Result<std::uint64_t> spill_global_ids(PolygonGraphInput& g, const std::string& path) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+  if (fd < 0) return format::Status::error(format::Code::kOutput, path, std::strerror(errno));
+  const bool ok = write_all_at(fd, g.global.data(), g.global.size() * sizeof(std::uint32_t), 0);
+  const int error = errno;
+  ::close(fd);
+  if (!ok) return format::Status::error(format::Code::kOutput, path, "cannot write vertex ids: " + std::string(std::strerror(error)));
+  const std::uint64_t count = g.global.size();
+  std::vector<std::uint32_t>().swap(g.global);
+  return count;
+}
+
+// birth (dense ids) to input ids through spill_global_ids' file of count ids.
+format::Status map_births(std::vector<std::uint32_t>& birth, const std::string& path, std::uint64_t count) {
+  std::vector<std::uint32_t> ids(birth);
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  std::vector<std::uint32_t> global(ids.size());
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return format::Status::error(format::Code::kOutput, path, std::strerror(errno));
+  std::vector<std::byte> window;
+  const std::size_t served = read_by_ascending_id(fd, count, sizeof(std::uint32_t), ids, window, [&](std::size_t i, const std::byte* record) {
+    std::memcpy(&global[i], record, sizeof(std::uint32_t));
+  });
+  ::close(fd);
+  if (served < ids.size()) return format::Status::error(format::Code::kOutput, path, "cannot read the id of vertex " + std::to_string(ids[served]));
+  for (std::uint32_t& b : birth) b = global[std::lower_bound(ids.begin(), ids.end(), b) - ids.begin()];
+  return format::Status();
+}
 
 // Passes A-D and the stitch over a partition, for `spheres` (the exact test: every orientation
 // in pass A; the paper test: one). `out` comes with the partition's figures. The temporary
@@ -1031,6 +1130,9 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::
   out.seconds_stitch = seconds_since(start);
 
   start = std::chrono::steady_clock::now();
+  const std::string ids_path = partition->dir + "/loop-ids.bin";
+  auto id_count = spill_global_ids(*graph, ids_path);
+  if (!id_count) return id_count.status();
   auto meshed = mesh_patch_loops(std::move(*graph));
   if (!meshed) return meshed.status();
   // Patches that need their input faces: pass D collects them from the chunks (owned,
@@ -1085,19 +1187,24 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::
     auto regraph = stitch_loops(loops, merged.patch_label.size(), plane, partition->dir, extra, nullptr,
                                 options.partition.memory_bytes);
     if (!regraph) return regraph.status();
-    const DenseIds dense(regraph->global);
-    std::map<std::uint32_t, PatchFaces> by_patch;
-    for (const Fetched& r : fetched) {
-      PatchFaces& pf = by_patch[r.patch];
-      pf.patch = r.patch;
-      pf.triangles.push_back({dense(r.v[0]), dense(r.v[1]), dense(r.v[2])});
+    {
+      const DenseIds dense(regraph->global);
+      std::map<std::uint32_t, PatchFaces> by_patch;
+      for (const Fetched& r : fetched) {
+        PatchFaces& pf = by_patch[r.patch];
+        pf.patch = r.patch;
+        pf.triangles.push_back({dense(r.v[0]), dense(r.v[1]), dense(r.v[2])});
+      }
+      for (auto& [patch, pf] : by_patch) regraph->patch_faces.push_back(std::move(pf));
     }
-    for (auto& [patch, pf] : by_patch) regraph->patch_faces.push_back(std::move(pf));
+    id_count = spill_global_ids(*regraph, ids_path);
+    if (!id_count) return id_count.status();
     out.fetched_patches = wanted.size();
     out.fetched_faces = fetched.size();
     meshed = mesh_patch_loops(std::move(*regraph));
     if (!meshed) return meshed.status();
   }
+  GM_RETURN_IF_ERROR(map_births(meshed->mesh.birth, ids_path, *id_count));
   out.seconds_mesh = seconds_since(start);
   if (remove_temp) {
     start = std::chrono::steady_clock::now();

@@ -9,6 +9,8 @@
 
 #include <tbb/parallel_pipeline.h>
 
+#include "stream/hash_mix.h"
+
 namespace gaussmesh::stream {
 namespace {
 
@@ -22,16 +24,9 @@ constexpr std::size_t kAnswerFrameBytes = std::size_t{256} << 10;
 
 Status damaged(const std::string& what) { return Status::error(Code::kBadInput, "stitch", what); }
 
-std::uint64_t mix(std::uint64_t x) {  // splitmix64's finalizer
-  x ^= x >> 30;
-  x *= 0xBF58476D1CE4E5B9ull;
-  x ^= x >> 27;
-  x *= 0x94D049BB133111EBull;
-  return x ^ (x >> 31);
-}
 
 std::uint64_t pair_hash(std::uint64_t a, std::uint64_t b) {
-  return mix(mix(std::min(a, b)) ^ std::max(a, b));
+  return mix64(mix64(std::min(a, b)) ^ std::max(a, b));
 }
 
 void put_u64(std::byte* at, std::uint64_t v) { std::memcpy(at, &v, 8); }
@@ -59,7 +54,7 @@ std::size_t border_bucket(std::uint64_t a, std::uint64_t b, std::size_t buckets)
 }
 
 std::size_t border_bucket_part(std::uint64_t a, std::uint64_t b, std::size_t parts) {
-  return static_cast<std::size_t>(mix(pair_hash(a, b) + 0x9E3779B97F4A7C15ull) % parts);
+  return static_cast<std::size_t>(mix64(pair_hash(a, b) + 0x9E3779B97F4A7C15ull) % parts);
 }
 
 std::uint64_t bucket_bytes(std::uint64_t memory_bytes) {

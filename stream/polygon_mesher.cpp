@@ -8,10 +8,12 @@
 #include <cmath>
 #include <numbers>
 #include <string>
+#include <tuple>
 #include <unordered_set>
 #include <utility>
 #include <vector>
 
+#include "stream/hash_mix.h"
 #include "stream/mesh_adjacency.h"
 #include "stream/polygon_triangulation.h"
 
@@ -90,12 +92,19 @@ class PolygonMesher {
     }
     tris_ = own_tris_.data();
     patch_loop_offset_.assign(patch_count_ + 1, 0);
-    loops_.reserve(graph.loops.size());
-    for (PatchLoop& l : graph.loops) {
-      ++patch_loop_offset_[l.patch + 1];
-      loops_.push_back({l.patch, std::move(l.vertices), std::move(l.is_break)});
+    if (graph.loop_source) {
+      loop_source_ = std::move(graph.loop_source);
+      loop_patch_ = std::move(graph.loop_patch);
+      loop_offset_ = std::move(graph.loop_offset);
+    } else {
+      loops_.reserve(graph.loops.size());
+      for (PatchLoop& l : graph.loops) {
+        loop_patch_.push_back(l.patch);
+        loops_.push_back({l.patch, std::move(l.vertices), std::move(l.is_break)});
+      }
     }
     graph.loops = {};
+    for (std::uint32_t p : loop_patch_) ++patch_loop_offset_[p + 1];
     for (std::size_t q = 0; q < patch_count_; ++q) patch_loop_offset_[q + 1] += patch_loop_offset_[q];
     degree_ = std::move(graph.degree);
     keep_.assign(graph.role.size(), Keep::kNo);
@@ -104,6 +113,7 @@ class PolygonMesher {
       else if (graph.role[v] == VertexRole::kCorner) keep_[v] = Keep::kCorner;
       else if (graph.role[v] == VertexRole::kGuard) keep_[v] = Keep::kGuard;
     }
+    std::vector<VertexRole>().swap(graph.role);  // keep_ holds what the mesher needs of it
     interior_of_patch_ = graph.interior_samples;
     for (const auto& list : interior_of_patch_) result_.stats.interior_samples += list.size();
     patch_area_ = graph.patch_area;
@@ -123,6 +133,7 @@ class PolygonMesher {
     }
     count_corners();
     choose_guards();
+    if (!loop_status().is_ok()) return loop_status();
     mode_.assign(patch_count_, PatchMode::kReduced);
     refinements_.assign(patch_count_, 0);
     for (std::size_t round = 0; round < kMaxRounds; ++round) {
@@ -130,6 +141,7 @@ class PolygonMesher {
       std::vector<std::uint32_t> failed;
       bool retry = false;
       triangulate_all(failed, retry);
+      if (!loop_status().is_ok()) return loop_status();
       if (failed.empty() && !retry) return finish();
       // Out of core, a patch that reaches the steps needing its input faces without them: stop
       // and name every such patch; the caller fetches their faces and runs the mesher again
@@ -143,6 +155,7 @@ class PolygonMesher {
         return std::move(result_);
       }
       for (std::uint32_t p : failed) densify(p);
+      if (!loop_status().is_ok()) return loop_status();
     }
     return format::Status::error(format::Code::kProcessing, "polygon mesher",
                                  "patches still failing after " + std::to_string(kMaxRounds) + " rounds");
@@ -159,6 +172,26 @@ class PolygonMesher {
     return fetched_[slot];
   }
   std::uint32_t neighbor(std::uint32_t f, int i) const { return adj_.edge_neighbor[3 * std::size_t{f} + i]; }
+
+  std::size_t loop_count() const { return loop_patch_.size(); }
+  // Loop l's vertices: in memory, or read from the loop source into buffer (until the next
+  // call with that buffer). Empty when the read fails or names a vertex out of range; then
+  // loop_status() says why.
+  std::span<const std::uint32_t> loop_vertices(std::size_t l, std::vector<std::uint32_t>& buffer) {
+    if (!loop_source_) return loops_[l].vertices;
+    buffer.resize(loop_offset_[l + 1] - loop_offset_[l]);
+    bool ok = loop_source_->read(loop_offset_[l], buffer);
+    for (std::size_t k = 0; ok && k < buffer.size(); ++k) ok = buffer[k] < vertex_count_;
+    if (ok) return buffer;
+    if (loop_error_.is_ok() && loop_source_->status().is_ok())
+      loop_error_ = format::Status::error(format::Code::kProcessing, "polygon mesher", "a loop vertex is out of range");
+    buffer.clear();
+    return {};
+  }
+  format::Status loop_status() const {
+    if (!loop_error_.is_ok() || !loop_source_) return loop_error_;
+    return loop_source_->status();
+  }
   bool is_border(std::uint32_t f, int i) const {
     const std::uint32_t g = neighbor(f, i);
     return g == MeshAdjacency::kNoFace || in_->face_patch[g] != in_->face_patch[f];
@@ -246,6 +279,7 @@ class PolygonMesher {
           }
           if (!closed) broken_patch_.push_back(p);  // cannot happen on a valid adjacency
           loops_.push_back(std::move(loop));
+          loop_patch_.push_back(p);
         }
       }
       patch_loop_offset_[p + 1] = static_cast<std::uint32_t>(loops_.size());
@@ -314,41 +348,29 @@ class PolygonMesher {
   }
 
   // Chains between stops, canonical (the same whichever patch's loop they are read from), and
-  // the guard rules over them. A chain is a stretch of a loop read in place (copies of every
-  // chain held the loops twice over: 18 MB at 100M input triangles).
+  // the guard rules over them. The loops are read one at a time (out of core they stay in their
+  // file: 10.6 MB at 100M input triangles), each chain leaving a record of what the rules need.
+  // A chain's interior vertices have two feature edges each, so its first edge decides its path:
+  // two records with the same ends, length and second vertex are one chain, read from its two
+  // sides (the path's hash only guards that argument).
   void choose_guards() {
     auto is_stop = [&](std::uint32_t v) { return keep_[v] != Keep::kNo || (!corners_given_ && degree_[v] != 2); };
     struct Chain {
-      std::uint32_t loop, start, edges;  // loop's vertices start, start + 1, ... (cyclic): edges + 1 of them
-      bool reversed;                     // read backwards from start + edges: the canonical direction
-    };
-    // Vertex i (0 .. edges) of c in its canonical direction.
-    auto at = [&](const Chain& c, std::uint32_t i) {
-      const auto& v = loops_[c.loop].vertices;
-      return v[(c.start + (c.reversed ? c.edges - i : i)) % v.size()];
-    };
-    auto same_path = [&](const Chain& x, const Chain& y) {
-      if (x.edges != y.edges) return false;
-      for (std::uint32_t i = 0; i <= x.edges; ++i)
-        if (at(x, i) != at(y, i)) return false;
-      return true;
-    };
-    auto path_less = [&](const Chain& x, const Chain& y) {
-      for (std::uint32_t i = 0; i <= std::min(x.edges, y.edges); ++i) {
-        const std::uint32_t a = at(x, i), b = at(y, i);
-        if (a != b) return a < b;
-      }
-      return x.edges < y.edges;
+      std::uint32_t front, back, edges, second;  // vertices 0, edges and 1 in the canonical direction
+      std::uint64_t hash;                        // of its vertices in that direction
+      std::uint32_t third, two_thirds, middle;   // vertices edges / 3, 2 * edges / 3 and edges / 2
+      auto key() const { return std::tie(front, back, edges, second, hash); }
     };
     std::vector<Chain> chains;
     std::vector<std::uint32_t> closed_loop_min;  // lowest id of each loop without a stop
     std::vector<std::uint32_t> guards;
-    for (std::uint32_t l = 0; l < loops_.size(); ++l) {
-      const Loop& loop = loops_[l];
-      const std::size_t n = loop.vertices.size();
+    for (std::size_t l = 0; l < loop_count(); ++l) {
+      const std::span<const std::uint32_t> loop = loop_vertices(l, loop_buffer_);
+      const std::size_t n = loop.size();
+      if (n == 0) continue;  // a failed read: run() ends with it
       std::size_t first = n;
       for (std::size_t k = 0; k < n; ++k) {
-        if (is_stop(loop.vertices[k])) {
+        if (is_stop(loop[k])) {
           first = k;
           break;
         }
@@ -356,56 +378,60 @@ class PolygonMesher {
       if (first == n) {
         // A closed loop with no corner: 3 vertices, spread from its lowest id, walking towards
         // its lower-id neighbour (the same on both sides of the loop).
-        const auto low = std::min_element(loop.vertices.begin(), loop.vertices.end()) - loop.vertices.begin();
-        const std::uint32_t next = loop.vertices[(low + 1) % n], prev = loop.vertices[(low + n - 1) % n];
+        const auto low = std::min_element(loop.begin(), loop.end()) - loop.begin();
+        const std::uint32_t next = loop[(low + 1) % n], prev = loop[(low + n - 1) % n];
         const std::ptrdiff_t step = next < prev ? 1 : -1;
-        closed_loop_min.push_back(loop.vertices[low]);
+        closed_loop_min.push_back(loop[low]);
         for (std::size_t j = 0; j < std::min<std::size_t>(n, 3); ++j) {
           const std::ptrdiff_t where = (low + step * static_cast<std::ptrdiff_t>(j * n / 3)) % static_cast<std::ptrdiff_t>(n);
-          guards.push_back(loop.vertices[(where + static_cast<std::ptrdiff_t>(n)) % static_cast<std::ptrdiff_t>(n)]);
+          guards.push_back(loop[(where + static_cast<std::ptrdiff_t>(n)) % static_cast<std::ptrdiff_t>(n)]);
         }
         continue;
       }
       for (std::size_t k = first, seen = 0; seen < n;) {
-        Chain c{l, static_cast<std::uint32_t>(k), 0, false};
+        const std::size_t start = k;
+        std::uint32_t edges = 0;
         do {
           k = (k + 1) % n;
           ++seen;
-          ++c.edges;
-        } while (!is_stop(loop.vertices[k]));
-        const std::uint32_t a = at(c, 0), b = at(c, c.edges);
-        if (a > b || (a == b && c.edges > 2 && at(c, 1) > at(c, c.edges - 1))) c.reversed = true;
-        chains.push_back(c);
+          ++edges;
+        } while (!is_stop(loop[k]));
+        bool reversed = false;
+        // Vertex i (0 .. edges) of the chain, read backwards from its end when reversed.
+        auto at = [&](std::uint32_t i) { return loop[(start + (reversed ? edges - i : i)) % n]; };
+        const std::uint32_t a = at(0), b = at(edges);
+        reversed = a > b || (a == b && edges > 2 && at(1) > at(edges - 1));
+        std::uint64_t hash = 0;
+        for (std::uint32_t i = 0; i <= edges; ++i) hash = mix64(hash + at(i) + 0x9E3779B97F4A7C15ull);
+        chains.push_back({at(0), at(edges), edges, at(1), hash, at(edges / 3), at(2 * edges / 3), at(edges / 2)});
       }
     }
+    loop_buffer_ = {};
     // By end points, then path: chains joining the same two stops are neighbours.
-    std::sort(chains.begin(), chains.end(), [&](const Chain& x, const Chain& y) {
-      const auto kx = std::pair(at(x, 0), at(x, x.edges)), ky = std::pair(at(y, 0), at(y, y.edges));
-      return kx != ky ? kx < ky : path_less(x, y);
-    });
-    chains.erase(std::unique(chains.begin(), chains.end(), same_path), chains.end());
+    std::sort(chains.begin(), chains.end(), [](const Chain& x, const Chain& y) { return x.key() < y.key(); });
+    chains.erase(std::unique(chains.begin(), chains.end(), [](const Chain& x, const Chain& y) { return x.key() == y.key(); }),
+                 chains.end());
     std::sort(closed_loop_min.begin(), closed_loop_min.end());
     result_.mesh.graph.closed_loops =
         std::unique(closed_loop_min.begin(), closed_loop_min.end()) - closed_loop_min.begin();
     result_.mesh.graph.chains = chains.size();
     for (std::size_t i = 0; i < chains.size();) {
-      const Chain& first = chains[i];
-      const std::uint32_t front = at(first, 0), back = at(first, first.edges);
+      const std::uint32_t front = chains[i].front, back = chains[i].back;
       std::size_t j = i + 1;
-      while (j < chains.size() && at(chains[j], 0) == front && at(chains[j], chains[j].edges) == back) ++j;
+      while (j < chains.size() && chains[j].front == front && chains[j].back == back) ++j;
       for (std::size_t k = i; k < j; ++k) {
         const Chain& q = chains[k];
         const std::uint32_t m = q.edges;
         if (front == back) {
           // A loop through one corner: two more vertices make it a triangle.
           if (m >= 3) {
-            guards.push_back(at(q, m / 3));
-            guards.push_back(at(q, 2 * m / 3));
+            guards.push_back(q.third);
+            guards.push_back(q.two_thirds);
           } else if (m == 2) {
-            guards.push_back(at(q, 1));
+            guards.push_back(q.middle);
           }
         } else if (j - i > 1 && m >= 2) {
-          guards.push_back(at(q, m / 2));  // one of several chains joining the same two corners
+          guards.push_back(q.middle);  // one of several chains joining the same two corners
         }
       }
       i = j;
@@ -426,7 +452,8 @@ class PolygonMesher {
       bool added = false;
       if (refinements_[p] < kMaxRefinements) {
         ++refinements_[p];
-        for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l) added |= refine(loops_[l]);
+        for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l)
+          added |= refine(loop_vertices(l, loop_buffer_));
       }
       if (added) return;
     }
@@ -437,7 +464,7 @@ class PolygonMesher {
       mode_[p] = PatchMode::kDensified;
       ++result_.stats.densified_patches;
       for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l)
-        for (std::uint32_t v : loops_[l].vertices) keep(v, Keep::kGuard);
+        for (std::uint32_t v : loop_vertices(l, loop_buffer_)) keep(v, Keep::kGuard);
     } else if (mode_[p] == PatchMode::kDensified && has_faces(p)) {
       mode_[p] = PatchMode::kOriginal;
       ++result_.stats.original_patches;
@@ -449,11 +476,11 @@ class PolygonMesher {
   // Keeps the middle vertex (by index, from the lower-id end) of every stretch of the loop
   // between two kept vertices that has inner vertices. The choice depends on the stretch alone,
   // whichever side it is read from. Returns whether anything was added.
-  bool refine(const Loop& loop) {
-    const std::size_t n = loop.vertices.size();
+  bool refine(std::span<const std::uint32_t> loop) {
+    const std::size_t n = loop.size();
     std::vector<std::size_t> at;
     for (std::size_t k = 0; k < n; ++k)
-      if (keep_[loop.vertices[k]] != Keep::kNo) at.push_back(k);
+      if (keep_[loop[k]] != Keep::kNo) at.push_back(k);
     std::vector<std::uint32_t> chosen;
     if (at.empty()) return false;  // closed loops always have guards
     for (std::size_t i = 0; i < at.size(); ++i) {
@@ -461,9 +488,9 @@ class PolygonMesher {
       const std::size_t m = b - a;  // edges in the stretch
       if (m < 2) continue;
       // Walk from the end with the lower vertex id so both sides pick the same vertex.
-      const std::uint32_t va = loop.vertices[a % n], vb = loop.vertices[b % n];
+      const std::uint32_t va = loop[a % n], vb = loop[b % n];
       const std::size_t mid = va <= vb ? a + m / 2 : b - m / 2;
-      chosen.push_back(loop.vertices[mid % n]);
+      chosen.push_back(loop[mid % n]);
     }
     for (std::uint32_t v : chosen) keep(v, Keep::kGuard);
     result_.stats.guards += chosen.size();
@@ -485,15 +512,16 @@ class PolygonMesher {
     records_.assign(patch_count_, PatchRecord{});
     queries_.clear();
     patch_tris_.clear();
-    reduced_offset_.assign(loops_.size() + 1, 0);
+    reduced_offset_.assign(loop_count() + 1, 0);
     reduced_vertices_.clear();
-    for (std::size_t l = 0; l < loops_.size(); ++l) {
-      if (mode_[loops_[l].patch] != PatchMode::kOriginal) {
-        for (std::uint32_t v : loops_[l].vertices)
+    for (std::size_t l = 0; l < loop_count(); ++l) {
+      if (mode_[loop_patch_[l]] != PatchMode::kOriginal) {
+        for (std::uint32_t v : loop_vertices(l, loop_buffer_))
           if (keep_[v] != Keep::kNo) reduced_vertices_.push_back(v);
       }
       reduced_offset_[l + 1] = static_cast<std::uint32_t>(reduced_vertices_.size());
     }
+    loop_buffer_ = {};
     // Chain edges first: a reduced loop edge appears once per side (twice for a border, once
     // for a break edge); more means two chains landed on one edge. edges_ holds every edge
     // made so far, its value the number of reduced loop sides it is on.
@@ -504,19 +532,20 @@ class PolygonMesher {
     out_patch_.reserve(reduced_vertices_.size());
     patch_tris_.reserve(reduced_vertices_.size());
     queries_.reserve(2 * reduced_vertices_.size());
-    for (std::size_t l = 0; l < loops_.size(); ++l) {
+    for (std::size_t l = 0; l < loop_count(); ++l) {
       const std::span<const std::uint32_t> r = reduced(l);
       for (std::size_t k = 0; k < r.size(); ++k) ++edges_.emplace(edge_key(r[k], r[(k + 1) % r.size()]), 0);
     }
     failing_.assign(patch_count_, 0);
     for (std::uint32_t p : broken_patch_) failing_[p] = 1;
-    for (std::size_t l = 0; l < loops_.size(); ++l) {
+    for (std::size_t l = 0; l < loop_count(); ++l) {
       const std::span<const std::uint32_t> r = reduced(l);
-      if (mode_[loops_[l].patch] == PatchMode::kOriginal) continue;
-      if (r.size() < 3) failing_[loops_[l].patch] = 1;
+      const std::uint32_t p = loop_patch_[l];
+      if (mode_[p] == PatchMode::kOriginal) continue;
+      if (r.size() < 3) failing_[p] = 1;
       for (std::size_t k = 0; k < r.size(); ++k) {
         const std::uint32_t a = r[k], b = r[(k + 1) % r.size()];
-        if (a == b || *edges_.find(edge_key(a, b)) > 2) failing_[loops_[l].patch] = 1;
+        if (a == b || *edges_.find(edge_key(a, b)) > 2) failing_[p] = 1;
       }
     }
     if (source_) prefetch_positions();
@@ -662,7 +691,7 @@ class PolygonMesher {
     std::vector<VertexRole> roles(vertices.size(), VertexRole::kNone);
     std::vector<std::uint8_t> on_loop(vertices.size(), 0);
     for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l) {
-      for (std::uint32_t v : loops_[l].vertices) {
+      for (std::uint32_t v : loop_vertices(l, loop_buffer_)) {
         on_loop[local(v)] = 1;
         if (keep_[v] != Keep::kNo) roles[local(v)] = VertexRole::kGuard;
       }
@@ -686,7 +715,7 @@ class PolygonMesher {
     std::unordered_set<std::uint64_t> own_loop_edges;
     for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l) {
       std::vector<std::uint32_t> r;
-      for (std::uint32_t v : loops_[l].vertices)
+      for (std::uint32_t v : loop_vertices(l, loop_buffer_))
         if (keep_[v] != Keep::kNo) r.push_back(v);
       for (std::size_t k = 0; k < r.size(); ++k) own_loop_edges.insert(edge_key(r[k], r[(k + 1) % r.size()]));
     }
@@ -944,7 +973,12 @@ class PolygonMesher {
   std::size_t patch_count_ = 0;
   std::vector<std::uint32_t> patch_offset_, patch_faces_;
   std::vector<std::uint8_t> visited_;  // in core: per half-edge, for the loop walks
-  std::vector<Loop> loops_;
+  std::vector<Loop> loops_;  // in memory (in core, or records given so)
+  std::shared_ptr<LoopVertexSource> loop_source_;  // or in a file: loop l is its entries loop_offset_[l] ..
+  std::vector<std::uint64_t> loop_offset_;
+  std::vector<std::uint32_t> loop_patch_;  // per loop, either way
+  std::vector<std::uint32_t> loop_buffer_;  // the loop read last from loop_source_
+  format::Status loop_error_;
   std::vector<std::uint32_t> patch_loop_offset_;
   std::vector<std::uint32_t> broken_patch_;
   std::vector<std::uint32_t> degree_;
@@ -1059,11 +1093,24 @@ format::Result<PolygonMesherResult> mesh_patch_loops(PolygonGraphInput graph) {
       graph.patch_area.size() != graph.patches || graph.patch_has_faces.size() != graph.patches) {
     return format::Status::error(format::Code::kProcessing, "polygon mesher", "patch graph arrays do not match");
   }
+  const auto malformed = format::Status::error(format::Code::kProcessing, "polygon mesher", "a loop is malformed");
+  std::uint32_t last_patch = 0;
   for (const PatchLoop& l : graph.loops) {
-    if (l.patch >= graph.patches || (!l.is_break.empty() && l.vertices.size() != l.is_break.size()) || l.vertices.empty())
-      return format::Status::error(format::Code::kProcessing, "polygon mesher", "a loop is malformed");
+    if (l.patch >= graph.patches || l.patch < last_patch || (!l.is_break.empty() && l.vertices.size() != l.is_break.size()) ||
+        l.vertices.empty())
+      return malformed;
+    last_patch = l.patch;
     for (std::uint32_t v : l.vertices)
       if (v >= nv) return format::Status::error(format::Code::kProcessing, "polygon mesher", "a loop vertex is out of range");
+  }
+  // Loops in a file: their vertices are checked as they are read.
+  if (graph.loop_source) {
+    const auto& offset = graph.loop_offset;
+    if (!graph.loops.empty() || offset.size() != graph.loop_patch.size() + 1 || offset[0] != 0) return malformed;
+    for (std::size_t l = 0; l < graph.loop_patch.size(); ++l) {
+      if (graph.loop_patch[l] >= graph.patches || graph.loop_patch[l] < last_patch || offset[l + 1] <= offset[l]) return malformed;
+      last_patch = graph.loop_patch[l];
+    }
   }
   PolygonMesher mesher(graph);
   return mesher.run();

@@ -128,6 +128,17 @@ class VertexPositionSource {
   virtual format::Status status() const = 0;
 };
 
+// The loops of a graph kept in a file (out of core: the loop stitch writes them), read one loop
+// at a time, so the mesher holds the loops' kept vertices and never all their vertices. A read
+// that fails returns false; the mesher then ends with the source's error.
+class LoopVertexSource {
+ public:
+  virtual ~LoopVertexSource() = default;
+  // Entries first .. first + out.size() - 1 of the file (one vertex id each) into out.
+  virtual bool read(std::uint64_t first, std::span<std::uint32_t> out) = 0;
+  virtual format::Status status() const = 0;
+};
+
 struct PolygonGraphInput {
   // Every vertex a loop or a sample names: in memory, or (positions empty) from position_source.
   std::vector<format::Vec3f> positions;
@@ -138,6 +149,11 @@ struct PolygonGraphInput {
   // Loops of every patch, patches in id order, each patch's loops in walk order: a loop starts
   // at the lowest unwalked half-edge id (3 × face + edge) of its patch.
   std::vector<PatchLoop> loops;
+  // Or (loops empty) in loop_source: loop l, of patch loop_patch[l], is its entries
+  // loop_offset[l] .. loop_offset[l + 1] - 1, in the order loops would have; no break flags.
+  std::shared_ptr<LoopVertexSource> loop_source;
+  std::vector<std::uint32_t> loop_patch;
+  std::vector<std::uint64_t> loop_offset;
   // Distinct feature edges per vertex. May be empty: then every loop vertex with a degree other
   // than 2 must have role kCorner, and graph.corners must be given.
   std::vector<std::uint32_t> degree;

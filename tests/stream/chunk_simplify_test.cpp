@@ -426,9 +426,18 @@ TEST(ChunkSimplify, StitchLoopsJoinsRunsAcrossChunksFromTheirLowestHalfEdge) {
   EXPECT_EQ(stats.half_edges, 4u);
   EXPECT_EQ(stats.vertices, 5u);
   EXPECT_EQ(g->global, (std::vector<std::uint32_t>{40, 41, 42, 43, 44}));
-  ASSERT_EQ(g->loops.size(), 1u);
+  // The loops are in a file: one loop of 4 half-edges.
+  EXPECT_TRUE(g->loops.empty());
+  ASSERT_TRUE(g->loop_source);
+  EXPECT_EQ(g->loop_patch, (std::vector<std::uint32_t>{0}));
+  EXPECT_EQ(g->loop_offset, (std::vector<std::uint64_t>{0, 4}));
   // Starts at half-edge 10 (chunk 1's run): vertices 42, 43, then 40, 41 — as dense ids.
-  EXPECT_EQ(g->loops[0].vertices, (std::vector<std::uint32_t>{2, 3, 0, 1}));
+  std::vector<std::uint32_t> loop(4);
+  ASSERT_TRUE(g->loop_source->read(0, loop));
+  EXPECT_EQ(loop, (std::vector<std::uint32_t>{2, 3, 0, 1}));
+  std::vector<std::uint32_t> beyond(2);
+  EXPECT_FALSE(g->loop_source->read(3, beyond));  // past the last entry
+  EXPECT_FALSE(g->loop_source->status().is_ok());
   EXPECT_EQ(g->role[1], VertexRole::kCorner);
   EXPECT_EQ(g->role[0], VertexRole::kNone);
   EXPECT_EQ(g->graph.corners, 1u);

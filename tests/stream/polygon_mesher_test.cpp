@@ -1,11 +1,13 @@
 // Tests of the polygon-first mesher fed from records (mesh_patch_loops): positions in memory or
-// from a VertexPositionSource give the same mesh, and the source is read in batches.
+// from a VertexPositionSource give the same mesh, and the source is read in batches; loops in
+// memory or from a LoopVertexSource give the same mesh, and the source's errors end the run.
 #include "stream/polygon_mesher.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <array>
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -87,6 +89,78 @@ TEST(PolygonMesher, PositionSourceGivesTheSameMeshAndIsReadInAscendingBatches) {
   std::sort(all.begin(), all.end());
   EXPECT_EQ(std::adjacent_find(all.begin(), all.end()), all.end()) << "a vertex was read twice";
   EXPECT_EQ(all.size(), 6u);
+}
+
+// Serves loop vertices from a copy of a graph's loops (as the loop stitch's file), and can be
+// told to fail from some read on.
+class MemoryLoops final : public LoopVertexSource {
+ public:
+  bool read(std::uint64_t first, std::span<std::uint32_t> out) override {
+    ++reads;
+    if (reads > fail_after || first + out.size() > entries.size()) {
+      failed = format::Status::error(format::Code::kOutput, "loops.bin", "cannot read");
+      return false;
+    }
+    std::copy_n(entries.begin() + static_cast<std::ptrdiff_t>(first), out.size(), out.begin());
+    return true;
+  }
+  format::Status status() const override { return failed; }
+
+  std::vector<std::uint32_t> entries;
+  std::size_t reads = 0, fail_after = SIZE_MAX;
+  format::Status failed;
+};
+
+// g with its loops moved into a MemoryLoops source.
+std::shared_ptr<MemoryLoops> move_loops_to_source(PolygonGraphInput& g) {
+  auto source = std::make_shared<MemoryLoops>();
+  g.loop_offset = {0};
+  for (const PatchLoop& l : g.loops) {
+    g.loop_patch.push_back(l.patch);
+    source->entries.insert(source->entries.end(), l.vertices.begin(), l.vertices.end());
+    g.loop_offset.push_back(source->entries.size());
+  }
+  g.loops.clear();
+  g.loop_source = source;
+  return source;
+}
+
+TEST(PolygonMesher, LoopSourceGivesTheSameMeshAndItsErrorsEndTheRun) {
+  auto in_memory = mesh_patch_loops(octahedron_graph());
+  ASSERT_TRUE(in_memory.is_ok()) << in_memory.status().to_string();
+
+  PolygonGraphInput g = octahedron_graph();
+  auto source = move_loops_to_source(g);
+  auto from_source = mesh_patch_loops(std::move(g));
+  ASSERT_TRUE(from_source.is_ok()) << from_source.status().to_string();
+  ASSERT_EQ(in_memory->mesh.mesh.triangles.size(), from_source->mesh.mesh.triangles.size());
+  for (std::size_t t = 0; t < in_memory->mesh.mesh.triangles.size(); ++t) {
+    for (int i = 0; i < 3; ++i)
+      EXPECT_EQ(in_memory->mesh.mesh.triangles[t].v[i], from_source->mesh.mesh.triangles[t].v[i]);
+  }
+  EXPECT_EQ(in_memory->mesh.birth, from_source->mesh.birth);
+  EXPECT_EQ(in_memory->mesh.graph.chains, from_source->mesh.graph.chains);
+  EXPECT_GE(source->reads, 16u);  // every loop for the guards, and again for the round
+
+  // A read that fails, in the guards' pass or in a round, ends the run with the source's error.
+  for (std::size_t fail_after : {3u, 10u}) {
+    PolygonGraphInput f = octahedron_graph();
+    move_loops_to_source(f)->fail_after = fail_after;
+    auto failed = mesh_patch_loops(std::move(f));
+    ASSERT_FALSE(failed.is_ok()) << "failing from read " << fail_after;
+    EXPECT_EQ(failed.status().code(), format::Code::kOutput);
+    EXPECT_NE(failed.status().to_string().find("loops.bin"), std::string::npos) << failed.status().to_string();
+  }
+  // A vertex out of range, and loops out of patch order, are refused.
+  PolygonGraphInput bad = octahedron_graph();
+  move_loops_to_source(bad)->entries[4] = 6;
+  auto out_of_range = mesh_patch_loops(std::move(bad));
+  ASSERT_FALSE(out_of_range.is_ok());
+  EXPECT_EQ(out_of_range.status().code(), format::Code::kProcessing);
+  PolygonGraphInput unordered = octahedron_graph();
+  move_loops_to_source(unordered);
+  std::swap(unordered.loop_patch[0], unordered.loop_patch[1]);
+  EXPECT_FALSE(mesh_patch_loops(std::move(unordered)).is_ok());
 }
 
 }  // namespace
