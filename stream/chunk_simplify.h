@@ -119,8 +119,8 @@ format::Result<ChunkLoopSummary> spill_chunk_loops(ChunkLoops&& loops, format::R
 
 // The stitch's last step before the mesher: runs joined into loops (each patch's loops from
 // their lowest half-edge id, as mesh_patch_polygons walks them), vertices renumbered densely in
-// global id order. The loops hold 4 bytes per half-edge; positions go to a file in dir (dense
-// order) that the mesher reads on demand. Records are untrusted: runs that do not close into
+// global id order. The loops (4 bytes per half-edge) and the positions (dense order) go to
+// files in dir that the mesher reads on demand (PolygonGraphInput::loop_source, position_source). Records are untrusted: runs that do not close into
 // loops, run files that disagree with their summaries, are kBadInput.
 // extra_vertices: (global id, position) of vertices no record names — the inner vertices of
 // fetched patch faces — added with no role. memory_bytes: the budget, for release_free_memory

@@ -170,6 +170,8 @@ struct PolygonGraphInput {
 
 // Steps 3-5 of mesh_patch_polygons on records. A patch that reaches the steps needing its input
 // faces (the collapse and original steps) without them ends the run with needs_faces set.
+// Memory with loop_source and position_source: one byte per vertex (what it keeps), the longest
+// loop, and the output-sized tables of the rounds (kept loop vertices, edges made, positions used).
 // Takes graph by value: its loops are moved into the mesher.
 format::Result<PolygonMesherResult> mesh_patch_loops(PolygonGraphInput graph);
 
