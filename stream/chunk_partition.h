@@ -139,6 +139,7 @@ struct Partition {
   std::vector<ChunkInfo> chunks;    // ids 0..n-1, in Morton order of their cells
   std::uint64_t bytes_spilled = 0;  // every byte written to temporary files
   std::uint64_t cache_misses = 0;   // blocks read into the bounded cache (a measure of disorder)
+  std::uint64_t cache_bytes = 0;    // the cache's size at the end: 1/8 of its budget, grown by reloads
   std::uint64_t untagged_frames = 0;  // face frames the ring rounds scanned (partly) untagged: windows missing, disorder
   double seconds_ingest = 0, seconds_partition = 0;
   PartitionSteps steps;             // seconds_partition by step

@@ -72,11 +72,12 @@ int child_main(int argc, char** argv) {
     largest = std::max(largest, c.faces);
     chunk_bytes += fs::file_size(c.path);
   }
-  std::printf("ingest=%.3f partition=%.3f vertices=%llu faces=%llu chunks=%zu records=%llu largest=%llu spilled=%llu misses=%llu chunk_bytes=%llu\n",
+  std::printf("ingest=%.3f partition=%.3f vertices=%llu faces=%llu chunks=%zu records=%llu largest=%llu spilled=%llu misses=%llu cache_bytes=%llu chunk_bytes=%llu\n",
               partition->seconds_ingest, partition->seconds_partition, (unsigned long long)partition->vertices,
               (unsigned long long)partition->faces, partition->chunks.size(), (unsigned long long)records,
               (unsigned long long)largest, (unsigned long long)partition->bytes_spilled,
-              (unsigned long long)partition->cache_misses, (unsigned long long)chunk_bytes);
+              (unsigned long long)partition->cache_misses, (unsigned long long)partition->cache_bytes,
+              (unsigned long long)chunk_bytes);
   if (argc == 9 && std::string(argv[8]) == "read-back") {
     auto cpu = [] {
       timespec t{};
@@ -183,8 +184,8 @@ int main(int argc, char** argv) {
               (unsigned long long)memory, double(memory) / (1 << 20), rings.c_str(), threads.c_str(), level.c_str(),
               work.c_str());
   std::printf("| input | order | triangles | ingest s | partition s | M triangles/s | CPU s | chunks | records / triangle | "
-              "largest chunk | spilled GB | chunk files GB | cache misses | peak RSS MB |\n");
-  std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+              "largest chunk | spilled GB | chunk files GB | cache misses | cache MiB | peak RSS MB |\n");
+  std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
   std::fflush(stdout);
   for (std::uint64_t size : sizes) {
     struct statvfs fsinfo {};
@@ -218,10 +219,11 @@ int main(int argc, char** argv) {
         continue;
       }
       const double faces = std::stod(f["faces"]), ingest = std::stod(f["ingest"]), part = std::stod(f["partition"]);
-      std::printf("| cow %llu | %s | %.0f | %.2f | %.2f | %.2f | %.2f | %s | %.2f | %s | %.2f | %.2f | %s | %.0f |\n",
+      std::printf("| cow %llu | %s | %.0f | %.2f | %.2f | %.2f | %.2f | %s | %.2f | %s | %.2f | %.2f | %s | %.1f | %.0f |\n",
                   (unsigned long long)size, order.c_str(), faces, ingest, part, faces / (ingest + part) / 1e6,
                   r.cpu_seconds, f["chunks"].c_str(), std::stod(f["records"]) / faces, f["largest"].c_str(),
-                  std::stod(f["spilled"]) / 1e9, std::stod(f["chunk_bytes"]) / 1e9, f["misses"].c_str(), r.peak_rss_mb);
+                  std::stod(f["spilled"]) / 1e9, std::stod(f["chunk_bytes"]) / 1e9, f["misses"].c_str(),
+                  std::stod(f["cache_bytes"]) / (1 << 20), r.peak_rss_mb);
       std::fflush(stdout);
     }
     if (!keep)

@@ -337,6 +337,62 @@ TEST(ChunkPartition, ShuffledIdsGiveTheSameChunks) {
   }
 }
 
+TEST(ChunkPartition, TheBlockCacheGrowsForShuffledInputOnly) {
+  // The block cache starts at 1/8 of its budget (16 MiB: 0.94 of 7.5 MiB) and doubles when
+  // recently evicted blocks come back. A 600 x 600 height field numbered row by row is scanned
+  // with blocks reused soon after they are loaded: the cache keeps its size. The same mesh with
+  // ids and faces shuffled touches its vertex arrays at random: the cache grows until they fit.
+  // Both give the same number of chunks.
+  constexpr std::uint32_t kSide = 600;
+  Mesh grid;
+  for (std::uint32_t i = 0; i < kSide; ++i)
+    for (std::uint32_t j = 0; j < kSide; ++j)
+      grid.positions.push_back({float(i) / kSide, float(j) / kSide, 0.05f * std::sin(0.05f * float(i * j))});
+  for (std::uint32_t i = 0; i + 1 < kSide; ++i) {
+    for (std::uint32_t j = 0; j + 1 < kSide; ++j) {
+      const std::uint32_t v = i * kSide + j;
+      grid.triangles.push_back({{v, v + kSide, v + 1}});
+      grid.triangles.push_back({{v + 1, v + kSide, v + kSide + 1}});
+    }
+  }
+  auto renumber = [&](const std::vector<std::uint32_t>& to_new, const std::vector<std::uint32_t>& face_order) {
+    Mesh m;
+    m.positions.resize(grid.positions.size());
+    for (std::size_t v = 0; v < grid.positions.size(); ++v) m.positions[to_new[v]] = grid.positions[v];
+    for (std::uint32_t f : face_order) {
+      const auto& t = grid.triangles[f];
+      m.triangles.push_back({{to_new[t.v[0]], to_new[t.v[1]], to_new[t.v[2]]}});
+    }
+    return m;
+  };
+  std::vector<std::uint32_t> to_new(grid.positions.size()), faces(grid.triangles.size());
+  std::iota(to_new.begin(), to_new.end(), 0u);
+  std::iota(faces.begin(), faces.end(), 0u);
+  const Mesh& ordered = grid;
+  std::mt19937 rng(20261202);
+  std::shuffle(to_new.begin(), to_new.end(), rng);
+  std::shuffle(faces.begin(), faces.end(), rng);
+  const Mesh shuffled = renumber(to_new, faces);
+  auto run = [&](const Mesh& m) {
+    testing::ScratchDir dir;
+    write_mesh(dir.file("in.ply"), m);
+    PartitionOptions options;
+    options.memory_bytes = 16ull << 20;
+    options.tmp_dir = dir.path().string();
+    auto partition = partition_mesh(dir.file("in.ply"), {}, options);
+    EXPECT_TRUE(partition.is_ok()) << partition.status().to_string();
+    return partition.is_ok() ? std::pair(partition->cache_bytes, partition->chunks.size()) : std::pair(std::uint64_t{0}, std::size_t{0});
+  };
+  const auto [ordered_bytes, ordered_chunks] = run(ordered);
+  const auto [shuffled_bytes, shuffled_chunks] = run(shuffled);
+  std::printf("cache: %.2f MiB row by row, %.2f MiB shuffled (%zu chunks)\n", ordered_bytes / 1048576.0,
+              shuffled_bytes / 1048576.0, ordered_chunks);
+  EXPECT_EQ(ordered_chunks, shuffled_chunks);
+  EXPECT_GT(ordered_bytes, 0u);
+  EXPECT_LE(ordered_bytes, std::uint64_t{1} << 20);  // its starting size
+  EXPECT_GE(shuffled_bytes, 4 * ordered_bytes);  // two doublings at least (3.75 MiB holds its arrays)
+}
+
 TEST(ChunkPartition, ScatteredIdsTakeTheSortAndGiveExactChunks) {
   // load_chunk numbers a chunk's vertices through a two-level bitmap (the blocks of 2^13 ids that
   // hold one) when those blocks take at most 48 bytes a face, else by sorting. Two halves of the
