@@ -5,6 +5,7 @@
 #include <numeric>
 #include <string>
 
+#include "stream/chunk_sampler.h"
 #include "stream/piece_joins.h"
 
 namespace gaussmesh::stream {
@@ -282,6 +283,7 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
         return format::Status();
       },
       threads));
+  release_free_memory();  // the buckets the join read and sorted (100M under 64 MiB: ~11 MiB)
   // Patches, numbered by lowest face: each root gathers its pieces' lowest face and size.
   for (std::uint32_t i = 0; i < np; ++i) {
     const std::uint32_t r = find(i);
@@ -334,6 +336,7 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
   }
   out.candidates.reserve(total_candidates);
   out.star.reserve(total_entries);
+  out.entering_break.reserve(total_entries);
   for (std::size_t first = 0; first < chunks.size();) {
     std::size_t last = first, entries = 0;
     while (last < chunks.size() && (last == first || entries + entries_of(chunks[last]) <= group_entries))
@@ -371,8 +374,8 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
           if (p < 0 || q < 0) return damaged("no piece for a face in the star of vertex " + std::to_string(r.vertex));
           s.patch = static_cast<std::uint32_t>(p);
           if (e.next != kNoFaceId) s.next_patch = static_cast<std::uint32_t>(q);
-          s.entering_break = e.entering_break;
           out.star.push_back(s);
+          out.entering_break.push_back(e.entering_break);
         }
       }
       std::vector<StarEntry>().swap(chunks[c].star);  // "= {}" would keep the capacity
@@ -444,7 +447,7 @@ PatchMergeResult merge_stitched_patches(const StitchedPatches& stitched, PatchGr
       std::uint32_t feature_edges = 0;
       for (std::uint32_t k = c.first; k < c.first + c.count; ++k) {
         const auto& e = stitched.star[k];
-        feature_edges += e.entering_break;
+        feature_edges += stitched.entering_break[k];
         feature_edges += e.next_patch == 0xFFFFFFFFu || graph.label(e.patch) != graph.label(e.next_patch);
       }
       still[t] = feature_edges >= 3;

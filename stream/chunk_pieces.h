@@ -170,10 +170,12 @@ struct StitchedPatches {
   struct Star {
     std::uint32_t patch = 0;
     std::uint32_t next_patch = 0xFFFFFFFFu;  // patch across the leaving edge; none for a break
-    bool entering_break = false;
   };
   std::vector<Candidate> candidates;
   std::vector<Star> star;
+  // Per star entry: whether its entering edge is a break. Beside star rather than in it: 8 bytes
+  // an entry instead of 12 (728k entries at 100M, live through the merge).
+  std::vector<std::uint8_t> entering_break;
   // Collapsed faces: their patch and distinct candidate vertices (global ids).
   struct Collapsed {
     std::uint32_t patch = 0;

@@ -124,14 +124,13 @@ format::Status for_each_chunk(std::size_t count, const std::function<ChunkInfo(s
     });
   });
   workspaces.clear();
-  release_free_memory(memory_bytes);
+  release_free_memory();
   for (const format::Status& e : errors)
     if (!e) return e;
   return format::Status();
 }
 
-void release_free_memory(std::uint64_t memory_bytes) {
-  if (memory_bytes > 0 && !worth_releasing(current_rss(), memory_bytes)) return;
+void release_free_memory() {
 #ifdef __GLIBC__
   ::malloc_trim(0);
 #endif

@@ -120,12 +120,13 @@ void record_partition(const Partition& partition, Result& out) {
 }
 
 // Hands the allocator's free pages back to the system (glibc's malloc_trim; elsewhere nothing).
-// Between passes: what one pass's threads freed is not counted again under the next's
-// allocations. for_each_chunk calls it when its chunks are done. With memory_bytes > 0, only
-// when the resident set is above 7/8 of it: below, keeping the pages is free, and the next
-// pass would fault them in again (at 1M triangles under 64 MiB, releasing anyway doubled the
-// page faults: 17k -> 33k, +0.2 s of system time).
-void release_free_memory(std::uint64_t memory_bytes = 0);
+// Between passes and the stitch's steps: what one step freed is not held, resident, under the
+// next one's allocations. for_each_chunk calls it when its chunks are done. Session 13 made
+// these releases unconditional (they waited for the resident set to pass 7/8 of the budget):
+// at 100M triangles under 64 MiB the stitch and merge peaked 10 MiB above their data on the
+// free pages pass A left; at 1M the next pass faults the pages in again (13k -> 30k minor
+// faults, +0.05 s of system time, the wall time within its noise).
+void release_free_memory();
 
 // The Gaussian spheres of `options` (kUsage for bad options).
 format::Result<std::vector<GaussSphere>> create_spheres(const std::vector<GaussSphereOptions>& options);

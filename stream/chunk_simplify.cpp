@@ -493,7 +493,7 @@ format::Status read_run_vertices(const ChunkLoopSummary& chunk, Body&& body) {
 format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummary>& chunks, std::size_t patches,
                                                const std::vector<format::Vec3f>& plane_normal, const std::string& dir,
                                                const std::vector<std::pair<std::uint32_t, format::Vec3f>>& extra_vertices,
-                                               LoopStitchStats* stats, std::uint64_t memory_bytes) {
+                                               LoopStitchStats* stats) {
   PolygonGraphInput g;
   g.patches = patches;
   g.patch_area.assign(patches, {0, 0, 0});
@@ -605,7 +605,7 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
     compact();
     global.shrink_to_fit();
   }
-  release_free_memory(memory_bytes);  // the gathering's spare capacity
+  release_free_memory();  // the gathering's spare capacity
   const std::size_t nv = global.size();
   const DenseIds dense(global);
   // Positions in dense order, to a file, one range of dense ids at a time (the run files read
@@ -641,7 +641,7 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
         return format::Status::error(format::Code::kOutput, path, "cannot write loop vertex positions: " + std::string(std::strerror(errno)));
     }
   }
-  release_free_memory(memory_bytes);  // the range buffer
+  release_free_memory();  // the range buffer
   // The loops, in dense ids, to a file: loop l is entries loop_offset[l] .. of it, starting at
   // its lowest half-edge. Each run's vertices go to their place in one write (two when the
   // loop's start lies inside it), so only one run is held at a time.
@@ -888,7 +888,7 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::
   out.stitch_steps.pieces = seconds_since(start);
   auto step = std::chrono::steady_clock::now();
   std::vector<ChunkPieces>().swap(pieces);
-  release_free_memory(options.partition.memory_bytes);
+  release_free_memory();
   PatchGraphInput merge_input = stitched_merge_input(*stitched);
   std::vector<StitchedPatches::Adjacent>().swap(stitched->adjacency);
   std::vector<StitchedPatches::Collapsed>().swap(stitched->collapsed);
@@ -933,10 +933,11 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::
   // Passes C and D need each piece's merged patch and each merged patch's label; the rest of the
   // stitch and the merge goes now.
   std::vector<StitchedPatches::Star>().swap(stitched->star);
+  std::vector<std::uint8_t>().swap(stitched->entering_break);
   std::vector<StitchedPatches::Candidate>().swap(stitched->candidates);
   std::vector<std::pair<std::uint32_t, std::uint32_t>>().swap(merged.adjacency);
   std::vector<std::uint8_t>().swap(merged.is_candidate);
-  release_free_memory(options.partition.memory_bytes);
+  release_free_memory();
   auto merged_patch_of_piece = [&](PieceId piece) -> std::uint32_t {
     const std::int64_t p = stitched->patch_of_piece(piece);
     return p < 0 ? kNone : merged.patch_of[p];
@@ -1119,8 +1120,7 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::
   out.stitch_steps.loops = seconds_since(step);
   step = std::chrono::steady_clock::now();
   LoopStitchStats stitch_stats;
-  auto graph = stitch_loops(loops, merged.patch_label.size(), plane, partition->dir, {}, &stitch_stats,
-                            options.partition.memory_bytes);
+  auto graph = stitch_loops(loops, merged.patch_label.size(), plane, partition->dir, {}, &stitch_stats);
   if (!graph) return graph.status();
   out.stitch_runs = stitch_stats.runs;
   out.stitch_half_edges = stitch_stats.half_edges;
@@ -1184,8 +1184,7 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::
     std::sort(extra.begin(), extra.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     extra.erase(std::unique(extra.begin(), extra.end(), [](const auto& a, const auto& b) { return a.first == b.first; }),
                 extra.end());
-    auto regraph = stitch_loops(loops, merged.patch_label.size(), plane, partition->dir, extra, nullptr,
-                                options.partition.memory_bytes);
+    auto regraph = stitch_loops(loops, merged.patch_label.size(), plane, partition->dir, extra, nullptr);
     if (!regraph) return regraph.status();
     {
       const DenseIds dense(regraph->global);
@@ -1258,7 +1257,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
       chosen = k;
       if (options.samples_only) best = std::move(run).value();
     }
-    release_free_memory(options.partition.memory_bytes);
+    release_free_memory();
   }
   if (!options.samples_only) {
     auto run = simplify_partition(&*partition, std::span(&spheres[chosen], 1), options, base, true);

@@ -123,15 +123,14 @@ format::Result<ChunkLoopSummary> spill_chunk_loops(ChunkLoops&& loops, format::R
 // files in dir that the mesher reads on demand (PolygonGraphInput::loop_source, position_source). Records are untrusted: runs that do not close into
 // loops, run files that disagree with their summaries, are kBadInput.
 // extra_vertices: (global id, position) of vertices no record names — the inner vertices of
-// fetched patch faces — added with no role. memory_bytes: the budget, for release_free_memory
-// between the steps (0: release always).
+// fetched patch faces — added with no role. Free pages go back to the system between its steps.
 struct LoopStitchStats {
   std::size_t runs = 0, half_edges = 0, vertices = 0;
 };
 format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummary>& chunks, std::size_t patches,
                                                const std::vector<format::Vec3f>& plane_normal, const std::string& dir,
                                                const std::vector<std::pair<std::uint32_t, format::Vec3f>>& extra_vertices = {},
-                                               LoopStitchStats* stats = nullptr, std::uint64_t memory_bytes = 0);
+                                               LoopStitchStats* stats = nullptr);
 
 struct OutOfCoreSimplifyOptions {
   PartitionOptions partition;  // memory, tmp dir; rings and threads follow from the fields below

@@ -131,8 +131,8 @@ void expect_stitch_equals_in_core(const std::string& path, std::uint32_t smooth,
     std::uint32_t feature_edges = 0;
     for (std::uint32_t k = c.first; k < c.first + c.count; ++k) {
       const auto& e = stitched->star[k];
-      star.emplace_back(e.patch, e.next_patch, e.entering_break);
-      feature_edges += (e.next_patch == 0xFFFFFFFFu || e.next_patch != e.patch) + e.entering_break;
+      star.emplace_back(e.patch, e.next_patch, stitched->entering_break[k]);
+      feature_edges += (e.next_patch == 0xFFFFFFFFu || e.next_patch != e.patch) + stitched->entering_break[k];
     }
     std::sort(star.begin(), star.end());
     EXPECT_EQ(star, it->second) << "vertex " << c.vertex;
