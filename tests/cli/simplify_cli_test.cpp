@@ -4,10 +4,17 @@
 // no output and no temporary file behind.
 #include <gtest/gtest.h>
 
+#include <sys/mount.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <regex>
+#include <set>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -175,6 +182,54 @@ TEST(SimplifyCli, SignalsDuringTheChunkPassesLeaveNoTemporaryFiles) {
     EXPECT_EQ(files_in(tmp.path().string()), 0u) << "signal after " << delay << " s of " << whole;
     std::filesystem::remove(dir.file("out.drc"));
   }
+}
+
+TEST(SimplifyCli, AFullTemporaryDiskAtAnyStepIsExitFourAndLeavesNothing) {
+  // An out-of-core run with --tmp on a tmpfs too small for it, at sizes from where the
+  // partition's first spill fails up to the first size that holds the whole run: every failing
+  // run exits 4 with one line naming the file it could not write, leaves no temporary file and
+  // no output. The fine steps near the top reach the stitch's own files (positions, loops, ids).
+  if (::geteuid() != 0) GTEST_SKIP() << "not root: cannot mount a small tmpfs";
+  ScratchDir dir;
+  const std::string mount_point = dir.file("small");
+  std::filesystem::create_directory(mount_point);
+  const std::string out = dir.file("out.drc");
+  std::set<std::string> failed_files;
+  // kb -> succeeded; checks every failure on the way.
+  auto run_at = [&](int kb) {
+    const std::string options = "size=" + std::to_string(kb) + "k";
+    if (::mount("tmpfs", mount_point.c_str(), "tmpfs", 0, options.c_str()) != 0) return -1;
+    const auto run = run_command(binary() + " simplify " + q(fixture("real/homer.off")) + " -o " + q(out) +
+                                 " --memory 16M -q --tmp " + q(mount_point));
+    const std::size_t left = files_in(mount_point);
+    ::umount(mount_point.c_str());
+    EXPECT_EQ(left, 0u) << kb << " KiB: " << run.err;
+    if (run.exit_code == 0) {
+      EXPECT_TRUE(std::filesystem::exists(out)) << kb << " KiB";
+      std::filesystem::remove(out);
+      return 1;
+    }
+    EXPECT_EQ(run.exit_code, 4) << kb << " KiB: " << run.err;
+    EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+    EXPECT_NE(run.err.find(mount_point + "/"), std::string::npos) << run.err;
+    EXPECT_FALSE(std::filesystem::exists(out)) << kb << " KiB";
+    std::smatch m;
+    if (std::regex_search(run.err, m, std::regex("/([a-z0-9.-]+): "))) failed_files.insert(m[1]);
+    return 0;
+  };
+  int top = 0;  // the first size, in steps of 128 KiB, that holds the run
+  for (int kb = 128; kb <= 8192 && top == 0; kb += 128) {
+    const int r = run_at(kb);
+    if (r < 0) GTEST_SKIP() << "cannot mount a tmpfs here (" << std::strerror(errno) << ")";
+    if (r == 1) top = kb;
+  }
+  ASSERT_GT(top, 128) << "the run fits in 128 KiB: nothing was tested";
+  for (int kb = std::max(128, top - 192); kb < top; kb += 4) run_at(kb);
+  std::string seen;
+  for (const auto& f : failed_files) seen += f + " ";
+  std::printf("holds at %d KiB; failures in %s\n", top, seen.c_str());
+  for (const char* f : {"loop-positions.bin", "loop-vertices.bin", "loop-ids.bin"})
+    EXPECT_TRUE(failed_files.count(f)) << f << " never failed; failures in " << seen;
 }
 
 TEST(SimplifyCli, OutOfCoreGivesTheInCoreBytesFromFilesAndPipes) {
