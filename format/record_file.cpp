@@ -1,6 +1,8 @@
 // Record files: fixed-size records in checksummed zstd frames with a trailing seek table.
 #include "format/record_file.h"
 
+#include "format/file_io.h"
+
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -115,18 +117,6 @@ std::string check_columns(std::span<const RecordField> fields, std::size_t recor
   return "";
 }
 
-bool pread_all(int fd, void* out, std::size_t size, std::uint64_t offset) {
-  auto* bytes = static_cast<char*>(out);
-  while (size > 0) {
-    ssize_t got = ::pread(fd, bytes, size, static_cast<off_t>(offset));
-    if (got < 0 && errno == EINTR) continue;
-    if (got <= 0) return false;
-    bytes += got;
-    size -= static_cast<std::size_t>(got);
-    offset += static_cast<std::uint64_t>(got);
-  }
-  return true;
-}
 
 // One spare decompression context per thread: readers are opened per chunk and per pass, and a
 // new context each time (zstd's tables, ~100 KB) was 0.6 % of a 10M-triangle simplify.
@@ -308,20 +298,11 @@ Status RecordWriter::close_file() {
 }
 
 Status RecordWriter::write_raw(const void* data, std::size_t size) {
-  const char* bytes = static_cast<const char*>(data);
-  while (size > 0) {
-    ssize_t put_bytes = segment_file_ != nullptr
-                            ? ::pwrite(fd_, bytes, size, static_cast<off_t>(base_ + file_bytes_))
-                            : ::write(fd_, bytes, size);
-    if (put_bytes < 0 && errno == EINTR) continue;
-    if (put_bytes < 0) {
-      failed_ = true;
-      return Status::error(Code::kOutput, path_, "write failed: " + errno_text());
-    }
-    bytes += put_bytes;
-    size -= static_cast<std::size_t>(put_bytes);
-    file_bytes_ += static_cast<std::uint64_t>(put_bytes);
+  if (!write_all(fd_, data, size, base_ + file_bytes_, segment_file_ != nullptr)) {
+    failed_ = true;
+    return Status::error(Code::kOutput, path_, "write failed: " + errno_text());
   }
+  file_bytes_ += size;
   return {};
 }
 

@@ -37,6 +37,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "format/file_io.h"
 #include "format/record_file.h"
 #include "format/temp_registry.h"
 #include "stream/id_indexed_file.h"
@@ -58,21 +59,6 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-bool write_all(int fd, const void* data, std::size_t size, std::uint64_t offset, bool positioned) {
-  const char* bytes = static_cast<const char*>(data);
-  while (size > 0) {
-    ssize_t put = positioned ? ::pwrite(fd, bytes, size, static_cast<off_t>(offset)) : ::write(fd, bytes, size);
-    if (put < 0 && errno == EINTR) continue;
-    if (put <= 0) {
-      if (put == 0) errno = EIO;
-      return false;
-    }
-    bytes += put;
-    size -= static_cast<std::size_t>(put);
-    offset += static_cast<std::uint64_t>(put);
-  }
-  return true;
-}
 
 // Reads up to size bytes at offset; returns the count read (short at end of file), -1 on error.
 std::int64_t read_some(int fd, void* out, std::size_t size, std::uint64_t offset) {
@@ -128,7 +114,7 @@ class SpillWriter {
  private:
   Status flush() {
     if (used_ == 0) return {};
-    if (!write_all(fd_, buffer_.get(), used_, 0, false)) {
+    if (!format::write_all(fd_, buffer_.get(), used_, 0, false)) {
       return Status::error(Code::kOutput, path_, "write failed: " + errno_text());
     }
     total_ += used_;
@@ -251,7 +237,7 @@ class BlockCache {
       Slot& s = slots_[slot];
       if (!s.dirty || s.key >> 48 != static_cast<std::uint64_t>(file) + 1) continue;
       const std::uint64_t at = (s.key & ((std::uint64_t{1} << 48) - 1)) * kSlotBytes;
-      if (!write_all(files_[file].fd, arena_.get() + std::size_t{slot} * kSlotBytes, kSlotBytes, at, true)) {
+      if (!format::write_all(files_[file].fd, arena_.get() + std::size_t{slot} * kSlotBytes, kSlotBytes, at, true)) {
         if (status_.is_ok()) status_ = Status::error(Code::kOutput, files_[file].path, "write failed: " + errno_text());
       } else {
         bytes_written_ += kSlotBytes;
@@ -352,7 +338,7 @@ class BlockCache {
       if (s.dirty) {
         const File& owner = files_[(s.key >> 48) - 1];
         const std::uint64_t at = (s.key & ((std::uint64_t{1} << 48) - 1)) * kSlotBytes;
-        if (!write_all(owner.fd, data, kSlotBytes, at, true)) {
+        if (!format::write_all(owner.fd, data, kSlotBytes, at, true)) {
           if (status_.is_ok()) status_ = Status::error(Code::kOutput, owner.path, "write failed: " + errno_text());
         } else {
           bytes_written_ += kSlotBytes;

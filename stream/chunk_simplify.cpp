@@ -16,6 +16,7 @@
 #include <numbers>
 #include <span>
 
+#include "format/file_io.h"
 #include "format/record_file.h"
 
 #include "stream/id_indexed_file.h"
@@ -406,12 +407,12 @@ class FileLoopVertices final : public LoopVertexSource {
   ~FileLoopVertices() override { ::close(fd_); }
   format::Status write(std::uint64_t first, std::span<const std::uint32_t> ids) {
     if (first + ids.size() > entries_) return damaged("a loop run lies outside its loop");
-    if (!write_all_at(fd_, ids.data(), ids.size_bytes(), first * sizeof(std::uint32_t)))
+    if (!format::write_all(fd_, ids.data(), ids.size_bytes(), first * sizeof(std::uint32_t)))
       return format::Status::error(format::Code::kOutput, path_, "cannot write loop vertices: " + std::string(std::strerror(errno)));
     return format::Status();
   }
   bool read(std::uint64_t first, std::span<std::uint32_t> out) override {
-    if (first + out.size() <= entries_ && read_all_at(fd_, out.data(), out.size_bytes(), first * sizeof(std::uint32_t))) return true;
+    if (first + out.size() <= entries_ && format::pread_all(fd_, out.data(), out.size_bytes(), first * sizeof(std::uint32_t))) return true;
     if (status_.is_ok())
       status_ = format::Status::error(format::Code::kOutput, path_, "cannot read loop vertices " + std::to_string(first) + " on");
     return false;
@@ -637,7 +638,7 @@ format::Result<PolygonGraphInput> stitch_loops(const std::vector<ChunkLoopSummar
       for (const auto& [v, p] : extra_vertices) put(v, p);
       if (std::find(filled.begin(), filled.end(), 0) != filled.end()) return damaged("a loop vertex has no position");
       const std::size_t bytes = buffer.size() * sizeof(format::Vec3f);
-      if (!write_all_at(fd, buffer.data(), bytes, lo * sizeof(format::Vec3f)))
+      if (!format::write_all(fd, buffer.data(), bytes, lo * sizeof(format::Vec3f)))
         return format::Status::error(format::Code::kOutput, path, "cannot write loop vertex positions: " + std::string(std::strerror(errno)));
     }
   }
@@ -736,7 +737,7 @@ namespace {
 format::Result<std::uint64_t> spill_global_ids(PolygonGraphInput& g, const std::string& path) {
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
   if (fd < 0) return format::Status::error(format::Code::kOutput, path, std::strerror(errno));
-  const bool ok = write_all_at(fd, g.global.data(), g.global.size() * sizeof(std::uint32_t), 0);
+  const bool ok = format::write_all(fd, g.global.data(), g.global.size() * sizeof(std::uint32_t), 0);
   const int error = errno;
   ::close(fd);
   if (!ok) return format::Status::error(format::Code::kOutput, path, "cannot write vertex ids: " + std::string(std::strerror(error)));

@@ -1,7 +1,6 @@
-// Positioned whole reads and writes (the loop stitch's files), and reading fixed-size records by
-// ascending id from a file indexed by id (record i at byte first_byte + i * record_bytes): the
-// partition's vertex files and the input's own vertex records (load_chunk), and the loop
-// stitch's positions file (the mesher's batched reads).
+// Reading fixed-size records by ascending id from a file indexed by id (record i at byte
+// first_byte + i * record_bytes): the partition's vertex files and the input's own vertex
+// records (load_chunk), and the loop stitch's positions file (the mesher's batched reads).
 #pragma once
 
 #include <unistd.h>
@@ -13,39 +12,6 @@
 #include <vector>
 
 namespace gaussmesh::stream {
-
-// size bytes at offset, through short writes and interruptions; false (errno set) when the
-// file cannot take them (a full disk).
-inline bool write_all_at(int fd, const void* data, std::size_t size, std::uint64_t offset) {
-  const char* bytes = static_cast<const char*>(data);
-  while (size > 0) {
-    const ssize_t put = ::pwrite(fd, bytes, size, static_cast<off_t>(offset));
-    if (put < 0 && errno == EINTR) continue;
-    if (put <= 0) {
-      if (put == 0) errno = EIO;
-      return false;
-    }
-    bytes += put;
-    size -= static_cast<std::size_t>(put);
-    offset += static_cast<std::uint64_t>(put);
-  }
-  return true;
-}
-
-// size bytes from offset, through short reads and interruptions; false at end of file or on an
-// error.
-inline bool read_all_at(int fd, void* out, std::size_t size, std::uint64_t offset) {
-  char* bytes = static_cast<char*>(out);
-  while (size > 0) {
-    const ssize_t got = ::pread(fd, bytes, size, static_cast<off_t>(offset));
-    if (got < 0 && errno == EINTR) continue;
-    if (got <= 0) return false;
-    bytes += got;
-    size -= static_cast<std::size_t>(got);
-    offset += static_cast<std::uint64_t>(got);
-  }
-  return true;
-}
 
 // Calls fn(i, record) for ids[i], i = 0, 1, ..., with ids ascending: one pread per run of ids
 // less than kIdWindowRecords apart (spatially ordered input: a few per chunk; scattered ids: one

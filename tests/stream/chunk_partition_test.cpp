@@ -291,6 +291,18 @@ TEST(ChunkPartition, ChunkSizeFollowsTheBudget) {
   EXPECT_EQ(whole->chunks[0].owned_faces, torus.triangles.size());
 }
 
+// mesh with vertex v numbered to_new[v] and its faces in face_order.
+Mesh renumbered(const Mesh& mesh, const std::vector<std::uint32_t>& to_new, const std::vector<std::uint32_t>& face_order) {
+  Mesh m;
+  m.positions.resize(mesh.positions.size());
+  for (std::size_t v = 0; v < mesh.positions.size(); ++v) m.positions[to_new[v]] = mesh.positions[v];
+  for (std::uint32_t f : face_order) {
+    const auto& t = mesh.triangles[f];
+    m.triangles.push_back({{to_new[t.v[0]], to_new[t.v[1]], to_new[t.v[2]]}});
+  }
+  return m;
+}
+
 TEST(ChunkPartition, ShuffledIdsGiveTheSameChunks) {
   const Mesh mesh = torus_mesh();
   const std::uint32_t seed = 20260501;
@@ -300,13 +312,7 @@ TEST(ChunkPartition, ShuffledIdsGiveTheSameChunks) {
   std::iota(face_order.begin(), face_order.end(), 0u);
   std::shuffle(to_new.begin(), to_new.end(), rng);
   std::shuffle(face_order.begin(), face_order.end(), rng);
-  Mesh shuffled;
-  shuffled.positions.resize(mesh.positions.size());
-  for (std::size_t v = 0; v < mesh.positions.size(); ++v) shuffled.positions[to_new[v]] = mesh.positions[v];
-  for (std::uint32_t f : face_order) {
-    const auto& t = mesh.triangles[f];
-    shuffled.triangles.push_back({{to_new[t.v[0]], to_new[t.v[1]], to_new[t.v[2]]}});
-  }
+  const Mesh shuffled = renumbered(mesh, to_new, face_order);
   auto run = [&](const Mesh& m, const std::string& name) {
     testing::ScratchDir dir;
     write_mesh(dir.file("in.ply"), m);
@@ -355,16 +361,6 @@ TEST(ChunkPartition, TheBlockCacheGrowsForShuffledInputOnly) {
       grid.triangles.push_back({{v + 1, v + kSide, v + kSide + 1}});
     }
   }
-  auto renumber = [&](const std::vector<std::uint32_t>& to_new, const std::vector<std::uint32_t>& face_order) {
-    Mesh m;
-    m.positions.resize(grid.positions.size());
-    for (std::size_t v = 0; v < grid.positions.size(); ++v) m.positions[to_new[v]] = grid.positions[v];
-    for (std::uint32_t f : face_order) {
-      const auto& t = grid.triangles[f];
-      m.triangles.push_back({{to_new[t.v[0]], to_new[t.v[1]], to_new[t.v[2]]}});
-    }
-    return m;
-  };
   std::vector<std::uint32_t> to_new(grid.positions.size()), faces(grid.triangles.size());
   std::iota(to_new.begin(), to_new.end(), 0u);
   std::iota(faces.begin(), faces.end(), 0u);
@@ -372,7 +368,7 @@ TEST(ChunkPartition, TheBlockCacheGrowsForShuffledInputOnly) {
   std::mt19937 rng(20261202);
   std::shuffle(to_new.begin(), to_new.end(), rng);
   std::shuffle(faces.begin(), faces.end(), rng);
-  const Mesh shuffled = renumber(to_new, faces);
+  const Mesh shuffled = renumbered(grid, to_new, faces);
   auto run = [&](const Mesh& m) {
     testing::ScratchDir dir;
     write_mesh(dir.file("in.ply"), m);

@@ -59,6 +59,15 @@ class RecordingSource final : public VertexPositionSource {
   std::vector<format::Vec3f> positions_;
 };
 
+// The same triangles, vertex for vertex, and the same birth indices.
+void expect_same_mesh(const PolygonMesherResult& a, const PolygonMesherResult& b) {
+  ASSERT_EQ(a.mesh.mesh.triangles.size(), b.mesh.mesh.triangles.size());
+  for (std::size_t t = 0; t < a.mesh.mesh.triangles.size(); ++t) {
+    for (int i = 0; i < 3; ++i) EXPECT_EQ(a.mesh.mesh.triangles[t].v[i], b.mesh.mesh.triangles[t].v[i]) << "triangle " << t;
+  }
+  EXPECT_EQ(a.mesh.birth, b.mesh.birth);
+}
+
 TEST(PolygonMesher, PositionSourceGivesTheSameMeshAndIsReadInAscendingBatches) {
   auto in_memory = mesh_patch_loops(octahedron_graph());
   ASSERT_TRUE(in_memory.is_ok()) << in_memory.status().to_string();
@@ -71,13 +80,7 @@ TEST(PolygonMesher, PositionSourceGivesTheSameMeshAndIsReadInAscendingBatches) {
   g.position_source = source;
   auto from_source = mesh_patch_loops(std::move(g));
   ASSERT_TRUE(from_source.is_ok()) << from_source.status().to_string();
-
-  ASSERT_EQ(in_memory->mesh.mesh.triangles.size(), from_source->mesh.mesh.triangles.size());
-  for (std::size_t t = 0; t < in_memory->mesh.mesh.triangles.size(); ++t) {
-    for (int i = 0; i < 3; ++i)
-      EXPECT_EQ(in_memory->mesh.mesh.triangles[t].v[i], from_source->mesh.mesh.triangles[t].v[i]);
-  }
-  EXPECT_EQ(in_memory->mesh.birth, from_source->mesh.birth);
+  expect_same_mesh(*in_memory, *from_source);
   EXPECT_EQ(source->single_reads, 0u);
   ASSERT_FALSE(source->batches.empty());
   std::vector<std::uint32_t> all;
@@ -133,12 +136,7 @@ TEST(PolygonMesher, LoopSourceGivesTheSameMeshAndItsErrorsEndTheRun) {
   auto source = move_loops_to_source(g);
   auto from_source = mesh_patch_loops(std::move(g));
   ASSERT_TRUE(from_source.is_ok()) << from_source.status().to_string();
-  ASSERT_EQ(in_memory->mesh.mesh.triangles.size(), from_source->mesh.mesh.triangles.size());
-  for (std::size_t t = 0; t < in_memory->mesh.mesh.triangles.size(); ++t) {
-    for (int i = 0; i < 3; ++i)
-      EXPECT_EQ(in_memory->mesh.mesh.triangles[t].v[i], from_source->mesh.mesh.triangles[t].v[i]);
-  }
-  EXPECT_EQ(in_memory->mesh.birth, from_source->mesh.birth);
+  expect_same_mesh(*in_memory, *from_source);
   EXPECT_EQ(in_memory->mesh.graph.chains, from_source->mesh.graph.chains);
   EXPECT_GE(source->reads, 16u);  // every loop for the guards, and again for the round
 
