@@ -59,7 +59,6 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-
 // Reads up to size bytes at offset; returns the count read (short at end of file), -1 on error.
 std::int64_t read_some(int fd, void* out, std::size_t size, std::uint64_t offset) {
   char* bytes = static_cast<char*>(out);
@@ -371,8 +370,6 @@ class BlockCache {
   std::vector<File> files_;
   Status status_;
   std::uint64_t misses_ = 0, bytes_written_ = 0;
-  // Which blocks of each file were loaded before (a bit a block: 1/32768 of the files' bytes),
-  // and the reloads and lookups since the last growth.
   // Growth (while usable_ < slot_count_): the last usable_ evicted keys, oldest first, with how
   // many times each is among them; the misses and ghost hits of the current window.
   void remember_eviction(std::uint64_t key) {
