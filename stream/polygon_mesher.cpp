@@ -29,10 +29,9 @@ constexpr std::uint8_t kMaxRefinements = 6;
 
 enum class Keep : std::uint8_t { kNo = 0, kCorner, kGuard, kSample };
 
-// One boundary loop of a patch: the vertices of its half-edges in walking order (the patch on
-// the left), and per half-edge whether it is a break edge (boundary, non-manifold).
+// One boundary loop in memory (its patch is in loop_patch_): the vertices of its half-edges in
+// walking order (the patch on the left), and per half-edge whether it is a break edge.
 struct Loop {
-  std::uint32_t patch = 0;
   std::vector<std::uint32_t> vertices;
   std::vector<std::uint8_t> is_break;
 };
@@ -100,7 +99,7 @@ class PolygonMesher {
       loops_.reserve(graph.loops.size());
       for (PatchLoop& l : graph.loops) {
         loop_patch_.push_back(l.patch);
-        loops_.push_back({l.patch, std::move(l.vertices), std::move(l.is_break)});
+        loops_.push_back({std::move(l.vertices), std::move(l.is_break)});
       }
     }
     graph.loops = {};
@@ -259,7 +258,6 @@ class PolygonMesher {
         for (int i0 = 0; i0 < 3; ++i0) {
           if (visited[3 * std::size_t{f0} + i0] || !is_border(f0, i0)) continue;
           Loop loop;
-          loop.patch = p;
           std::uint32_t f = f0;
           int i = i0;
           bool closed = false;
