@@ -1409,7 +1409,7 @@ Status PartitionRun::plan() {
   auto counted = count_positions(cells, [&](std::uint32_t* histogram, const Vec3f& v) { ++histogram[p.grid.cell(v)]; });
   if (!counted) return counted.status();
   const std::vector<std::uint32_t> histogram = std::move(*counted);
-  // Chunk size: faces per chunk from the budget, of which a chunk owns about 3/4; vertices per
+  // Chunk size: faces per chunk from the budget, of which a chunk owns at most 3/4; vertices per
   // chunk from the input's vertex/face ratio.
   const std::uint64_t chunk_faces = options_.max_chunk_faces > 0
                                         ? options_.max_chunk_faces
@@ -1420,10 +1420,9 @@ Status PartitionRun::plan() {
   // Split cells: a cell with more than a quarter of a chunk's vertices (dense input: the cells'
   // size is fixed, so their counts grow with the input) gets 8^k sub-cells, k the least that
   // brings a surface's share of it (a quarter per level) to an eighth of a chunk, at most
-  // kMaxSplitBits; one more scan of positions.bin counts their vertices. A chunk takes every
-  // cell that starts below its share, so it owns at most a chunk plus one cell. Without this
-  // the largest chunk grew with the input (100M triangles under 64M: a cell of 66k vertices,
-  // twice a chunk; the largest chunk owned 2.2 chunks' vertices, 1.23 with split cells).
+  // kMaxSplitBits; one more scan of positions.bin counts their vertices. Without this the
+  // largest chunk grew with the input (100M triangles under 64M: a cell of 66k vertices, twice
+  // a chunk; the largest chunk owned 2.2 chunks' vertices, 1.23 with split cells).
   // A cell whose vertices gather in a small part of it (a cluster, not a surface across the
   // cell) leaves sub-cells above a quarter of a chunk: its k goes up by two and the sub-cells are
   // counted again, at most twice. The sub-cell counts stay within an eighth of the budget: k is
@@ -1478,18 +1477,18 @@ Status PartitionRun::plan() {
   // Cells in Morton order (a split cell's sub-cells in theirs); cell of Morton code m is order[m].
   std::vector<std::uint32_t> order(cells);
   for (std::uint32_t c = 0; c < cells; ++c) order[p.grid.morton(c)] = c;
-  std::uint64_t before = 0, last_raw = ~std::uint64_t{0};
+  // Cells fill chunks greedily in Morton order: a cell that would take the current chunk past
+  // the target starts the next one, so no chunk owns more than the target unless one cell
+  // alone does (the chunk passes' memory follows the largest chunk, not the mean).
   std::uint32_t chunk = 0;
   bool any = false;
   auto count = [&](std::uint32_t vertices) {
     if (vertices == 0) return;
-    const std::uint64_t raw = before / target;
-    if (any && raw != last_raw) ++chunk;
-    if (!any || raw != last_raw) p.owned_vertices.push_back(0);
+    const bool full = any && p.owned_vertices[chunk] + vertices > target;
+    if (full) ++chunk;
+    if (!any || full) p.owned_vertices.push_back(0);
     any = true;
-    last_raw = raw;
     p.owned_vertices[chunk] += vertices;
-    before += vertices;
   };
   for (std::uint32_t c : order) {
     if (!(p.cell_chunk[c] & Partition::kSplitCell)) {

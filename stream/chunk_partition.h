@@ -62,7 +62,7 @@ struct PartitionOptions {
   std::uint32_t rings = 3;
   // Chunks in flight in pass 2; only divides the chunk size here.
   std::uint32_t threads = 1;
-  // Faces per chunk to aim for (0 = derive from memory_bytes). A chunk owns about 3/4 of this
+  // Faces per chunk to aim for (0 = derive from memory_bytes). A chunk owns at most 3/4 of this
   // in faces; the overlap rings bring the rest. Tests set it small to force hundreds of chunks.
   std::uint64_t max_chunk_faces = 0;
   // Chunk files written at once in the final scan (0 = as many as the memory allows). Tests set

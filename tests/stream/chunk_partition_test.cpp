@@ -282,7 +282,9 @@ TEST(ChunkPartition, ChunkSizeFollowsTheBudget) {
   std::uint64_t largest = 0;
   for (const ChunkInfo& info : partition->chunks) largest = std::max(largest, info.owned_vertices);
   EXPECT_NEAR(double(torus.positions.size()) / double(partition->chunks.size()), expected, expected * 0.25);
-  EXPECT_LT(double(largest), 2 * expected);
+  // Cells fill chunks greedily: no chunk owns more than the planner's share (no cell here
+  // holds more than a quarter of it).
+  EXPECT_LE(double(largest), std::ceil(expected)) << "largest chunk owns " << largest << " vertices";
   options.threads = 1;  // one chunk: the whole torus fits
   auto whole = partition_mesh(dir.file("in.ply"), {}, options);
   ASSERT_TRUE(whole.is_ok());
@@ -551,7 +553,7 @@ TEST(ChunkPartition, DenseCellsAreSplitAndChunksStayBounded) {
   const double share = 0.75 * kChunkFaces * double(mesh.positions.size()) / double(mesh.triangles.size());
   std::uint64_t largest = 0;
   for (const ChunkInfo& info : partition->chunks) largest = std::max(largest, info.owned_vertices);
-  EXPECT_LE(double(largest), 1.5 * share) << "largest chunk owns " << largest << " vertices, share " << share;
+  EXPECT_LE(double(largest), std::ceil(share)) << "largest chunk owns " << largest << " vertices, share " << share;
 }
 
 TEST(ChunkPartition, HighValenceVertexKeepsEveryChunk) {
