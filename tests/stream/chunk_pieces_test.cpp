@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <functional>
 #include <map>
 #include <tuple>
 
@@ -209,6 +210,57 @@ format::Result<StitchedPatches> stitch(std::vector<ChunkPieces> chunks, std::siz
   for (std::size_t c = 0; c < chunks.size(); ++c) GM_RETURN_IF_ERROR((*joins)->spill(static_cast<std::uint32_t>(c), chunks[c]));
   GM_RETURN_IF_ERROR((*joins)->finish());
   return stitch_pieces(chunks, **joins, 64 << 20);
+}
+
+TEST(ChunkPieces, CandidateEdgesCountTheStarsFeatureEdges) {
+  // take_merge_input keeps of each candidate's star only what the merge's re-evaluation reads.
+  // Three candidates: a short star with a break and an open end, a star of 300 patches (past
+  // a byte's reach: the wide list), and a star whose records name a face across that is not in
+  // the star (damaged: the wide list too). Under several labellings the kept edges must give the
+  // star's own count.
+  constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+  StitchedPatches stitched;
+  stitched.patches.resize(400);
+  for (std::uint32_t p = 0; p < 400; ++p) stitched.patches[p] = {p, 1, p % 7};
+  auto add = [&](std::uint32_t vertex, const std::vector<std::uint32_t>& patch, const std::vector<std::uint32_t>& next,
+                 const std::vector<std::uint8_t>& breaks) {
+    stitched.candidates.push_back({vertex, static_cast<std::uint32_t>(stitched.star.size()), static_cast<std::uint32_t>(patch.size())});
+    for (std::size_t k = 0; k < patch.size(); ++k) {
+      stitched.star.push_back({patch[k], next[k]});
+      stitched.entering_break.push_back(breaks[k]);
+    }
+  };
+  add(10, {1, 1, 2, 3, 3, 4}, {1, 2, 3, 3, kNone, 1}, {0, 0, 1, 0, 0, 0});
+  std::vector<std::uint32_t> fan(300), fan_next(300);
+  for (std::uint32_t k = 0; k < 300; ++k) fan[k] = 50 + k;
+  for (std::uint32_t k = 0; k < 300; ++k) fan_next[k] = fan[(k + 1) % 300];
+  add(20, fan, fan_next, std::vector<std::uint8_t>(300, 0));
+  add(30, {5, 6, 7}, {6, 399, 5}, {0, 0, 0});
+  const StitchedPatches original = stitched;
+  CandidateEdges edges;
+  const PatchGraphInput input = take_merge_input(stitched, edges);
+  EXPECT_TRUE(stitched.patches.empty());
+  ASSERT_EQ(edges.fixed.size(), 3u);
+  EXPECT_FALSE(edges.fixed[0] & CandidateEdges::kWide);
+  EXPECT_TRUE(edges.fixed[1] & CandidateEdges::kWide);
+  EXPECT_TRUE(edges.fixed[2] & CandidateEdges::kWide);
+  const std::vector<std::function<std::uint32_t(std::uint32_t)>> labellings = {
+      [](std::uint32_t p) { return p; },       [](std::uint32_t) { return 0u; },
+      [](std::uint32_t p) { return p / 2; },   [](std::uint32_t p) { return p % 3; },
+      [](std::uint32_t p) { return p < 52 || p == 6 ? 0u : p; }};
+  for (std::size_t l = 0; l < labellings.size(); ++l) {
+    const auto& label = labellings[l];
+    for (std::uint32_t k = 0; k < 3; ++k) {
+      const auto& c = original.candidates[k];
+      std::uint32_t count = 0;
+      for (std::uint32_t j = c.first; j < c.first + c.count; ++j) {
+        const auto& e = original.star[j];
+        count += original.entering_break[j] + (e.next_patch == kNone || label(e.patch) != label(e.next_patch));
+      }
+      const std::uint32_t* patches = input.candidate_patches.data() + input.candidate_offsets[k];
+      EXPECT_EQ(edges.keeps_candidacy(k, patches, label), count >= 3) << "labelling " << l << ", candidate " << k;
+    }
+  }
 }
 
 TEST(ChunkPieces, DamagedRecordsAreRefused) {
