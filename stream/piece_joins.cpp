@@ -420,6 +420,11 @@ Status PieceJoinFiles::join_border_edges(
     auto reader = format::RecordReader::open(bucket_paths_[t.bucket], kBorderEdgeRecordKind, kBorderEdgeRecordBytes);
     if (!reader) return reader.status();
     edges.clear();
+    // Sized from the count written (a part's share, hashed, with an eighth to spare), not by
+    // doubling: a doubling held the old and the new array at once, 1.5-3 times the bucket.
+    const std::uint64_t expected = bucket_records_[t.bucket] / t.parts;
+    edges.reserve(static_cast<std::size_t>(std::min<std::uint64_t>(
+        t.parts > 1 ? expected + expected / 8 + 64 : bucket_records_[t.bucket], per / sizeof(BorderEdgeRecord) * 2)));
     for (;;) {
       auto frame = (*reader)->next();
       if (!frame) return frame.status();
