@@ -2034,7 +2034,7 @@ namespace {
 // the chunk's lowest id, 11 bits a pass — stable, so corners of one id stay in order. A chunk's ids
 // span a small range on spatially ordered input (one or two passes); std::sort took a seventh of
 // pass 2's time.
-std::vector<std::uint64_t> sorted_corner_keys(const std::vector<std::uint32_t>& ids) {
+std::vector<std::uint64_t> sorted_corner_keys(std::span<const std::uint32_t> ids) {
   const std::size_t n = ids.size();
   std::vector<std::uint64_t> keys(n), scratch(n);
   if (n == 0) return keys;
@@ -2097,7 +2097,7 @@ enum class Numbered { kDone, kTooSparse, kDisagree };
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("popcnt", "default")))
 #endif
-Numbered number_by_bitmap(const std::vector<std::uint32_t>& ids, const std::vector<std::uint8_t>& owned, std::uint32_t lo,
+Numbered number_by_bitmap(std::span<const std::uint32_t> ids, const std::vector<std::uint8_t>& owned, std::uint32_t lo,
                           std::uint64_t span, std::size_t max_bytes, std::uint32_t* corners, ChunkMesh& mesh,
                           std::uint32_t* disagree) {
   const std::size_t n = ids.size();
@@ -2153,8 +2153,9 @@ Numbered number_by_bitmap(const std::vector<std::uint32_t>& ids, const std::vect
   return Numbered::kDone;
 }
 
-// Local vertex ids in ascending global id for a chunk's corners (global ids, owned flags):
-// fills mesh.global_vertex, owned_vertex and triangles; a vertex whose corners disagree on
+// Local vertex ids in ascending global id for a chunk's corners (mesh.triangles holding global
+// ids; owned flags per corner): fills mesh.global_vertex and owned_vertex, and numbers the
+// triangles' corners; a vertex whose corners disagree on
 // ownership is bad(). Ids that fill their 2^13-id blocks well enough (any spatially ordered
 // input, where a chunk's ids lie in a few ranges, one per stretch of the input's order): the
 // two-level bitmap numbers them in sequential passes over the corners and no sort, in at most
@@ -2162,10 +2163,11 @@ Numbered number_by_bitmap(const std::vector<std::uint32_t>& ids, const std::vect
 // triangles a chunk's ids span most of the 50M ids (one range per refinement level), and the
 // sort, a one-level bitmap's fallback there, was 12 % of the whole run.
 template <class Bad>
-Status number_chunk_vertices(const std::vector<std::uint32_t>& ids, const std::vector<std::uint8_t>& owned,
-                             ChunkMesh& mesh, Bad&& bad) {
+Status number_chunk_vertices(const std::vector<std::uint8_t>& owned, ChunkMesh& mesh, Bad&& bad) {
+  // The corners hold global ids on entry and are numbered in place: each pass reads a corner's
+  // id before it writes its local one.
+  const std::span<const std::uint32_t> ids(reinterpret_cast<const std::uint32_t*>(mesh.triangles.data()), 3 * mesh.triangles.size());
   const std::size_t n = ids.size();
-  mesh.triangles.resize(n / 3);
   if (n == 0) return {};
   const auto [lo_it, hi_it] = std::minmax_element(ids.begin(), ids.end());
   const std::uint32_t lo = *lo_it;
@@ -2299,7 +2301,10 @@ format::Result<ChunkMesh> load_chunk(const ChunkInfo& info) {
   // index: push_back's capacity checks were a third of this loop.
   mesh.global_face.resize(faces);
   mesh.owned_face.resize(faces);
-  std::vector<std::uint32_t> corner_ids(3 * faces);
+  // The corners' global ids go straight into the triangles, numbered there in place (a separate
+  // array of them was 12 more bytes a face while loading).
+  mesh.triangles.resize(faces);
+  std::uint32_t* corner_ids = reinterpret_cast<std::uint32_t*>(mesh.triangles.data());
   std::vector<std::uint8_t> corner_owned(3 * faces), corner_loop;  // corner_loop: loop chunks only
   std::uint64_t* global_face = mesh.global_face.data();
   std::uint8_t* owned_face = mesh.owned_face.data();
@@ -2345,7 +2350,7 @@ format::Result<ChunkMesh> load_chunk(const ChunkInfo& info) {
     }
   }
   if (k != faces) return bad("fewer face records than the file claims");
-  GM_RETURN_IF_ERROR(number_chunk_vertices(corner_ids, corner_owned, mesh, bad));
+  GM_RETURN_IF_ERROR(number_chunk_vertices(corner_owned, mesh, bad));
   if (info.loop) {  // a vertex's corners agree on its loop bit: bit 0 said yes, bit 1 said no
     mesh.loop_vertex.assign(mesh.global_vertex.size(), 0);
     const auto* corners = reinterpret_cast<const std::uint32_t*>(mesh.triangles.data());

@@ -218,7 +218,7 @@ struct ChunkMesh {
 // info.owned_faces, face ids not ascending, flag bits, one vertex id with two ownerships, a face
 // owned though its lowest-id vertex is not, a vertex id beyond a vertex file, an owned flag
 // that disagrees with owners.bin) is a kBadInput error naming the file.
-// Memory: about 77 B per face of the chunk.
+// Memory: about 65 B per face of the chunk.
 format::Result<ChunkMesh> load_chunk(const ChunkInfo& info);
 
 }  // namespace gaussmesh::stream
