@@ -101,8 +101,14 @@ format::Status for_each_chunk(std::size_t count, const std::function<ChunkInfo(s
   arena.execute([&] {
     tbb::parallel_for(std::size_t{0}, nc, [&](std::size_t c) {
       if (failed) return;
-      auto chunk = load_chunk(info_of(c));
-      format::Status st = chunk ? body(c, *chunk, workspaces.local()) : chunk.status();
+      // Isolated: while the body waits in a nested parallel loop (the adjacency, the sampler),
+      // this thread must not start another chunk, which would take the same thread's workspace
+      // (and hold a second chunk).
+      format::Status st;
+      tbb::this_task_arena::isolate([&] {
+        auto chunk = load_chunk(info_of(c));
+        st = chunk ? body(c, *chunk, workspaces.local()) : chunk.status();
+      });
       if (!st) {
         errors[c] = st;
         failed = true;
