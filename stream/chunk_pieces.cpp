@@ -323,15 +323,18 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
   std::vector<std::uint64_t> faces;
   std::vector<PieceId> found;
   auto patch_of = [&](PieceId piece) { return piece == kNoPiece ? -1 : out.patch_of_piece(piece); };
-  // A chunk's star entries: in memory, or (spilled in pass B) from its star file.
-  auto entries_of = [&](const ChunkPieces& c) {
+  // A chunk's candidates and their star entries: in memory, or (spilled in pass B) from its
+  // candidate and star files.
+  auto spilled = [&](std::size_t c) { return chunks[c].candidates.empty() && chunks[c].star.empty(); };
+  auto entries_of = [&](std::size_t c) {
+    if (spilled(c)) return joins.star_entries(static_cast<std::uint32_t>(c));
     std::uint64_t n = 0;
-    for (const CandidateRecord& r : c.candidates) n += r.count;
+    for (const CandidateRecord& r : chunks[c].candidates) n += r.count;
     return n;
   };
   std::size_t total_candidates = 0, total_entries = 0;
-  for (const ChunkPieces& c : chunks) {
-    total_candidates += c.candidates.size();
+  for (std::size_t c = 0; c < chunks.size(); ++c) {
+    total_candidates += spilled(c) ? joins.candidate_entries(static_cast<std::uint32_t>(c)) : chunks[c].candidates.size();
     total_entries += entries_of(c);
   }
   out.candidates.reserve(total_candidates);
@@ -339,13 +342,13 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
   out.entering_break.reserve(total_entries);
   for (std::size_t first = 0; first < chunks.size();) {
     std::size_t last = first, entries = 0;
-    while (last < chunks.size() && (last == first || entries + entries_of(chunks[last]) <= group_entries))
-      entries += entries_of(chunks[last++]);
+    while (last < chunks.size() && (last == first || entries + entries_of(last) <= group_entries)) entries += entries_of(last++);
     owners.clear();
     faces.clear();
     for (std::size_t c = first; c < last; ++c) {
-      if (chunks[c].star.empty() && !chunks[c].candidates.empty()) {
+      if (spilled(c)) {
         const std::uint32_t id = static_cast<std::uint32_t>(c);
+        GM_RETURN_IF_ERROR(joins.read_candidates(id, chunks[c].candidates));
         GM_RETURN_IF_ERROR(joins.read_stars(id, chunks[c].star));
       }
       for (const CandidateRecord& r : chunks[c].candidates) {

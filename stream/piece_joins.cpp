@@ -76,9 +76,10 @@ format::Result<std::unique_ptr<PieceJoinFiles>> PieceJoinFiles::create(const std
   files->dir_ = dir;
   files->chunks_ = chunks;
   files->answered_.assign(chunks, 0);
-  files->placed_.assign(5 * chunks, Stored{});
+  files->placed_.assign(kParts * chunks, Stored{});
   files->segments_ = std::make_unique<format::RecordSegmentPool>(dir + "/pass-b-");
   files->star_entries_.assign(chunks, 0);
+  files->candidate_entries_.assign(chunks, 0);
   files->piece_entries_.assign(chunks, 0);
   files->adjacency_entries_.assign(chunks, 0);
   files->pieces_of_chunk_.assign(chunks, 0);
@@ -106,14 +107,14 @@ PieceJoinFiles::~PieceJoinFiles() = default;
 
 PieceJoinFiles::Placed PieceJoinFiles::placed(Part part, std::uint32_t chunk) const {
   if (chunk >= chunks_) return {};
-  const Stored& s = placed_[5 * std::size_t{chunk} + static_cast<std::size_t>(part)];
+  const Stored& s = placed_[kParts * std::size_t{chunk} + static_cast<std::size_t>(part)];
   return {s.file, {s.offset, s.bytes}};
 }
 
 Status PieceJoinFiles::place(Part part, std::uint32_t chunk, const Placed& placed) {
   if (placed.segment.bytes > 0xFFFFFFFFu)
     return Status::error(Code::kResources, "stitch", "a record file of chunk " + std::to_string(chunk) + " of 4 GiB or more");
-  placed_[5 * std::size_t{chunk} + static_cast<std::size_t>(part)] = {placed.segment.offset,
+  placed_[kParts * std::size_t{chunk} + static_cast<std::size_t>(part)] = {placed.segment.offset,
                                                                       static_cast<std::uint32_t>(placed.segment.bytes), placed.file};
   return {};
 }
@@ -201,6 +202,26 @@ Status PieceJoinFiles::read_face_pieces(std::uint32_t chunk, const ChunkMesh& me
                                     if (f < piece_index.size()) piece_index[f++] = index;
                                   }));
   if (bad_index) return damaged(path + ": a face names a piece the chunk does not have");
+  return {};
+}
+
+Status PieceJoinFiles::read_candidates(std::uint32_t chunk, std::vector<CandidateRecord>& out) const {
+  out.clear();
+  if (chunk >= chunks_) return damaged("candidates of chunk " + std::to_string(chunk) + ", which does not exist");
+  if (candidate_entries_[chunk] == 0) return {};
+  const Placed at_file = placed(Part::kCandidates, chunk);
+  out.reserve(candidate_entries_[chunk]);
+  std::uint64_t entries = 0;
+  GM_RETURN_IF_ERROR(read_records(segment_path(at_file.file), at_file.segment, kCandidateRecordKind, kCandidateRecordBytes,
+                                  candidate_entries_[chunk], [&](const std::byte* at) {
+                                    std::uint32_t v[2];
+                                    std::memcpy(v, at, 8);
+                                    out.push_back({v[0], static_cast<std::uint32_t>(std::min<std::uint64_t>(entries, 0xFFFFFFFFu)), v[1]});
+                                    entries += v[1];
+                                  }));
+  if (entries != star_entries_[chunk])
+    return damaged(segment_path(at_file.file) + ": the candidates of chunk " + std::to_string(chunk) + " name " +
+                   std::to_string(entries) + " star entries, its star file holds " + std::to_string(star_entries_[chunk]));
   return {};
 }
 
@@ -323,6 +344,25 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
     bytes_written_ += segment->bytes;
   }
   std::vector<StarEntry>().swap(pieces.star);
+  if (!pieces.candidates.empty()) {
+    std::uint64_t entries = 0;
+    for (std::size_t k = 0; k < pieces.candidates.size(); ++k) {
+      if (pieces.candidates[k].first != entries) return Status::error(Code::kProcessing, "stitch", "candidates' stars not in order");
+      entries += pieces.candidates[k].count;
+    }
+    if (entries != star_entries_[chunk]) return Status::error(Code::kProcessing, "stitch", "candidates' stars not all spilled");
+    auto segment = write_records(lease.file(), kCandidateRecordKind, kCandidateRecordBytes, pieces.candidates.size(),
+                                 [&](std::size_t k, std::byte* at) {
+                                   const std::uint32_t v[2] = {pieces.candidates[k].vertex, pieces.candidates[k].count};
+                                   std::memcpy(at, v, 8);
+                                 });
+    if (!segment) return segment.status();
+    std::lock_guard lock(mutex_);
+    candidate_entries_[chunk] = pieces.candidates.size();
+    GM_RETURN_IF_ERROR(place(Part::kCandidates, chunk, {lease.index(), *segment}));
+    bytes_written_ += segment->bytes;
+  }
+  std::vector<CandidateRecord>().swap(pieces.candidates);
   if (!pieces.pieces.empty()) {
     auto segment = write_records(lease.file(), kPieceRecordKind, kPieceRecordBytes, pieces.pieces.size(),
                                [&](std::size_t k, std::byte* at) {

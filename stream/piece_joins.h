@@ -39,6 +39,10 @@ inline constexpr std::uint32_t kFaceAnswerRecordBytes = 16;
 // break), u32 owner of face, u32 owner of next (bits 0..30) | entering edge is a break (bit 31).
 inline constexpr std::uint32_t kStarRecordKind = 0x54534D47u;
 inline constexpr std::uint32_t kStarRecordBytes = 24;
+// The candidates of one chunk ("GMCD"), ascending vertex: u32 global vertex id, u32 star entries
+// (the chunk's star file holds them candidate after candidate).
+inline constexpr std::uint32_t kCandidateRecordKind = 0x44434D47u;
+inline constexpr std::uint32_t kCandidateRecordBytes = 8;
 // A chunk's pieces ("GMPC": u64 piece id, u64 lowest face, u64 faces, u32 label, 3 × f64 vector
 // area — zero unless pass A wrote a loop chunk, whose pass C reads the pieces again) and its
 // manifold feature edges between two of its pieces ("GMPA": u64 piece a, u64 piece b, u64 edges).
@@ -64,7 +68,8 @@ std::uint64_t bucket_bytes(std::uint64_t memory_bytes);
 class PieceJoinFiles {
  public:
   // The per-chunk record files, each a segment of a pass-b file.
-  enum class Part { kAnswers, kStars, kPieces, kAdjacency, kFacePieces };
+  enum class Part { kAnswers, kStars, kPieces, kAdjacency, kFacePieces, kCandidates };
+  static constexpr std::size_t kParts = 6;
   struct Placed {
     std::uint32_t file = 0xFFFFFFFFu;  // pass-b file; all ones: not written
     format::RecordSegment segment;
@@ -83,7 +88,8 @@ class PieceJoinFiles {
 
   // Moves one chunk's border edges to the buckets, its face answers (border_faces, strictly
   // ascending face — as find_chunk_pieces emits them) to the chunk's answer file and its
-  // candidates' star entries to its star file (read back by read_stars), its pieces and piece
+  // candidates to its candidate file and their star entries to its star file (read back by
+  // read_candidates and read_stars), its pieces and piece
   // adjacency to two more files (read_pieces), and clears those vectors. Thread-safe for distinct chunks; once per chunk. Errors: kOutput (disk full),
   // kProcessing when the answers are not ascending.
   format::Status spill(std::uint32_t chunk, ChunkPieces& pieces);
@@ -113,6 +119,11 @@ class PieceJoinFiles {
   // The star entries spill() took from chunk (none if it was not spilled). Errors: a damaged
   // file, or one holding another count of entries than was written (kBadInput).
   format::Status read_stars(std::uint32_t chunk, std::vector<StarEntry>& out) const;
+  // The candidates spill() took from chunk, `first` counted from 0 in file order. Errors as
+  // read_stars, and a star count that does not add up to the star file's (kBadInput).
+  format::Status read_candidates(std::uint32_t chunk, std::vector<CandidateRecord>& out) const;
+  std::uint64_t star_entries(std::uint32_t chunk) const { return chunk < chunks_ ? star_entries_[chunk] : 0; }
+  std::uint64_t candidate_entries(std::uint32_t chunk) const { return chunk < chunks_ ? candidate_entries_[chunk] : 0; }
   // piece_index (find_chunk_pieces: per local face, its piece's index in the chunk, or all ones
   // for faces the chunk does not own) to the chunk's face-piece file: only the owned faces'.
   // Thread-safe for distinct chunks. Errors: kOutput.
@@ -154,7 +165,7 @@ class PieceJoinFiles {
   std::unique_ptr<format::RecordCompressor> compressor_;  // shared by the bucket writers, under mutex_
   std::vector<std::unique_ptr<format::RecordWriter>> writers_;
   std::vector<std::uint8_t> answered_;  // per chunk: its answer file is written
-  // Per chunk, per Part, where it is: 16 bytes (80 per chunk; 0.65 MB at 8,103 chunks).
+  // Per chunk, per Part, where it is: 16 bytes (96 per chunk; 0.78 MB at 8,103 chunks).
   struct Stored {
     std::uint64_t offset = 0;
     std::uint32_t bytes = 0;
@@ -163,6 +174,7 @@ class PieceJoinFiles {
   std::vector<Stored> placed_;
   std::unique_ptr<format::RecordSegmentPool> segments_;  // the pass-b files
   std::vector<std::uint64_t> star_entries_;  // per chunk: entries in its star file
+  std::vector<std::uint64_t> candidate_entries_;  // per chunk: records in its candidate file
   std::vector<std::uint64_t> piece_entries_, adjacency_entries_;  // per chunk: spilled pieces, adjacency
   std::vector<std::uint64_t> pieces_of_chunk_;  // per chunk: its pieces (bound of its face pieces)
   std::mutex mutex_;

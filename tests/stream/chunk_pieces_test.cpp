@@ -310,6 +310,20 @@ TEST(ChunkPieces, DamagedRecordsAreRefused) {
   EXPECT_EQ(stitch(chunks).status().code(), format::Code::kBadInput);
   chunks[0].star[1] = {3, 0, 0, 0, false};  // the wrong owner: chunk 0 does not answer for face 3
   EXPECT_EQ(stitch(chunks).status().code(), format::Code::kBadInput);
+  // Candidates go to their own file beside the stars, so they must name the stars in order and
+  // all of them (the file keeps counts only).
+  chunks[0].star[1] = {3, 0, 1, 0, false};
+  chunks[0].candidates = {{42, 0, 1}};
+  EXPECT_EQ(stitch(chunks).status().code(), format::Code::kProcessing);
+  chunks[0].candidates = {{42, 0, 1}, {43, 0, 1}};
+  EXPECT_EQ(stitch(chunks).status().code(), format::Code::kProcessing);
+  chunks[0].candidates = {{42, 0, 1}, {43, 1, 1}};
+  auto two = stitch(chunks);
+  ASSERT_TRUE(two.is_ok()) << two.status().to_string();
+  ASSERT_EQ(two->candidates.size(), 2u);
+  EXPECT_EQ(two->candidates[1].vertex, 43u);
+  EXPECT_EQ(two->candidates[1].first, 1u);
+  EXPECT_EQ(two->star[1].patch, 1u);
 }
 
 }  // namespace
