@@ -189,7 +189,9 @@ struct StitchedPatches {
 // `threads` threads) and resolves the candidates'
 // stars to patches through the answer files of the faces' owners (each read once).
 // chunks[c] holds chunk c's pieces, adjacency, candidates with their stars, and collapsed faces
-// (border and border_faces are ignored: they are in `joins`). Records are untrusted (they come
+// — or, where PieceJoinFiles::spill took them, `joins` does (pieces and adjacency when
+// chunks[c].pieces is empty; candidates and stars when both are empty) — (border and
+// border_faces are ignored: they are in `joins`). Records are untrusted (they come
 // back from disk): a border edge seen other than exactly twice with matching feature bits, a
 // piece with two labels, a star face nobody answers for, is a kBadInput error. Memory: the
 // pieces, their union-find and piece-pair feature-edge counts, the candidates' stars and the
