@@ -328,6 +328,15 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
   GM_RETURN_IF_ERROR(lease.status());
   GM_RETURN_IF_ERROR(write_answer_file(chunk, pieces.border_faces, lease));
   std::vector<FacePieceRecord>().swap(pieces.border_faces);  // "= {}" would keep the capacity
+  // A part written: its place and record count, under the lock.
+  auto stored = [&](Part part, std::vector<std::uint64_t>& entries, std::size_t n,
+                    format::Result<format::RecordSegment>& segment) -> Status {
+    if (!segment) return segment.status();
+    std::lock_guard lock(mutex_);
+    entries[chunk] = n;
+    bytes_written_ += segment->bytes;
+    return place(part, chunk, {lease.index(), *segment});
+  };
   if (!pieces.star.empty()) {
     auto segment = write_records(lease.file(), kStarRecordKind, kStarRecordBytes, pieces.star.size(),
                                  [&](std::size_t k, std::byte* at) {
@@ -337,11 +346,7 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
                                    put_u64(at + 8, e.next);
                                    std::memcpy(at + 16, owners, 8);
                                  });
-    if (!segment) return segment.status();
-    std::lock_guard lock(mutex_);
-    star_entries_[chunk] = pieces.star.size();
-    GM_RETURN_IF_ERROR(place(Part::kStars, chunk, {lease.index(), *segment}));
-    bytes_written_ += segment->bytes;
+    GM_RETURN_IF_ERROR(stored(Part::kStars, star_entries_, pieces.star.size(), segment));
   }
   std::vector<StarEntry>().swap(pieces.star);
   if (!pieces.candidates.empty()) {
@@ -356,11 +361,7 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
                                    const std::uint32_t v[2] = {pieces.candidates[k].vertex, pieces.candidates[k].count};
                                    std::memcpy(at, v, 8);
                                  });
-    if (!segment) return segment.status();
-    std::lock_guard lock(mutex_);
-    candidate_entries_[chunk] = pieces.candidates.size();
-    GM_RETURN_IF_ERROR(place(Part::kCandidates, chunk, {lease.index(), *segment}));
-    bytes_written_ += segment->bytes;
+    GM_RETURN_IF_ERROR(stored(Part::kCandidates, candidate_entries_, pieces.candidates.size(), segment));
   }
   std::vector<CandidateRecord>().swap(pieces.candidates);
   if (!pieces.pieces.empty()) {
@@ -373,11 +374,7 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
                                  std::memcpy(at + 24, &r.label, 4);
                                  std::memcpy(at + 28, r.area.data(), 24);
                                });
-    if (!segment) return segment.status();
-    std::lock_guard lock(mutex_);
-    piece_entries_[chunk] = pieces.pieces.size();
-    GM_RETURN_IF_ERROR(place(Part::kPieces, chunk, {lease.index(), *segment}));
-    bytes_written_ += segment->bytes;
+    GM_RETURN_IF_ERROR(stored(Part::kPieces, piece_entries_, pieces.pieces.size(), segment));
   }
   if (!pieces.adjacency.empty()) {
     auto segment = write_records(lease.file(), kPieceAdjacencyRecordKind, kPieceAdjacencyRecordBytes,
@@ -387,11 +384,7 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
                                  put_u64(at + 8, r.b);
                                  put_u64(at + 16, r.edges);
                                });
-    if (!segment) return segment.status();
-    std::lock_guard lock(mutex_);
-    adjacency_entries_[chunk] = pieces.adjacency.size();
-    GM_RETURN_IF_ERROR(place(Part::kAdjacency, chunk, {lease.index(), *segment}));
-    bytes_written_ += segment->bytes;
+    GM_RETURN_IF_ERROR(stored(Part::kAdjacency, adjacency_entries_, pieces.adjacency.size(), segment));
   }
   std::vector<PieceRecord>().swap(pieces.pieces);
   std::vector<PieceAdjacencyRecord>().swap(pieces.adjacency);
