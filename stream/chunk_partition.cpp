@@ -2155,11 +2155,11 @@ Numbered number_by_bitmap(std::span<const std::uint32_t> ids, const std::vector<
 
 // Local vertex ids in ascending global id for a chunk's corners (mesh.triangles holding global
 // ids; owned flags per corner): fills mesh.global_vertex and owned_vertex, and numbers the
-// triangles' corners; a vertex whose corners disagree on
-// ownership is bad(). Ids that fill their 2^13-id blocks well enough (any spatially ordered
-// input, where a chunk's ids lie in a few ranges, one per stretch of the input's order): the
-// two-level bitmap numbers them in sequential passes over the corners and no sort, in at most
-// the sort's 48 bytes a face. Scattered ids: one sort of (global id, corner). At 100M refined
+// triangles' corners; a vertex whose corners disagree on ownership is bad(). Ids that fill
+// their 2^13-id blocks well enough (any spatially ordered input, where a chunk's ids lie in a
+// few ranges, one per stretch of the input's order): the two-level bitmap numbers them in
+// sequential passes over the corners and no sort, in at most the sort's 48 bytes a face.
+// Scattered ids: one sort of (global id, corner). At 100M refined
 // triangles a chunk's ids span most of the 50M ids (one range per refinement level), and the
 // sort, a one-level bitmap's fallback there, was 12 % of the whole run.
 template <class Bad>

@@ -188,10 +188,10 @@ struct StitchedPatches {
 // join holds about bucket_bytes(memory_bytes) of them per thread at a time, read and sorted on
 // `threads` threads) and resolves the candidates'
 // stars to patches through the answer files of the faces' owners (each read once).
-// chunks[c] holds chunk c's pieces, adjacency, candidates with their stars, and collapsed faces
-// — or, where PieceJoinFiles::spill took them, `joins` does (pieces and adjacency when
-// chunks[c].pieces is empty; candidates and stars when both are empty) — (border and
-// border_faces are ignored: they are in `joins`). Records are untrusted (they come
+// chunks[c] holds chunk c's pieces, adjacency, candidates with their stars, and collapsed faces,
+// except what PieceJoinFiles::spill took, which comes from `joins`: the pieces and adjacency when
+// chunks[c].pieces is empty, the candidates and stars when both are empty. Its border and
+// border_faces are ignored: they are in `joins`. Records are untrusted (they come
 // back from disk): a border edge seen other than exactly twice with matching feature bits, a
 // piece with two labels, a star face nobody answers for, is a kBadInput error. Memory: the
 // pieces, their union-find and piece-pair feature-edge counts, the candidates' stars and the
