@@ -8,6 +8,10 @@
 #include <atomic>
 #include <string>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -28,10 +32,54 @@ struct StarScratch {
   std::vector<std::uint32_t> by_next, by_prev;  // slot indices sorted by next / prev (large stars)
   void fit(std::uint32_t degree) {
     if (corner.size() >= degree) return;
-    for (auto* v : {&corner, &next, &prev, &partner, &next_slot}) v->resize(degree);
+    for (auto* v : {&corner, &next, &prev, &partner, &next_slot}) v->resize(std::max<std::uint32_t>(degree, 8));
     used.resize(degree);
   }
 };
+
+// partner[r]: the one slot whose prev is next[r], when exactly one slot has next == next[r]
+// and exactly one has prev == next[r]; else kNoFace. Quadratic: for stars of up to 24 slots.
+void partner_by_counts(const std::uint32_t* next, const std::uint32_t* prev, std::uint32_t degree, std::uint32_t* partner) {
+  for (std::uint32_t r = 0; r < degree; ++r) {
+    const std::uint32_t a = next[r];
+    std::uint32_t out = 0, in = 0, in_slot = MeshAdjacency::kNoFace;
+    for (std::uint32_t d = 0; d < degree; ++d) {
+      out += next[d] == a;
+      if (prev[d] == a) {
+        ++in;
+        in_slot = d;
+      }
+    }
+    partner[r] = out == 1 && in == 1 ? in_slot : MeshAdjacency::kNoFace;
+  }
+}
+
+#if defined(__SSE2__)
+// The same for a star of at most 8 slots (almost every star), branch-free: each slot's two
+// counts come from four compares of eight lanes. SSE2 is x86-64's baseline; elsewhere
+// partner_by_counts runs. The lanes past the star hold kNoFace - 1 (next) and kNoFace - 2
+// (prev), which no vertex has (build_mesh_adjacency refuses nv >= kNoFace) and which differ.
+// Until session 15 a distinctness check and a search took a quarter of the adjacency's time.
+void partner_small(const std::uint32_t* next, const std::uint32_t* prev, std::uint32_t degree, std::uint32_t* partner) {
+  constexpr std::uint32_t kNone = MeshAdjacency::kNoFace;
+  const __m128i n_lo = _mm_loadu_si128(reinterpret_cast<const __m128i*>(next));
+  const __m128i n_hi = _mm_loadu_si128(reinterpret_cast<const __m128i*>(next + 4));
+  const __m128i p_lo = _mm_loadu_si128(reinterpret_cast<const __m128i*>(prev));
+  const __m128i p_hi = _mm_loadu_si128(reinterpret_cast<const __m128i*>(prev + 4));
+  const unsigned valid = (1u << degree) - 1;
+  auto lanes = [](__m128i lo, __m128i hi, __m128i key) {
+    return static_cast<unsigned>(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(lo, key)))) |
+           static_cast<unsigned>(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(hi, key)))) << 4;
+  };
+  for (std::uint32_t r = 0; r < degree; ++r) {
+    const __m128i key = _mm_set1_epi32(static_cast<int>(next[r]));
+    const unsigned out = lanes(n_lo, n_hi, key) & valid, in = lanes(p_lo, p_hi, key) & valid;
+    // out holds lane r at least; each count is one iff its mask is a single bit.
+    const bool one = (out & (out - 1)) == 0 && in != 0 && (in & (in - 1)) == 0;
+    partner[r] = one ? static_cast<std::uint32_t>(__builtin_ctz(in)) : kNone;
+  }
+}
+#endif
 
 // Matches the star of one vertex and writes its fans. Returns its directed break edges.
 // Slot r holds corner c = 3 f + i with next vertex a = next[r] and previous vertex prev[r].
@@ -62,44 +110,13 @@ std::size_t build_star(const Triangle* tris, std::uint32_t begin, std::uint32_t 
   // partner's inverse: the incoming edge (p, v) of slot r is manifold iff exactly one slot has
   // prev == p and exactly one d has next == p, and then partner[d] == r — the same two counts.
   std::size_t breaks = 0;
-  // Most stars (a manifold vertex away from any boundary) have distinct next vertices and
-  // distinct previous vertices: then every count of `out` is one, and the partner of slot r is
-  // the one slot, if any, whose prev is next[r]. Checking that costs half the compares of the
-  // general count below.
-  bool distinct = degree <= 24;
-  for (std::uint32_t r = 0; distinct && r < degree; ++r) {
-    for (std::uint32_t d = r + 1; d < degree; ++d) {
-      if (next[d] == next[r] || prev[d] == prev[r]) {
-        distinct = false;
-        break;
-      }
-    }
-  }
-  if (distinct) {
-    for (std::uint32_t r = 0; r < degree; ++r) {
-      const std::uint32_t a = next[r];
-      std::uint32_t found = kNone;
-      for (std::uint32_t d = 0; d < degree; ++d) {
-        if (prev[d] == a) {
-          found = d;
-          break;
-        }
-      }
-      partner[r] = found;
-    }
-  } else if (degree <= 24) {
-    for (std::uint32_t r = 0; r < degree; ++r) {
-      const std::uint32_t a = next[r];
-      std::uint32_t out = 0, in = 0, in_slot = kNone;
-      for (std::uint32_t d = 0; d < degree; ++d) {
-        out += next[d] == a;
-        if (prev[d] == a) {
-          ++in;
-          in_slot = d;
-        }
-      }
-      partner[r] = out == 1 && in == 1 ? in_slot : kNone;
-    }
+#if defined(__SSE2__)
+  if (degree <= 8) {
+    partner_small(next, prev, degree, partner);
+  } else
+#endif
+  if (degree <= 24) {
+    partner_by_counts(next, prev, degree, partner);
   } else {
     // Large stars (fan apexes): sorted slot lists instead of the quadratic scan.
     s.by_next.resize(degree);
@@ -123,11 +140,25 @@ std::size_t build_star(const Triangle* tris, std::uint32_t begin, std::uint32_t 
   }
   for (std::uint32_t r = 0; r < degree; ++r) next_slot[r] = kNone;
   for (std::uint32_t r = 0; r < degree; ++r) {
-    breaks += partner[r] == kNone;
-    if (partner[r] != kNone) next_slot[partner[r]] = r;
+    const std::uint32_t d = partner[r];
+    breaks += d == kNone;
+    if (d != kNone) next_slot[d] = r;
+    edge_neighbor[corner[r]] = d == kNone ? kNone : corner[d] / 3;
   }
-  for (std::uint32_t r = 0; r < degree; ++r)
-    edge_neighbor[corner[r]] = partner[r] == kNone ? kNone : corner[partner[r]] / 3;
+  // The common star, one closed fan: the cycle from slot 0 takes every slot (partner is then a
+  // permutation, so next_slot is too). The general walk below gives the same slots and flags.
+  if (breaks == 0) {
+    std::uint32_t r = 0, n = 0;
+    do {
+      corners[begin + n++] = corner[r];
+      r = next_slot[r];
+    } while (r != 0 && n < degree);
+    if (n == degree) {
+      slot_flags[begin] = MeshAdjacency::kFanStart | MeshAdjacency::kFanClosed;
+      std::fill(slot_flags + begin + 1, slot_flags + end, std::uint8_t{0});
+      return 0;
+    }
+  }
 
   // Fans: walk counter-clockwise from each open end (a slot whose outgoing edge is a break),
   // then the remaining cycles, each from its lowest slot. Written straight into the star.

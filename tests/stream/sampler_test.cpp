@@ -122,6 +122,66 @@ TEST(MeshAdjacency, OpenFansBeginAndEndAtTheBreakEdges) {
   }
 }
 
+// The face across each edge against its definition, counted by brute force: edge (a, b) of a
+// face is manifold iff exactly one face holds a -> b and exactly one holds b -> a (collapsed
+// faces hold none). Closed fans of 3 to 30 faces, some with a face doubled or flipped, and random
+// triangle soups reach every way a star is matched (up to 8 slots, up to 24, and sorted lists).
+TEST(MeshAdjacency, EdgeNeighboursFollowTheDirectedEdgeCounts) {
+  std::uint64_t state = 11;
+  auto next = [&state](std::uint32_t n) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<std::uint32_t>((state >> 33) % n);
+  };
+  auto check = [](const Mesh& m, const std::string& what) {
+    const MeshAdjacency adj = build_mesh_adjacency(m.view()).value();
+    const auto& t = m.triangles;
+    auto collapsed = [&](std::size_t f) { return t[f].v[0] == t[f].v[1] || t[f].v[1] == t[f].v[2] || t[f].v[0] == t[f].v[2]; };
+    std::size_t breaks = 0;
+    for (std::size_t f = 0; f < t.size(); ++f) {
+      for (int i = 0; i < 3; ++i) {
+        std::uint32_t expected = MeshAdjacency::kNoFace;
+        if (!collapsed(f)) {
+          const std::uint32_t a = t[f].v[i], b = t[f].v[(i + 1) % 3];
+          std::uint32_t same = 0, opposite = 0, across = MeshAdjacency::kNoFace;
+          for (std::size_t g = 0; g < t.size(); ++g) {
+            if (collapsed(g)) continue;
+            for (int j = 0; j < 3; ++j) {
+              const std::uint32_t c = t[g].v[j], d = t[g].v[(j + 1) % 3];
+              same += c == a && d == b;
+              if (c == b && d == a) {
+                ++opposite;
+                across = static_cast<std::uint32_t>(g);
+              }
+            }
+          }
+          if (same == 1 && opposite == 1) expected = across;
+          breaks += expected == MeshAdjacency::kNoFace;
+        }
+        ASSERT_EQ(adj.edge_neighbor[3 * f + i], expected) << what << ", face " << f << " edge " << i;
+      }
+    }
+    EXPECT_EQ(adj.break_edges, breaks) << what;
+  };
+  for (std::uint32_t n = 3; n <= 30; ++n) {
+    Mesh m = fan(std::vector<float>(n, 0.0f));
+    check(m, "fan " + std::to_string(n));
+    m.triangles.push_back(m.triangles[next(n)]);  // a doubled face: its three edges break
+    check(m, "fan " + std::to_string(n) + " with a doubled face");
+    m.triangles.pop_back();
+    auto& flipped = m.triangles[next(n)];
+    std::swap(flipped.v[1], flipped.v[2]);  // a face against its neighbours' orientation
+    check(m, "fan " + std::to_string(n) + " with a flip");
+  }
+  for (int round = 0; round < 300; ++round) {
+    Mesh m;
+    const std::uint32_t nv = 3 + next(20);
+    for (std::uint32_t v = 0; v < nv; ++v) m.positions.push_back({float(v), float(v * v % 7), float(v % 3)});
+    const std::uint32_t nf = 1 + next(80);
+    for (std::uint32_t f = 0; f < nf; ++f) m.triangles.push_back({{next(nv), next(nv), next(nv)}});
+    check(m, "soup " + std::to_string(round));
+  }
+}
+
 TEST(Sampler, BoundaryEdgesAreFeatureEdges) {
   Mesh m;
   m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}};
