@@ -99,15 +99,18 @@ void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const
 
   // Candidates: owned vertices with >= 3 feature edges, counted as evaluate_vertex counts them.
   const std::uint32_t* corners = adjacency.vertex_corners.data();
+  const std::uint8_t* flags = adjacency.slot_flags.data();
   std::vector<std::uint8_t> in_star(nf, 0);
   for (std::uint32_t v = 0; v < chunk.owned_vertex.size(); ++v) {
     if (!chunk.owned_vertex[v]) continue;
     const std::uint32_t sb = adjacency.star_begin(v), se = adjacency.star_end(v);
+    // Entering break edges: one per open fan, at its last slot (mesh_adjacency.h), so counted
+    // from the slot flags.
     std::uint32_t count = 0;
     for (std::uint32_t k = sb; k < se; ++k) {
-      const std::uint32_t f = corners[k] / 3, i = corners[k] % 3;
-      count += feature[f] >> i & 1;
-      count += nb[3 * std::size_t{f} + (i + 2) % 3] == MeshAdjacency::kNoFace;
+      const std::uint32_t c = corners[k];
+      count += feature[c / 3] >> (c % 3) & 1;
+      count += (flags[k] & (MeshAdjacency::kFanStart | MeshAdjacency::kFanClosed)) == MeshAdjacency::kFanStart;
     }
     if (count < 3) continue;
     out.candidates.push_back({chunk.global_vertex[v], static_cast<std::uint32_t>(out.star.size()), se - sb});
@@ -129,11 +132,15 @@ void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const
   }
   // Answers for other chunks (owned faces with a vertex owned elsewhere, or a vertex whose star
   // holds a face owned elsewhere), and for this chunk's own candidate stars.
+  // foreign: a vertex owned elsewhere, or one with a face owned elsewhere in its star (stars
+  // leave collapsed faces out), marked from the faces' side: one pass in face order.
   std::vector<std::uint8_t> foreign(chunk.positions.size(), 0);
-  for (std::uint32_t v = 0; v < foreign.size(); ++v) {
-    foreign[v] = !chunk.owned_vertex[v];
-    for (std::uint32_t k = adjacency.star_begin(v); k < adjacency.star_end(v) && !foreign[v]; ++k)
-      foreign[v] = !chunk.owned_face[corners[k] / 3];
+  for (std::uint32_t v = 0; v < foreign.size(); ++v) foreign[v] = !chunk.owned_vertex[v];
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    if (chunk.owned_face[f]) continue;
+    const auto& t = chunk.triangles[f].v;
+    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) continue;
+    foreign[t[0]] = foreign[t[1]] = foreign[t[2]] = 1;
   }
   for (std::uint32_t f = 0; f < nf; ++f) {
     if (!chunk.owned_face[f]) continue;

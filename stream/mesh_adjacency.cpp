@@ -150,12 +150,12 @@ std::size_t build_star(const Triangle* tris, std::uint32_t begin, std::uint32_t 
   if (breaks == 0) {
     std::uint32_t r = 0, n = 0;
     do {
+      slot_flags[begin + n] = 0;  // in the loop: a fill here was a memset call per star
       corners[begin + n++] = corner[r];
       r = next_slot[r];
     } while (r != 0 && n < degree);
     if (n == degree) {
       slot_flags[begin] = MeshAdjacency::kFanStart | MeshAdjacency::kFanClosed;
-      std::fill(slot_flags + begin + 1, slot_flags + end, std::uint8_t{0});
       return 0;
     }
   }
