@@ -69,33 +69,22 @@ void undelta_column(const std::byte* column, std::size_t n, std::size_t stride, 
     std::memcpy(records + i * stride, &value, sizeof value);
   }
 }
-// A plain field's bytes between records (stride apart) and a column (bytes apart). The sizes
-// records use are copied with a constant size, inlined: a memcpy call per record of a
-// variable size was the flags' whole cost in the chunk and loop chunk files.
+// A plain field's bytes from one layout to the other: n values, src_step and dst_step apart
+// (the record size on the records' side, the field's size on the column's). The sizes records
+// use are copied with a constant size, inlined: a memcpy call per record of a variable size was
+// the flags' whole cost in the chunk and loop chunk files.
 template <std::size_t kBytes>
-void gather_fixed(const std::byte* records, std::size_t n, std::size_t stride, std::byte* out) {
-  for (std::size_t i = 0; i < n; ++i) std::memcpy(out + i * kBytes, records + i * stride, kBytes);
+void copy_values(const std::byte* src, std::size_t src_step, std::byte* dst, std::size_t dst_step, std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i) std::memcpy(dst + i * dst_step, src + i * src_step, kBytes);
 }
-template <std::size_t kBytes>
-void scatter_fixed(const std::byte* column, std::size_t n, std::size_t stride, std::byte* records) {
-  for (std::size_t i = 0; i < n; ++i) std::memcpy(records + i * stride, column + i * kBytes, kBytes);
-}
-void gather_field(const std::byte* records, std::size_t n, std::size_t stride, std::size_t bytes, std::byte* out) {
+void copy_field(const std::byte* src, std::size_t src_step, std::byte* dst, std::size_t dst_step, std::size_t n,
+                std::size_t bytes) {
   switch (bytes) {
-    case 1: return gather_fixed<1>(records, n, stride, out);
-    case 4: return gather_fixed<4>(records, n, stride, out);
-    case 8: return gather_fixed<8>(records, n, stride, out);
+    case 1: return copy_values<1>(src, src_step, dst, dst_step, n);
+    case 4: return copy_values<4>(src, src_step, dst, dst_step, n);
+    case 8: return copy_values<8>(src, src_step, dst, dst_step, n);
     default:
-      for (std::size_t i = 0; i < n; ++i) std::memcpy(out + i * bytes, records + i * stride, bytes);
-  }
-}
-void scatter_field(const std::byte* column, std::size_t n, std::size_t stride, std::size_t bytes, std::byte* records) {
-  switch (bytes) {
-    case 1: return scatter_fixed<1>(column, n, stride, records);
-    case 4: return scatter_fixed<4>(column, n, stride, records);
-    case 8: return scatter_fixed<8>(column, n, stride, records);
-    default:
-      for (std::size_t i = 0; i < n; ++i) std::memcpy(records + i * stride, column + i * bytes, bytes);
+      for (std::size_t i = 0; i < n; ++i) std::memcpy(dst + i * dst_step, src + i * src_step, bytes);
   }
 }
 void to_columns(std::span<const RecordField> fields, std::span<const std::byte> records, std::size_t record_size,
@@ -109,7 +98,7 @@ void to_columns(std::span<const RecordField> fields, std::span<const std::byte> 
     } else if (field.delta) {
       delta_column<std::uint32_t>(in, n, record_size, out);
     } else {
-      gather_field(in, n, record_size, field.bytes, out);
+      copy_field(in, record_size, out, field.bytes, n, field.bytes);
     }
     out += n * field.bytes;
     offset += field.bytes;
@@ -126,7 +115,7 @@ void from_columns(std::span<const RecordField> fields, const std::byte* columns,
     } else if (field.delta) {
       undelta_column<std::uint32_t>(columns, n, record_size, out);
     } else {
-      scatter_field(columns, n, record_size, field.bytes, out);
+      copy_field(columns, field.bytes, out, record_size, n, field.bytes);
     }
     columns += n * field.bytes;
     offset += field.bytes;

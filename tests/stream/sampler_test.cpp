@@ -48,6 +48,26 @@ Mesh fan(const std::vector<float>& heights, float apex = 0) {
   return m;
 }
 
+// Small deterministic numbers below n (a 64-bit LCG's high bits): random meshes by seed.
+struct Lcg {
+  std::uint64_t state;
+  std::uint32_t operator()(std::uint32_t n) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<std::uint32_t>((state >> 33) % n);
+  }
+};
+
+// Random triangles over min_vertices + next(more_vertices) vertices, 1 + next(max_faces) of them:
+// boundaries, non-manifold edges and vertices, inconsistent orientations, collapsed faces.
+Mesh triangle_soup(Lcg& next, std::uint32_t min_vertices, std::uint32_t more_vertices, std::uint32_t max_faces) {
+  Mesh m;
+  const std::uint32_t nv = min_vertices + next(more_vertices);
+  for (std::uint32_t v = 0; v < nv; ++v) m.positions.push_back({float(v), float(v * v % 7), float(v % 3)});
+  const std::uint32_t nf = 1 + next(max_faces);
+  for (std::uint32_t f = 0; f < nf; ++f) m.triangles.push_back({{next(nv), next(nv), next(nv)}});
+  return m;
+}
+
 TEST(MeshAdjacency, ClosedMeshHasOneClosedFanPerVertexAndSymmetricNeighbours) {
   const Mesh m = octahedron();
   const MeshAdjacency adj = build_mesh_adjacency(m.view()).value();
@@ -90,17 +110,10 @@ TEST(MeshAdjacency, BoundaryNonManifoldAndBadIndices) {
 // inconsistent orientations and collapsed faces.
 TEST(MeshAdjacency, OpenFansBeginAndEndAtTheBreakEdges) {
   const std::uint64_t seed = 7;
-  std::uint64_t state = seed;
-  auto next = [&state](std::uint32_t n) {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    return static_cast<std::uint32_t>((state >> 33) % n);
-  };
+  Lcg next{seed};
   for (int round = 0; round < 200; ++round) {
-    Mesh m;
-    const std::uint32_t nv = 4 + next(12);
-    for (std::uint32_t v = 0; v < nv; ++v) m.positions.push_back({float(v), float(v * v % 7), float(v % 3)});
-    const std::uint32_t nf = 1 + next(40);
-    for (std::uint32_t f = 0; f < nf; ++f) m.triangles.push_back({{next(nv), next(nv), next(nv)}});
+    const Mesh m = triangle_soup(next, 4, 12, 40);
+    const std::uint32_t nv = static_cast<std::uint32_t>(m.positions.size());
     const MeshAdjacency adj = build_mesh_adjacency(m.view()).value();
     for (std::uint32_t v = 0; v < nv; ++v) {
       const std::uint32_t sb = adj.star_begin(v), se = adj.star_end(v);
@@ -127,11 +140,7 @@ TEST(MeshAdjacency, OpenFansBeginAndEndAtTheBreakEdges) {
 // faces hold none). Closed fans of 3 to 30 faces, some with a face doubled or flipped, and random
 // triangle soups reach every way a star is matched (up to 8 slots, up to 24, and sorted lists).
 TEST(MeshAdjacency, EdgeNeighboursFollowTheDirectedEdgeCounts) {
-  std::uint64_t state = 11;
-  auto next = [&state](std::uint32_t n) {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    return static_cast<std::uint32_t>((state >> 33) % n);
-  };
+  Lcg next{11};
   auto check = [](const Mesh& m, const std::string& what) {
     const MeshAdjacency adj = build_mesh_adjacency(m.view()).value();
     const auto& t = m.triangles;
@@ -172,14 +181,7 @@ TEST(MeshAdjacency, EdgeNeighboursFollowTheDirectedEdgeCounts) {
     std::swap(flipped.v[1], flipped.v[2]);  // a face against its neighbours' orientation
     check(m, "fan " + std::to_string(n) + " with a flip");
   }
-  for (int round = 0; round < 300; ++round) {
-    Mesh m;
-    const std::uint32_t nv = 3 + next(20);
-    for (std::uint32_t v = 0; v < nv; ++v) m.positions.push_back({float(v), float(v * v % 7), float(v % 3)});
-    const std::uint32_t nf = 1 + next(80);
-    for (std::uint32_t f = 0; f < nf; ++f) m.triangles.push_back({{next(nv), next(nv), next(nv)}});
-    check(m, "soup " + std::to_string(round));
-  }
+  for (int round = 0; round < 300; ++round) check(triangle_soup(next, 3, 20, 80), "soup " + std::to_string(round));
 }
 
 TEST(Sampler, BoundaryEdgesAreFeatureEdges) {
