@@ -57,8 +57,8 @@ void partner_by_counts(const std::uint32_t* next, const std::uint32_t* prev, std
 #if defined(__SSE2__)
 // The same for a star of at most 8 slots (almost every star), branch-free: each slot's two
 // counts come from four compares of eight lanes. SSE2 is x86-64's baseline; elsewhere
-// partner_by_counts runs. The lanes past the star hold kNoFace - 1 (next) and kNoFace - 2
-// (prev), which no vertex has (build_mesh_adjacency refuses nv >= kNoFace) and which differ.
+// partner_by_counts runs. The scratch arrays hold at least 8 entries (StarScratch::fit); the
+// lanes past the star hold an earlier star's ids, masked out of both counts.
 // Until session 15 a distinctness check and a search took a quarter of the adjacency's time.
 void partner_small(const std::uint32_t* next, const std::uint32_t* prev, std::uint32_t degree, std::uint32_t* partner) {
   constexpr std::uint32_t kNone = MeshAdjacency::kNoFace;
