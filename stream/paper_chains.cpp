@@ -341,7 +341,8 @@ format::Status join_chain_fragments(std::span<const ChunkRecordSegment> files, s
         return damaged("chain", "the feature edge " + std::to_string(part[k].edge >> 32) + "-" +
                                     std::to_string(static_cast<std::uint32_t>(part[k].edge)) +
                                     " is left by chains unevenly from its two sides");
-      for (std::size_t j = k + 1; j < m; ++j) sets.unite(part[k].fragment, part[j].fragment);
+      for (auto it = part.begin() + static_cast<std::ptrdiff_t>(k + 1); it != part.begin() + static_cast<std::ptrdiff_t>(m); ++it)
+        sets.unite(part[k].fragment, it->fragment);
       k = m;
     }
   }

@@ -82,9 +82,14 @@ TEST(RecordFile, ManyWritersShareOneContextWithoutHoldingFiles) {
   options.shared = compressor->get();
   options.keep_open = false;
   const size_t writers = 300;
+  auto writer_path = [&](size_t w) {
+    std::string name = "w";  // appended, not "w" + ...: GCC 12 at -O3 warns (-Wrestrict) on that
+    name += std::to_string(w);
+    return dir.file(name);
+  };
   std::vector<std::unique_ptr<RecordWriter>> open;
   for (size_t w = 0; w < writers; ++w) {
-    auto writer = RecordWriter::create(dir.file("w" + std::to_string(w)), 42, sizeof(Item), options);
+    auto writer = RecordWriter::create(writer_path(w), 42, sizeof(Item), options);
     ASSERT_TRUE(writer.is_ok()) << writer.status().to_string();
     EXPECT_EQ((*writer)->frame_limit(), 100 * sizeof(Item));
     open.push_back(std::move(*writer));
@@ -98,7 +103,7 @@ TEST(RecordFile, ManyWritersShareOneContextWithoutHoldingFiles) {
     }
   for (auto& writer : open) ASSERT_TRUE(writer->finish().is_ok());
   for (size_t w = 0; w < writers; ++w) {
-    auto back = read_items(dir.file("w" + std::to_string(w)));
+    auto back = read_items(writer_path(w));
     ASSERT_TRUE(back.is_ok()) << back.status().to_string();
     std::vector<Item> expected;
     for (size_t round = 0; round < 4; ++round) {

@@ -213,7 +213,10 @@ std::string to_obj(const Mesh& m, Corner corner) {
   s += "g all\ns 1\nusemtl none\n";
   for (const Triangle& t : m.triangles) {
     s += "f";
-    for (auto v : t.v) s += " " + corner(uint64_t{v} + 1);
+    for (auto v : t.v) {
+      s += ' ';  // not " " + corner(...): GCC 12 at -O3 warns (-Wrestrict) on literal + temporary
+      s += corner(uint64_t{v} + 1);
+    }
     s += '\n';
   }
   return s;
