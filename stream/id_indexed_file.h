@@ -27,11 +27,11 @@ inline constexpr std::size_t kIdGapBytes = 8192;
 template <class Fn>
 std::size_t read_by_ascending_id(int fd, std::uint64_t count, std::size_t record_bytes, std::span<const std::uint32_t> ids,
                                  std::vector<std::byte>& window, Fn&& fn, std::uint64_t first_byte = 0) {
+  const std::uint64_t max_gap = std::max<std::size_t>(kIdGapBytes / record_bytes, 1);  // in records
   std::size_t i = 0;
   while (i < ids.size()) {
     const std::uint64_t base = ids[i];
     if (base >= count || (i > 0 && ids[i] <= ids[i - 1])) return i;
-    const std::uint64_t max_gap = std::max<std::size_t>(kIdGapBytes / record_bytes, 1);
     std::size_t end = i + 1;
     while (end < ids.size() && ids[end] > ids[end - 1] && ids[end] - ids[end - 1] <= max_gap && ids[end] < base + kIdWindowRecords &&
            ids[end] < count)

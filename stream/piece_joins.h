@@ -69,7 +69,7 @@ class PieceJoinFiles {
  public:
   // The per-chunk record files, each a segment of a pass-b file.
   enum class Part { kAnswers, kStars, kPieces, kAdjacency, kFacePieces, kCandidates };
-  static constexpr std::size_t kParts = 6;
+  static constexpr std::size_t kParts = static_cast<std::size_t>(Part::kCandidates) + 1;  // kCandidates is last
   struct Placed {
     std::uint32_t file = 0xFFFFFFFFu;  // pass-b file; all ones: not written
     format::RecordSegment segment;
