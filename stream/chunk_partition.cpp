@@ -1447,18 +1447,45 @@ Status PartitionRun::plan() {
     p.cell_chunk[c] = Partition::kSplitCell | static_cast<std::uint32_t>(p.splits.size());
     p.splits.push_back({split_bits(histogram[c], cap), 0, {}});
   }
-  std::vector<std::uint32_t> split_offset, sub_histogram;
+  // Each scan counts a split cell's sub-cells two levels finer than its k where the budget
+  // allows (cells in order, while the counts fit), and the counts at k are their sums (a code at
+  // k is the top bits of its sub-cells' codes at k + 2: floor(t * 2^(k+2)) >> 2 is floor(t * 2^k)).
+  // A cell whose k is raised then has its counts already: the rounds decide as if each counted
+  // at k, and scan again only for a cell raised past what it counted. At 100M under 64M one of
+  // 697 split cells was raised, and a whole scan of the positions counted it again.
+  std::vector<std::uint32_t> split_offset, sub_histogram, counted_bits, counted_offset, fine;
+  bool scan = true;
   for (int round = 0; !p.splits.empty(); ++round) {
+    if (scan) {
+      counted_bits.clear();
+      std::uint64_t entries = 0;
+      for (const Partition::SplitCell& split : p.splits) entries += std::uint64_t{1} << (3 * split.k);
+      for (const Partition::SplitCell& split : p.splits) {
+        const std::uint32_t finer = std::min(split.k + 2, kMaxSplitBits);
+        const std::uint64_t more = (std::uint64_t{1} << (3 * finer)) - (std::uint64_t{1} << (3 * split.k));
+        const bool fits = entries + more <= max_entries;
+        entries += fits ? more : 0;
+        counted_bits.push_back(fits ? finer : split.k);
+      }
+      counted_offset.assign(1, 0);
+      for (std::uint32_t bits : counted_bits) counted_offset.push_back(counted_offset.back() + (1u << (3 * bits)));
+      auto sub_counted = count_positions(counted_offset.back(), [&](std::uint32_t* sub, const Vec3f& v) {
+        const std::uint32_t entry = p.cell_chunk[p.grid.cell(v)];
+        if (!(entry & Partition::kSplitCell)) return;
+        const std::uint32_t index = entry & ~Partition::kSplitCell;
+        ++sub[counted_offset[index] + p.grid.sub_code(v, counted_bits[index])];
+      });
+      if (!sub_counted) return sub_counted.status();
+      fine = std::move(*sub_counted);
+    }
     split_offset.assign(1, 0);
     for (const Partition::SplitCell& split : p.splits) split_offset.push_back(split_offset.back() + (1u << (3 * split.k)));
-    auto sub_counted = count_positions(split_offset.back(), [&](std::uint32_t* sub, const Vec3f& v) {
-      const std::uint32_t entry = p.cell_chunk[p.grid.cell(v)];
-      if (!(entry & Partition::kSplitCell)) return;
-      const std::uint32_t index = entry & ~Partition::kSplitCell;
-      ++sub[split_offset[index] + p.grid.sub_code(v, p.splits[index].k)];
-    });
-    if (!sub_counted) return sub_counted.status();
-    sub_histogram = std::move(*sub_counted);
+    sub_histogram.assign(split_offset.back(), 0);
+    for (std::size_t i = 0; i < p.splits.size(); ++i) {
+      const std::uint32_t shift = 3 * (counted_bits[i] - p.splits[i].k);
+      for (std::uint32_t code = 0; code < (1u << (3 * counted_bits[i])); ++code)
+        sub_histogram[split_offset[i] + (code >> shift)] += fine[counted_offset[i] + code];
+    }
     if (round == 2) break;
     std::vector<std::uint32_t> raised(p.splits.size());
     std::uint64_t entries = 0;
@@ -1472,8 +1499,13 @@ Status PartitionRun::plan() {
       entries += std::uint64_t{1} << (3 * raised[i]);
     }
     if (!any_raised || entries > max_entries) break;
-    for (std::size_t i = 0; i < p.splits.size(); ++i) p.splits[i].k = raised[i];
+    scan = false;
+    for (std::size_t i = 0; i < p.splits.size(); ++i) {
+      p.splits[i].k = raised[i];
+      scan |= raised[i] > counted_bits[i];
+    }
   }
+  std::vector<std::uint32_t>().swap(fine);
   // Cells in Morton order (a split cell's sub-cells in theirs); cell of Morton code m is order[m].
   std::vector<std::uint32_t> order(cells);
   for (std::uint32_t c = 0; c < cells; ++c) order[p.grid.morton(c)] = c;

@@ -556,6 +556,42 @@ TEST(ChunkPartition, DenseCellsAreSplitAndChunksStayBounded) {
   EXPECT_LE(double(largest), std::ceil(share)) << "largest chunk owns " << largest << " vertices, share " << share;
 }
 
+TEST(ChunkPartition, AClusteredCellIsSplitFinerUntilItsChunksAreBounded) {
+  // A cell with between a quarter and a half of a chunk's vertices gets 8 sub-cells (k = 1);
+  // here they all sit in a ball 2e-5 across, so one sub-cell holds them all and k is raised to
+  // 3, then to 5 (the cap), the second time past the level the first count held (the plan counts
+  // two levels finer than k and reads k's counts as sums; a raise beyond that scans again).
+  testing::ShapeOptions o;
+  o.vertices = 10000;
+  o.seed = 5;
+  Mesh mesh = testing::make_sphere(o);
+  o.vertices = 300;
+  o.seed = 6;
+  const Mesh cluster = testing::make_sphere(o);
+  const std::uint32_t base = static_cast<std::uint32_t>(mesh.positions.size());
+  for (const format::Vec3f& p : cluster.positions)
+    mesh.positions.push_back({0.3f + 1e-5f * p.x, 0.2f + 1e-5f * p.y, 0.1f + 1e-5f * p.z});
+  for (const format::Triangle& t : cluster.triangles) mesh.triangles.push_back({{t.v[0] + base, t.v[1] + base, t.v[2] + base}});
+  constexpr std::uint64_t kChunkFaces = 2000;
+  const double share = 0.75 * kChunkFaces * double(mesh.positions.size()) / double(mesh.triangles.size());
+  ASSERT_GT(300, share / 4);
+  ASSERT_LE(300, share / 2);
+  check_exact(mesh, "sphere with a cluster", kChunkFaces, 3, 10);
+
+  testing::ScratchDir dir;
+  write_mesh(dir.file("in.ply"), mesh);
+  PartitionOptions options;
+  options.max_chunk_faces = kChunkFaces;
+  options.tmp_dir = dir.path().string();
+  auto partition = partition_mesh(dir.file("in.ply"), {}, options);
+  ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
+  ASSERT_EQ(partition->owner_map.splits.size(), 1u);
+  EXPECT_EQ(partition->owner_map.splits[0].k, 5u);
+  std::uint64_t largest = 0;
+  for (const ChunkInfo& info : partition->chunks) largest = std::max(largest, info.owned_vertices);
+  EXPECT_LE(double(largest), std::ceil(share)) << "largest chunk owns " << largest << " vertices, share " << share;
+}
+
 TEST(ChunkPartition, HighValenceVertexKeepsEveryChunk) {
   // A fan of 2000 triangles around one centre vertex, ringed by a strip: the centre touches
   // every chunk on the rim, so its chunk set and its neighbours' go far past the inline slots.
