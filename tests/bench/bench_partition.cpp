@@ -72,6 +72,7 @@ int child_main(int argc, char** argv) {
     largest = std::max(largest, c.faces);
     chunk_bytes += fs::file_size(c.path);
   }
+  std::printf("plan=%.3f rings=%.3f chunks_step=%.3f ", partition->steps.plan, partition->steps.rings, partition->steps.chunks);
   std::printf("ingest=%.3f partition=%.3f vertices=%llu faces=%llu chunks=%zu records=%llu largest=%llu spilled=%llu misses=%llu cache_bytes=%llu chunk_bytes=%llu\n",
               partition->seconds_ingest, partition->seconds_partition, (unsigned long long)partition->vertices,
               (unsigned long long)partition->faces, partition->chunks.size(), (unsigned long long)records,
