@@ -172,7 +172,7 @@ format::Result<Partition> partition_for_chunks(const std::string& input_path, co
   PartitionOptions o = options;
   o.rings = required_overlap_rings(sampler.smooth_iterations);
   o.threads = threads;
-  if (o.max_chunk_faces == 0) o.max_chunk_faces = pass_two_chunk_faces(o.memory_bytes, threads);
+  if (o.max_chunk_faces == 0) o.max_chunk_faces = pass_two_chunk_faces(o.memory_bytes, threads, o.rings);
   return partition_mesh(input_path, read, o);
 }
 
@@ -182,8 +182,9 @@ format::Status check_out_of_core_options(const char* command,
   return format::Status();
 }
 
-std::uint64_t pass_two_chunk_faces(std::uint64_t memory_bytes, std::uint32_t threads) {
-  constexpr std::uint64_t kReserve = std::uint64_t{20} << 20, kBytesPerFace = 192;
+std::uint64_t pass_two_chunk_faces(std::uint64_t memory_bytes, std::uint32_t threads, std::uint32_t rings) {
+  constexpr std::uint64_t kReserve = std::uint64_t{20} << 20;
+  const std::uint64_t kBytesPerFace = 32 * (std::uint64_t{std::max<std::uint32_t>(rings, 3)} + 1);
   const std::uint64_t budget = memory_bytes > 2 * kReserve ? memory_bytes - kReserve : memory_bytes / 2;
   return std::max<std::uint64_t>(budget / std::max<std::uint32_t>(threads, 1) / kBytesPerFace, 1024);
 }

@@ -61,14 +61,14 @@ format::Status sample_chunk(const ChunkMesh& chunk, const GaussSphere& gauss, co
                             ChunkSamplingStats& stats);
 
 // Chunk size for pass 2 from the memory budget: pass 2 holds, per thread in flight, the decoded
-// chunk (~100 B per face while loading) and the sampler's arrays, which keep the capacity of the
-// largest chunk seen (~95 B per face: adjacency 32, normals/areas/smoothing 29, labels and
-// features 5, mesh 30); measured, ~130 B per face (1M refined cow under 64M: two chunks of
-// ~100k faces in flight, 26 MB over the process's own), so 192 B per face leaves ~1.5x slack
-// for the average chunk and ~1.2x for the largest (1.23 targets at 100M). The process itself
-// (binary, TBB, reader window, samples) takes ~20 MiB. (256 B per face until session 11: at 100M under
-// 64M, 1,474 chunks instead of 1,106 and 21.3M loop faces in pass C instead of 19.6M.)
-std::uint64_t pass_two_chunk_faces(std::uint64_t memory_bytes, std::uint32_t threads);
+// chunk and the sampler's arrays, which keep the capacity of the largest chunk seen. The process
+// itself (binary, TBB, reader window, samples) takes ~20 MiB. Per face of the target, 32 B per
+// overlap ring and one more (128 B at the default 3 rings; smoothing adds rings, and the overlap
+// grows with them). Measured in session 16 (refined cow, 64M, 2 threads): the peak grows by
+// 80-87 B a target face per thread in flight (1.5x slack at 3 rings); at 100M the run's peak went
+// 41 -> 50-53 MiB and the partition got 2.5 s cheaper (768 chunks instead of 1,162: fewer files,
+// larger frames, fewer overlap records), pass A unchanged. 192 B until session 16, 256 until 11.
+std::uint64_t pass_two_chunk_faces(std::uint64_t memory_bytes, std::uint32_t threads, std::uint32_t rings = 3);
 
 // Loads every chunk of `partition`, `threads` at a time (a oneTBB task arena), and calls
 // body(chunk index, chunk, this thread's workspace); then progress(chunks done, chunks), from one
