@@ -263,7 +263,9 @@ format::Result<bool> write_loop_chunk(const ChunkMesh& chunk, const ChunkInfo& i
   }
   // Core faces touch R; the file holds them and every face on an edge of theirs: an edge with
   // an end in R has its faces in that end's star, all core; the faces on the others are found
-  // in the star of one end.
+  // across the edge when it is manifold (the two faces that hold it, one each way: no third
+  // face holds both ends), else in the star of one end (a walk of the star per edge was a tenth
+  // of this function).
   std::vector<std::uint8_t> keep(nf, 0);
   for (std::uint32_t f = 0; f < nf; ++f) {
     const auto& t = tris[f].v;
@@ -276,6 +278,10 @@ format::Result<bool> write_loop_chunk(const ChunkMesh& chunk, const ChunkInfo& i
     for (int i = 0; i < 3; ++i) {
       const std::uint32_t a = t[i], b = t[(i + 1) % 3];
       if (in_r[a] || in_r[b]) continue;
+      if (const std::uint32_t g = nb[3 * std::size_t{f} + i]; g != MeshAdjacency::kNoFace) {
+        if (keep[g] == 0) keep[g] = 1;
+        continue;
+      }
       for (std::uint32_t k = adjacency.star_begin(a); k < adjacency.star_end(a); ++k) {
         const std::uint32_t g = corners[k] / 3;
         const auto& u = tris[g].v;
