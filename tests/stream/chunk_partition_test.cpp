@@ -524,36 +524,56 @@ TEST(ChunkPartition, PositionsComeFromTheInputWhenItHoldsThem) {
   check_exact(mesh, "torus, ascii", 2000, 3, 5, 0, 2, nullptr, write_ascii_ply, from_input(false));
 }
 
+// A sphere of 10k vertices with a second sphere of `vertices` beside it, scaled by `scale`
+// about (0.3, 0.2, 0.1) (inside the first: cells there hold nothing else).
+Mesh sphere_with_ball(std::uint32_t seed, std::uint32_t vertices, float scale) {
+  testing::ShapeOptions o;
+  o.vertices = 10000;
+  o.seed = seed;
+  Mesh mesh = testing::make_sphere(o);
+  o.vertices = vertices;
+  o.seed = seed + 1;
+  const Mesh ball = testing::make_sphere(o);
+  const std::uint32_t base = static_cast<std::uint32_t>(mesh.positions.size());
+  for (const format::Vec3f& p : ball.positions) mesh.positions.push_back({0.3f + scale * p.x, 0.2f + scale * p.y, 0.1f + scale * p.z});
+  for (const format::Triangle& t : ball.triangles) mesh.triangles.push_back({{t.v[0] + base, t.v[1] + base, t.v[2] + base}});
+  return mesh;
+}
+
+// The partition of `mesh` into chunks of `chunk_faces`, checked to succeed.
+Partition partition_of(const testing::ScratchDir& dir, const Mesh& mesh, std::uint64_t chunk_faces) {
+  write_mesh(dir.file("in.ply"), mesh);
+  PartitionOptions options;
+  options.max_chunk_faces = chunk_faces;
+  options.tmp_dir = dir.path().string();
+  auto partition = partition_mesh(dir.file("in.ply"), {}, options);
+  EXPECT_TRUE(partition.is_ok()) << partition.status().to_string();
+  return partition.is_ok() ? std::move(*partition) : Partition{};
+}
+
+// The planner's share: 3/4 of a chunk's faces, in vertices.
+double planner_share(const Mesh& mesh, std::uint64_t chunk_faces) {
+  return 0.75 * double(chunk_faces) * double(mesh.positions.size()) / double(mesh.triangles.size());
+}
+
+std::uint64_t largest_owned(const Partition& partition) {
+  std::uint64_t largest = 0;
+  for (const ChunkInfo& info : partition.chunks) largest = std::max(largest, info.owned_vertices);
+  return largest;
+}
+
 TEST(ChunkPartition, DenseCellsAreSplitAndChunksStayBounded) {
   // A sphere with a small, dense one beside it: 20k vertices in a ball of diameter 0.02, inside
   // one or a few of the grid's cells (about 0.03 across here), each cell holding many chunks'
   // worth. Split cells keep every chunk near its share, and the chunks stay exact.
-  testing::ShapeOptions o;
-  o.vertices = 10000;
-  o.seed = 3;
-  Mesh mesh = testing::make_sphere(o);
-  o.vertices = 20000;
-  o.seed = 4;
-  const Mesh dense = testing::make_sphere(o);
-  const std::uint32_t base = static_cast<std::uint32_t>(mesh.positions.size());
-  for (const format::Vec3f& p : dense.positions) mesh.positions.push_back({0.3f + 0.01f * p.x, 0.2f + 0.01f * p.y, 0.1f + 0.01f * p.z});
-  for (const format::Triangle& t : dense.triangles) mesh.triangles.push_back({{t.v[0] + base, t.v[1] + base, t.v[2] + base}});
+  const Mesh mesh = sphere_with_ball(3, 20000, 0.01f);
   constexpr std::uint64_t kChunkFaces = 2000;
   check_exact(mesh, "sphere with a dense ball", kChunkFaces, 3, 10);
-
   testing::ScratchDir dir;
-  write_mesh(dir.file("in.ply"), mesh);
-  PartitionOptions options;
-  options.max_chunk_faces = kChunkFaces;
-  options.tmp_dir = dir.path().string();
-  auto partition = partition_mesh(dir.file("in.ply"), {}, options);
-  ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
-  EXPECT_FALSE(partition->owner_map.splits.empty());
-  // The planner's share: 3/4 of a chunk's faces, in vertices.
-  const double share = 0.75 * kChunkFaces * double(mesh.positions.size()) / double(mesh.triangles.size());
-  std::uint64_t largest = 0;
-  for (const ChunkInfo& info : partition->chunks) largest = std::max(largest, info.owned_vertices);
-  EXPECT_LE(double(largest), std::ceil(share)) << "largest chunk owns " << largest << " vertices, share " << share;
+  const Partition partition = partition_of(dir, mesh, kChunkFaces);
+  EXPECT_FALSE(partition.owner_map.splits.empty());
+  const double share = planner_share(mesh, kChunkFaces);
+  EXPECT_LE(double(largest_owned(partition)), std::ceil(share)) << "share " << share;
 }
 
 TEST(ChunkPartition, AClusteredCellIsSplitFinerUntilItsChunksAreBounded) {
@@ -561,35 +581,17 @@ TEST(ChunkPartition, AClusteredCellIsSplitFinerUntilItsChunksAreBounded) {
   // here they all sit in a ball 2e-5 across, so one sub-cell holds them all and k is raised to
   // 3, then to 5 (the cap), the second time past the level the first count held (the plan counts
   // two levels finer than k and reads k's counts as sums; a raise beyond that scans again).
-  testing::ShapeOptions o;
-  o.vertices = 10000;
-  o.seed = 5;
-  Mesh mesh = testing::make_sphere(o);
-  o.vertices = 300;
-  o.seed = 6;
-  const Mesh cluster = testing::make_sphere(o);
-  const std::uint32_t base = static_cast<std::uint32_t>(mesh.positions.size());
-  for (const format::Vec3f& p : cluster.positions)
-    mesh.positions.push_back({0.3f + 1e-5f * p.x, 0.2f + 1e-5f * p.y, 0.1f + 1e-5f * p.z});
-  for (const format::Triangle& t : cluster.triangles) mesh.triangles.push_back({{t.v[0] + base, t.v[1] + base, t.v[2] + base}});
+  const Mesh mesh = sphere_with_ball(5, 300, 1e-5f);
   constexpr std::uint64_t kChunkFaces = 2000;
-  const double share = 0.75 * kChunkFaces * double(mesh.positions.size()) / double(mesh.triangles.size());
+  const double share = planner_share(mesh, kChunkFaces);
   ASSERT_GT(300, share / 4);
   ASSERT_LE(300, share / 2);
   check_exact(mesh, "sphere with a cluster", kChunkFaces, 3, 10);
-
   testing::ScratchDir dir;
-  write_mesh(dir.file("in.ply"), mesh);
-  PartitionOptions options;
-  options.max_chunk_faces = kChunkFaces;
-  options.tmp_dir = dir.path().string();
-  auto partition = partition_mesh(dir.file("in.ply"), {}, options);
-  ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
-  ASSERT_EQ(partition->owner_map.splits.size(), 1u);
-  EXPECT_EQ(partition->owner_map.splits[0].k, 5u);
-  std::uint64_t largest = 0;
-  for (const ChunkInfo& info : partition->chunks) largest = std::max(largest, info.owned_vertices);
-  EXPECT_LE(double(largest), std::ceil(share)) << "largest chunk owns " << largest << " vertices, share " << share;
+  const Partition partition = partition_of(dir, mesh, kChunkFaces);
+  ASSERT_EQ(partition.owner_map.splits.size(), 1u);
+  EXPECT_EQ(partition.owner_map.splits[0].k, 5u);
+  EXPECT_LE(double(largest_owned(partition)), std::ceil(share)) << "share " << share;
 }
 
 TEST(ChunkPartition, HighValenceVertexKeepsEveryChunk) {
