@@ -47,8 +47,16 @@ void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const
     }
     return f;
   };
+  // foreign: a vertex owned elsewhere, or one with a face owned elsewhere in its star (stars
+  // leave collapsed faces out), marked from the faces' side in the same pass.
+  std::vector<std::uint8_t> foreign(chunk.positions.size(), 0);
+  for (std::uint32_t v = 0; v < foreign.size(); ++v) foreign[v] = !chunk.owned_vertex[v];
   for (std::uint32_t f = 0; f < nf; ++f) {
-    if (!chunk.owned_face[f]) continue;
+    if (!chunk.owned_face[f]) {
+      const auto& t = chunk.triangles[f].v;
+      if (t[0] != t[1] && t[1] != t[2] && t[0] != t[2]) foreign[t[0]] = foreign[t[1]] = foreign[t[2]] = 1;
+      continue;
+    }
     parent[f] = f;
     for (int i = 0; i < 3; ++i) {
       if (feature[f] >> i & 1) continue;
@@ -73,30 +81,6 @@ void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const
     }
     ++out.pieces[first + piece_of[f]].faces;
   }
-  // One entry (lower piece << 32 | higher piece) per feature edge between two owned faces,
-  // counted after a sort (a map insertion per edge was a fifth of this function on noisy input).
-  std::vector<std::uint64_t> shared;
-  for (std::uint32_t f = 0; f < nf; ++f) {
-    if (!chunk.owned_face[f]) continue;
-    for (int i = 0; i < 3; ++i) {
-      const std::uint32_t g = nb[3 * std::size_t{f} + i];
-      if (g == MeshAdjacency::kNoFace) continue;  // a break edge joins nothing
-      const bool is_feature = feature[f] >> i & 1;
-      if (!chunk.owned_face[g]) {
-        out.border.push_back({chunk.global_face[f], chunk.global_face[g], id(piece_of[f]), is_feature});
-      } else if (is_feature && f < g) {
-        shared.push_back(std::uint64_t{std::min(piece_of[f], piece_of[g])} << 32 | std::max(piece_of[f], piece_of[g]));
-      }
-    }
-  }
-  std::sort(shared.begin(), shared.end());
-  for (std::size_t k = 0; k < shared.size();) {
-    std::size_t end = k;
-    while (end < shared.size() && shared[end] == shared[k]) ++end;
-    out.adjacency.push_back({id(static_cast<std::uint32_t>(shared[k] >> 32)), id(static_cast<std::uint32_t>(shared[k])), end - k});
-    k = end;
-  }
-
   // Candidates: owned vertices with >= 3 feature edges, counted as evaluate_vertex counts them.
   const std::uint32_t* corners = adjacency.vertex_corners.data();
   const std::uint8_t* flags = adjacency.slot_flags.data();
@@ -130,20 +114,24 @@ void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const
       if (g != MeshAdjacency::kNoFace) in_star[g] = 1;
     }
   }
-  // Answers for other chunks (owned faces with a vertex owned elsewhere, or a vertex whose star
-  // holds a face owned elsewhere), and for this chunk's own candidate stars.
-  // foreign: a vertex owned elsewhere, or one with a face owned elsewhere in its star (stars
-  // leave collapsed faces out), marked from the faces' side: one pass in face order.
-  std::vector<std::uint8_t> foreign(chunk.positions.size(), 0);
-  for (std::uint32_t v = 0; v < foreign.size(); ++v) foreign[v] = !chunk.owned_vertex[v];
-  for (std::uint32_t f = 0; f < nf; ++f) {
-    if (chunk.owned_face[f]) continue;
-    const auto& t = chunk.triangles[f].v;
-    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) continue;
-    foreign[t[0]] = foreign[t[1]] = foreign[t[2]] = 1;
-  }
+  // One pass over the owned faces: border edges (to faces owned elsewhere); one entry (lower
+  // piece << 32 | higher piece) per feature edge between two owned faces, counted after a sort
+  // (a map insertion per edge was a fifth of this function on noisy input); answers for other
+  // chunks (owned faces with a foreign vertex) and for this chunk's own candidate stars; and the
+  // collapsed faces.
+  std::vector<std::uint64_t> shared;
   for (std::uint32_t f = 0; f < nf; ++f) {
     if (!chunk.owned_face[f]) continue;
+    for (int i = 0; i < 3; ++i) {
+      const std::uint32_t g = nb[3 * std::size_t{f} + i];
+      if (g == MeshAdjacency::kNoFace) continue;  // a break edge joins nothing
+      const bool is_feature = feature[f] >> i & 1;
+      if (!chunk.owned_face[g]) {
+        out.border.push_back({chunk.global_face[f], chunk.global_face[g], id(piece_of[f]), is_feature});
+      } else if (is_feature && f < g) {
+        shared.push_back(std::uint64_t{std::min(piece_of[f], piece_of[g])} << 32 | std::max(piece_of[f], piece_of[g]));
+      }
+    }
     const auto& t = chunk.triangles[f];
     const bool shared_vertex = foreign[t.v[0]] || foreign[t.v[1]] || foreign[t.v[2]];
     if (shared_vertex || in_star[f]) out.border_faces.push_back({chunk.global_face[f], id(piece_of[f])});
@@ -153,6 +141,13 @@ void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const
       for (int i = 0; i < 3; ++i) r.vertices[i] = chunk.global_vertex[t.v[i]];
       out.collapsed.push_back(r);
     }
+  }
+  std::sort(shared.begin(), shared.end());
+  for (std::size_t k = 0; k < shared.size();) {
+    std::size_t end = k;
+    while (end < shared.size() && shared[end] == shared[k]) ++end;
+    out.adjacency.push_back({id(static_cast<std::uint32_t>(shared[k] >> 32)), id(static_cast<std::uint32_t>(shared[k])), end - k});
+    k = end;
   }
   if (piece_index) piece_index->swap(piece_of);
 }
