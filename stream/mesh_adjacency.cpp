@@ -57,15 +57,15 @@ void partner_by_counts(const std::uint32_t* next, const std::uint32_t* prev, std
 #if defined(__SSE2__)
 // The same for a star of at most 8 slots (almost every star), branch-free: each slot's two
 // counts come from four compares of eight lanes. SSE2 is x86-64's baseline; elsewhere
-// partner_by_counts runs. The scratch arrays hold at least 8 entries (StarScratch::fit); the
-// lanes past the star hold an earlier star's ids, masked out of both counts.
+// partner_by_counts runs. The lanes past the star repeat slot 0's ids, masked out of both counts.
 // Until session 15 a distinctness check and a search took a quarter of the adjacency's time.
-void partner_small(const std::uint32_t* next, const std::uint32_t* prev, std::uint32_t degree, std::uint32_t* partner) {
+// The lanes come in registers (session 16): loaded from the arrays the star's gather had just
+// written slot by slot, a 16-byte load waited for those 4-byte stores to reach the cache (no
+// store forwarding across them): a sixth of build_star's samples in `perf`; bench_chunk_steps'
+// sample step ~2 % cheaper without it.
+void partner_small(const std::uint32_t* next, __m128i n_lo, __m128i n_hi, __m128i p_lo, __m128i p_hi, std::uint32_t degree,
+                   std::uint32_t* partner) {
   constexpr std::uint32_t kNone = MeshAdjacency::kNoFace;
-  const __m128i n_lo = _mm_loadu_si128(reinterpret_cast<const __m128i*>(next));
-  const __m128i n_hi = _mm_loadu_si128(reinterpret_cast<const __m128i*>(next + 4));
-  const __m128i p_lo = _mm_loadu_si128(reinterpret_cast<const __m128i*>(prev));
-  const __m128i p_hi = _mm_loadu_si128(reinterpret_cast<const __m128i*>(prev + 4));
   const unsigned valid = (1u << degree) - 1;
   auto lanes = [](__m128i lo, __m128i hi, __m128i key) {
     return static_cast<unsigned>(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(lo, key)))) |
@@ -97,14 +97,14 @@ std::size_t build_star(const Triangle* tris, std::uint32_t begin, std::uint32_t 
   std::uint32_t* prev = s.prev.data();
   std::uint32_t* partner = s.partner.data();
   std::uint32_t* next_slot = s.next_slot.data();
-  for (std::uint32_t r = 0; r < degree; ++r) {
+  auto gather = [&](std::uint32_t r) {
     const std::uint32_t c = corners[begin + r];
     corner[r] = c;
     const Triangle& t = tris[c / 3];
     const std::uint32_t i = c % 3;
     next[r] = t.v[i == 2 ? 0 : i + 1];
     prev[r] = t.v[i == 0 ? 2 : i - 1];
-  }
+  };
   // For each slot: the slot across its outgoing edge (partner) and the slot that continues the
   // fan across its incoming edge (next_slot), kNone when that edge is a break. next_slot is
   // partner's inverse: the incoming edge (p, v) of slot r is manifold iff exactly one slot has
@@ -112,12 +112,36 @@ std::size_t build_star(const Triangle* tris, std::uint32_t begin, std::uint32_t 
   std::size_t breaks = 0;
 #if defined(__SSE2__)
   if (degree <= 8) {
-    partner_small(next, prev, degree, partner);
+    // Eight slots gathered into registers (those past the star repeat slot 0: their lanes are
+    // masked), the lanes built from them and stored whole into the scratch arrays (which hold at
+    // least 8 entries: StarScratch::fit).
+    std::uint32_t c8[8], n8[8], p8[8];
+#pragma GCC unroll 8
+    for (std::uint32_t r = 0; r < 8; ++r) {
+      c8[r] = corners[begin + (r < degree ? r : 0)];
+      const Triangle& t = tris[c8[r] / 3];
+      const std::uint32_t i = c8[r] % 3;
+      n8[r] = t.v[i == 2 ? 0 : i + 1];
+      p8[r] = t.v[i == 0 ? 2 : i - 1];
+    }
+    const auto lanes = [](const std::uint32_t (&v)[8], std::uint32_t* out, __m128i& lo, __m128i& hi) {
+      lo = _mm_setr_epi32(static_cast<int>(v[0]), static_cast<int>(v[1]), static_cast<int>(v[2]), static_cast<int>(v[3]));
+      hi = _mm_setr_epi32(static_cast<int>(v[4]), static_cast<int>(v[5]), static_cast<int>(v[6]), static_cast<int>(v[7]));
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(out), lo);
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(out + 4), hi);
+    };
+    __m128i n_lo, n_hi, p_lo, p_hi, c_lo, c_hi;
+    lanes(c8, corner, c_lo, c_hi);
+    lanes(n8, next, n_lo, n_hi);
+    lanes(p8, prev, p_lo, p_hi);
+    partner_small(next, n_lo, n_hi, p_lo, p_hi, degree, partner);
   } else
 #endif
   if (degree <= 24) {
+    for (std::uint32_t r = 0; r < degree; ++r) gather(r);
     partner_by_counts(next, prev, degree, partner);
   } else {
+    for (std::uint32_t r = 0; r < degree; ++r) gather(r);
     // Large stars (fan apexes): sorted slot lists instead of the quadratic scan.
     s.by_next.resize(degree);
     s.by_prev.resize(degree);
