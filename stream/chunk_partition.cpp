@@ -1067,9 +1067,9 @@ Status scan_input_positions(const VertexFiles::InputPositions& in, std::uint64_t
   FdCloser closer{*opened};
   // Records of x, y, z alone are read straight into the positions.
   const bool bare = in.stride == sizeof(Vec3f) && in.xyz[0] == 0 && in.xyz[1] == 4 && in.xyz[2] == 8;
-  // At most a stripe's vertices a batch (the owner pass's buffer holds a stripe).
-  if (in.stride < sizeof(Vec3f)) return Status::error(Code::kProcessing, in.path, "vertex records shorter than a position");
-  const std::size_t per_batch = std::max<std::size_t>(kPositionStripeVertices * sizeof(Vec3f) / in.stride, 1);
+  // At most a stripe's vertices a batch, as from the position files (the owner pass's buffer
+  // holds a stripe).
+  const std::size_t per_batch = std::clamp<std::size_t>(kPositionStripeVertices * sizeof(Vec3f) / in.stride, 1, kPositionStripeVertices);
   std::unique_ptr<std::byte[]> records(bare ? nullptr : new std::byte[per_batch * in.stride]);
   std::unique_ptr<Vec3f[]> buffer(new Vec3f[per_batch]);
   for (std::uint64_t done = 0; done < expected;) {

@@ -97,13 +97,16 @@ std::size_t build_star(const Triangle* tris, std::uint32_t begin, std::uint32_t 
   std::uint32_t* prev = s.prev.data();
   std::uint32_t* partner = s.partner.data();
   std::uint32_t* next_slot = s.next_slot.data();
-  auto gather = [&](std::uint32_t r) {
-    const std::uint32_t c = corners[begin + r];
-    corner[r] = c;
+  // The vertices after and before corner c in its face.
+  auto around = [tris](std::uint32_t c, std::uint32_t& after, std::uint32_t& before) {
     const Triangle& t = tris[c / 3];
     const std::uint32_t i = c % 3;
-    next[r] = t.v[i == 2 ? 0 : i + 1];
-    prev[r] = t.v[i == 0 ? 2 : i - 1];
+    after = t.v[i == 2 ? 0 : i + 1];
+    before = t.v[i == 0 ? 2 : i - 1];
+  };
+  auto gather = [&](std::uint32_t r) {
+    corner[r] = corners[begin + r];
+    around(corner[r], next[r], prev[r]);
   };
   // For each slot: the slot across its outgoing edge (partner) and the slot that continues the
   // fan across its incoming edge (next_slot), kNone when that edge is a break. next_slot is
@@ -119,22 +122,21 @@ std::size_t build_star(const Triangle* tris, std::uint32_t begin, std::uint32_t 
 #pragma GCC unroll 8
     for (std::uint32_t r = 0; r < 8; ++r) {
       c8[r] = corners[begin + (r < degree ? r : 0)];
-      const Triangle& t = tris[c8[r] / 3];
-      const std::uint32_t i = c8[r] % 3;
-      n8[r] = t.v[i == 2 ? 0 : i + 1];
-      p8[r] = t.v[i == 0 ? 2 : i - 1];
+      around(c8[r], n8[r], p8[r]);
     }
-    const auto lanes = [](const std::uint32_t (&v)[8], std::uint32_t* out, __m128i& lo, __m128i& hi) {
-      lo = _mm_setr_epi32(static_cast<int>(v[0]), static_cast<int>(v[1]), static_cast<int>(v[2]), static_cast<int>(v[3]));
-      hi = _mm_setr_epi32(static_cast<int>(v[4]), static_cast<int>(v[5]), static_cast<int>(v[6]), static_cast<int>(v[7]));
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(out), lo);
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(out + 4), hi);
+    struct Lanes {
+      __m128i lo, hi;
     };
-    __m128i n_lo, n_hi, p_lo, p_hi, c_lo, c_hi;
-    lanes(c8, corner, c_lo, c_hi);
-    lanes(n8, next, n_lo, n_hi);
-    lanes(p8, prev, p_lo, p_hi);
-    partner_small(next, n_lo, n_hi, p_lo, p_hi, degree, partner);
+    const auto lanes = [](const std::uint32_t (&v)[8], std::uint32_t* out) {
+      const Lanes l{_mm_setr_epi32(static_cast<int>(v[0]), static_cast<int>(v[1]), static_cast<int>(v[2]), static_cast<int>(v[3])),
+                    _mm_setr_epi32(static_cast<int>(v[4]), static_cast<int>(v[5]), static_cast<int>(v[6]), static_cast<int>(v[7]))};
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(out), l.lo);
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(out + 4), l.hi);
+      return l;
+    };
+    lanes(c8, corner);
+    const Lanes n = lanes(n8, next), p = lanes(p8, prev);
+    partner_small(next, n.lo, n.hi, p.lo, p.hi, degree, partner);
   } else
 #endif
   if (degree <= 24) {
