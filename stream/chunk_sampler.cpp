@@ -184,7 +184,7 @@ format::Status check_out_of_core_options(const char* command,
 
 std::uint64_t pass_two_chunk_faces(std::uint64_t memory_bytes, std::uint32_t threads, std::uint32_t rings) {
   constexpr std::uint64_t kReserve = std::uint64_t{20} << 20;
-  const std::uint64_t bytes_per_face = 32 * (std::uint64_t{std::max<std::uint32_t>(rings, 3)} + 1);
+  const std::uint64_t bytes_per_face = 28 * (std::uint64_t{std::max<std::uint32_t>(rings, 3)} + 1);
   const std::uint64_t budget = memory_bytes > 2 * kReserve ? memory_bytes - kReserve : memory_bytes / 2;
   return std::max<std::uint64_t>(budget / std::max<std::uint32_t>(threads, 1) / bytes_per_face, 1024);
 }

@@ -62,12 +62,14 @@ format::Status sample_chunk(const ChunkMesh& chunk, const GaussSphere& gauss, co
 
 // Chunk size for pass 2 from the memory budget: pass 2 holds, per thread in flight, the decoded
 // chunk and the sampler's arrays, which keep the capacity of the largest chunk seen. The process
-// itself (binary, TBB, reader window, samples) takes ~20 MiB. Per face of the target, 32 B per
-// overlap ring and one more (128 B at the default 3 rings; smoothing adds rings, and the overlap
-// grows with them). Measured in session 16 (refined cow, 64M, 2 threads): the peak grows by
-// 80-87 B a target face per thread in flight (1.5x slack at 3 rings); at 100M the run's peak went
-// 41 -> 50-53 MiB and the partition got 2.5 s cheaper (768 chunks instead of 1,162: fewer files,
-// larger frames, fewer overlap records), pass A unchanged. 192 B until session 16, 256 until 11.
+// itself (binary, TBB, reader window, samples) takes ~20 MiB. Per face of the target, 28 B per
+// overlap ring and one more (112 B at the default 3 rings; smoothing adds rings, and the overlap
+// grows with them). Measured (refined cow, 64M, 2 threads): the peak grows by 80-87 B a target
+// face per thread in flight (1.3x slack at 3 rings). Fewer chunks make the partition cheaper
+// (fewer files, larger staged frames, fewer overlap records); pass A does not change. Session 17,
+// 128 -> 112 B at 100M: 768 -> 672 chunks, 22.99 / 22.64 / 22.88 -> 22.68 / 21.33 / 21.08 s
+// (alternated), peak 50-51 -> 53-56 MiB; 1M and 10M 52-55 MiB. 128 B in session 16, 192 before,
+// 256 until session 11.
 std::uint64_t pass_two_chunk_faces(std::uint64_t memory_bytes, std::uint32_t threads, std::uint32_t rings = 3);
 
 // Loads every chunk of `partition`, `threads` at a time (a oneTBB task arena), and calls
