@@ -226,34 +226,34 @@ format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& sam
 }
 
 format::Result<bool> write_loop_chunk(const ChunkMesh& chunk, const ChunkInfo& info, const MeshAdjacency& adjacency,
-                                      const std::vector<std::uint32_t>& piece_index,
+                                      const std::vector<std::uint32_t>& piece_index, const std::vector<std::uint8_t>& feature,
                                       const std::vector<GlobalSample>& samples, format::RecordSegmentFile& file,
                                       ChunkInfo& loop_info, std::vector<std::array<double, 3>>& piece_area) {
   const std::size_t nf = chunk.triangles.size(), nv = chunk.positions.size();
   const auto& tris = chunk.triangles;
   const std::uint32_t* nb = adjacency.edge_neighbor.data();
   if (piece_index.size() != nf) return format::Status::error(format::Code::kProcessing, "pass A", "one piece index per chunk face expected");
+  if (feature.size() != nf) return format::Status::error(format::Code::kProcessing, "pass A", "feature bits per chunk face expected");
   piece_area.clear();
   if (nf == 0) return false;
   bool any_repeat = false;
   const std::vector<std::uint8_t> skip = faces_the_mesher_skips(tris, adjacency, &any_repeat);
   if (any_repeat || std::find(skip.begin(), skip.end(), 1) != skip.end()) return false;
-  // R: vertices on piece borders of owned faces (other pieces, other owners, the boundary), owned
-  // vertices with a face of another owner, owned samples.
+  // R: both ends of an owned face's feature edges (a loop's half-edge and its successor around
+  // the end vertex need that vertex's whole star, owned or not), the owned ends of the other
+  // faces' feature edges (their vertex records), owned samples. An owned vertex's edges have all
+  // their faces here, so their bits are the whole mesh's.
   std::vector<std::uint8_t> in_r(nv, 0);
   for (std::uint32_t f = 0; f < nf; ++f) {
+    const unsigned bits = feature[f] & 7u;
+    if (bits == 0) continue;
     const auto& t = tris[f].v;
-    if (!chunk.owned_face[f]) {
-      for (std::uint32_t v : t)
-        if (chunk.owned_vertex[v]) in_r[v] = 1;
-      continue;
-    }
+    const bool owned = chunk.owned_face[f];
     for (int i = 0; i < 3; ++i) {
-      const std::uint32_t g = nb[3 * std::size_t{f} + i];
-      if (g == MeshAdjacency::kNoFace || !chunk.owned_face[g] || piece_index[g] != piece_index[f]) {
-        in_r[t[i]] = 1;
-        in_r[t[(i + 1) % 3]] = 1;
-      }
+      if (!(bits >> i & 1)) continue;
+      const std::uint32_t a = t[i], b = t[(i + 1) % 3];
+      if (owned || chunk.owned_vertex[a]) in_r[a] = 1;
+      if (owned || chunk.owned_vertex[b]) in_r[b] = 1;
     }
   }
   for (const GlobalSample& s : samples) {
@@ -800,15 +800,18 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::
   // Pass C reads loop chunks where pass A could write them (write_loop_chunk), else the chunk;
   // the pieces' areas ride in the spilled piece records (held here they grew with the pieces:
   // 100M under 16M, +10 MB at the merge).
+  // A loop chunk may hold no face (no feature edge and no sample in the chunk: inside one flat
+  // patch); pass C then reads nothing for it but its pieces' areas.
   struct LoopChunk {
-    std::uint64_t faces = 0, owned_faces = 0;  // faces == 0: none
-    std::uint32_t file = 0;                    // its pass-b file (PieceJoinFiles::segments)
+    std::uint64_t faces = 0, owned_faces = 0;
+    std::uint32_t file = 0;  // its pass-b file (PieceJoinFiles::segments)
     format::RecordSegment segment;
+    bool present = false;  // false: pass C reads the chunk
   };
   std::vector<LoopChunk> loop_chunks(nc);
   auto loop_info_of = [&](std::size_t c) {
     ChunkInfo info = partition->chunks[c];
-    if (loop_chunks[c].faces == 0) return info;
+    if (!loop_chunks[c].present) return info;
     info.path = (*joins)->segment_path(loop_chunks[c].file);
     info.segment = loop_chunks[c].segment;
     info.loop = true;
@@ -825,11 +828,11 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::
     std::vector<std::array<double, 3>> piece_area;
     format::RecordSegmentPool::Lease lease((*joins)->segments());
     GM_RETURN_IF_ERROR(lease.status());
-    auto written = write_loop_chunk(chunk, partition->chunks[c], ws.adjacency, piece_index, chunk_samples, lease.file(),
+    auto written = write_loop_chunk(chunk, partition->chunks[c], ws.adjacency, piece_index, ws.feature, chunk_samples, lease.file(),
                                     loop_info, piece_area);
     if (!written) return written.status();
     if (*written) {
-      loop_chunks[c] = {loop_info.faces, loop_info.owned_faces, lease.index(), loop_info.segment};
+      loop_chunks[c] = {loop_info.faces, loop_info.owned_faces, lease.index(), loop_info.segment, true};
       if (piece_area.size() > pieces[c].pieces.size())
         return format::Status::error(format::Code::kProcessing, "pass A", "more piece areas than pieces");
       const std::size_t first = pieces[c].pieces.size() - piece_area.size();  // this chunk's, appended last
@@ -993,6 +996,7 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::
     GM_RETURN_IF_ERROR(for_each_chunk(
         nc, loop_info_of, partition->faces, options.threads, "chains", options,
         [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
+          if (loop_chunks[c].present && chunk.triangles.empty()) return format::Status();  // no feature edge
           std::vector<std::uint32_t> patch;
           std::vector<PieceRecord> piece_records;
           if (!chunk.core_face.empty()) GM_RETURN_IF_ERROR((*joins)->read_pieces(static_cast<std::uint32_t>(c), piece_records));
@@ -1097,13 +1101,17 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::
       nc, loop_info_of, partition->faces, options.threads, "loops", options,
       [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
         std::vector<std::uint32_t> patch;
-        const bool loop_chunk = !chunk.core_face.empty();
+        const bool loop_chunk = loop_chunks[c].present;
+        if (loop_chunk != !chunk.core_face.empty() && !chunk.triangles.empty())
+          return format::Status::error(format::Code::kProcessing, "pass C", "a loop chunk without its core flags");
         std::vector<PieceRecord> piece_records;
         if (loop_chunk) GM_RETURN_IF_ERROR((*joins)->read_pieces(static_cast<std::uint32_t>(c), piece_records));
-        GM_RETURN_IF_ERROR(merged_patches_of_chunk(chunk, ws, patch, piece_records));
         auto is_corner = [&](std::uint32_t v) { return std::binary_search(corners.begin(), corners.end(), v); };
         ChunkLoops found;
-        GM_RETURN_IF_ERROR(find_chunk_loops(chunk, ws.adjacency, patch, is_corner, chosen[c], found));
+        if (!chunk.triangles.empty()) {  // an empty loop chunk: no loop, only its pieces' areas
+          GM_RETURN_IF_ERROR(merged_patches_of_chunk(chunk, ws, patch, piece_records));
+          GM_RETURN_IF_ERROR(find_chunk_loops(chunk, ws.adjacency, patch, is_corner, chosen[c], found));
+        }
         if (loop_chunk) {
           std::map<std::uint32_t, std::array<double, 3>> areas;
           for (const PieceRecord& r : piece_records) {
@@ -1122,7 +1130,7 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::
   out.peak_rss_after_loops = peak_rss();
   out.bytes_spilled = partition->bytes_spilled;
   for (std::size_t c = 0; c < nc; ++c) {
-    const bool loop = loop_chunks[c].faces > 0;
+    const bool loop = loop_chunks[c].present;
     out.loop_chunks += loop;
     out.loop_faces += loop ? loop_chunks[c].faces : partition->chunks[c].faces;
     out.bytes_spilled += loop ? loop_chunks[c].segment.bytes : 0;

@@ -85,20 +85,25 @@ format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adj
                       const std::function<bool(std::uint32_t)>& is_corner, const std::vector<GlobalSample>& samples,
                       ChunkLoops& out);
 
-// Pass A's share of pass C: pass C needs only the faces near the chunk's piece borders, since
-// the merged patches' borders are piece borders. R is the set of vertices on a piece border or
-// the boundary of an owned face, the owned vertices with a face of another owner in their star,
-// and the owned samples; core faces are the faces with a vertex in R, and the file holds them
-// and every face on an edge of a core face (so every edge of a core face has all its faces, and
-// every loop vertex its whole star), with the piece of each owned face and the loop vertices
-// flagged. find_chunk_loops on it finds the same runs and vertex records as on
-// the whole chunk. Writes it to path and sets loop_info (a copy of info for it), and returns
-// false (nothing written) when the chunk has faces the mesher skips (collapsed faces, repeats:
-// their adjacency differs) or the file would hold more than 3/4 of the chunk's faces.
-// piece_index: find_chunk_pieces's, per local face. piece_area gets each piece's vector area
-// (its owned faces' cross products summed in face order), which pass C sums per merged patch.
+// Pass A's share of pass C: pass C needs only the faces near the merged patches' borders, and
+// those are feature edges: an edge without its feature bit (same label, manifold) joins two faces
+// of one piece, or of two pieces the stitch joins, so of one merged patch in every merge. R is
+// the set of the ends of owned faces' feature edges, the owned ends of the other faces' feature
+// edges, and the owned samples; core faces are the faces with a vertex in R, and the file holds
+// them and every face on an edge of a core face (so every edge of a core face has all its faces,
+// and every loop vertex its whole star), with the piece of each owned face and the loop vertices
+// flagged. find_chunk_loops on it finds the same runs and vertex records as on the whole chunk.
+// Until session 17 R also held every owned vertex with a face of another owner, and the ends of
+// every edge between an owned face and another owner's: the chunk's whole border, where labels
+// mostly do not change (100M refined cow: 17.7M loop faces -> see docs/out-of-core.md).
+// Writes it to path and sets loop_info (a copy of info for it), and returns false (nothing
+// written) when the chunk has faces the mesher skips (collapsed faces, repeats: their adjacency
+// differs) or the file would hold more than 3/4 of the chunk's faces.
+// piece_index: find_chunk_pieces's, per local face; feature: the sampler's feature bits per local
+// face (bit i: edge i), for every chunk face. piece_area gets each piece's vector area (its
+// owned faces' cross products summed in face order), which pass C sums per merged patch.
 format::Result<bool> write_loop_chunk(const ChunkMesh& chunk, const ChunkInfo& info, const MeshAdjacency& adjacency,
-                                      const std::vector<std::uint32_t>& piece_index,
+                                      const std::vector<std::uint32_t>& piece_index, const std::vector<std::uint8_t>& feature,
                                       const std::vector<GlobalSample>& samples, format::RecordSegmentFile& file,
                                       ChunkInfo& loop_info, std::vector<std::array<double, 3>>& piece_area);
 

@@ -105,7 +105,7 @@ int main(int argc, char** argv) {
     for (int r = 0; r < reps; ++r) {
       ChunkInfo loop_info;
       std::vector<std::array<double, 3>> area;
-      auto written = write_loop_chunk(*chunk, part->chunks[c], ws.adjacency, piece_index, samples, **segments, loop_info, area);
+      auto written = write_loop_chunk(*chunk, part->chunks[c], ws.adjacency, piece_index, ws.feature, samples, **segments, loop_info, area);
       if (!written) return 1;
       check += *written ? loop_info.faces : 0;
     }

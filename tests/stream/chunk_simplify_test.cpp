@@ -227,10 +227,11 @@ std::vector<ChunkLoopSummary> spill(std::vector<ChunkLoops> chunks, const testin
 }
 
 TEST(ChunkSimplify, LoopChunksFindTheWholeChunksLoopsUnderAnyCoarserPatches) {
-  // Pass C reads, where it can, a loop chunk: the faces near the chunk's piece borders
+  // Pass C reads, where it can, a loop chunk: the faces near the chunk's feature edges
   // (write_loop_chunk). Pieces here are cells of a fine grid (by face centroid) within each chunk,
-  // and the merged patches any coarser grouping of cells (every cell, pairs, or a hash into a few
-  // groups): the merged borders are piece borders, as the stitch's merges guarantee. On every
+  // feature edges the edges between cells (and breaks), and the merged patches any coarser
+  // grouping of cells (every cell, pairs, or a hash into a few groups): an edge inside a cell
+  // joins one patch, as a non-feature edge does under the stitch's merges. On every
   // chunk of the cow and a noisy sphere, the loop chunk must give the whole chunk's runs, run
   // vertices and vertex records, and its pieces' areas summed must give the patches' areas.
   const Mesh sphere = [] {
@@ -286,6 +287,14 @@ TEST(ChunkSimplify, LoopChunksFindTheWholeChunksLoopsUnderAnyCoarserPatches) {
         if (added) piece_cell.push_back(cell[f]);
         piece_index[f] = it->second;
       }
+      // Feature bits as the sampler's are to its labels: a break, or another cell across the edge
+      // (so an edge without its bit joins one patch under every grouping below).
+      std::vector<std::uint8_t> feature(nf, 0);
+      for (std::uint32_t f = 0; f < nf; ++f)
+        for (int i = 0; i < 3; ++i) {
+          const std::uint32_t g = adjacency.edge_neighbor[3 * f + i];
+          if (g == MeshAdjacency::kNoFace || cell[g] != cell[f]) feature[f] |= static_cast<std::uint8_t>(1u << i);
+        }
       std::vector<GlobalSample> samples;
       for (std::uint32_t v = 0; v < chunk->positions.size(); v += 37)
         if (chunk->owned_vertex[v]) samples.push_back({chunk->global_vertex[v], chunk->positions[v]});
@@ -293,7 +302,7 @@ TEST(ChunkSimplify, LoopChunksFindTheWholeChunksLoopsUnderAnyCoarserPatches) {
       std::vector<std::array<double, 3>> piece_area;
       auto file = format::RecordSegmentFile::create(tmp.file("loop-" + std::to_string(info.id) + ".gmr"));
       ASSERT_TRUE(file.is_ok());
-      auto written = write_loop_chunk(*chunk, info, adjacency, piece_index, samples, **file, loop_info, piece_area);
+      auto written = write_loop_chunk(*chunk, info, adjacency, piece_index, feature, samples, **file, loop_info, piece_area);
       ASSERT_TRUE(written.is_ok()) << written.status().to_string();
       ++chunks;
       if (!*written) continue;
@@ -346,6 +355,71 @@ TEST(ChunkSimplify, LoopChunksFindTheWholeChunksLoopsUnderAnyCoarserPatches) {
   EXPECT_GT(loop_chunks, chunks / 4);
 }
 
+TEST(ChunkSimplify, ChunksInsideOneFlatPatchReadNoLoopFaces) {
+  // A finely gridded cube: its sides are flat (one label each), so its only feature edges are
+  // the cube's 12 edges. Chunks inside a side have no feature edge and no sample: their loop
+  // chunks hold no face and pass C reads nothing for them but their pieces' areas (until
+  // session 17 a loop chunk held the chunk's whole border). Same output as in core.
+  constexpr int n = 48;
+  Mesh cube;
+  std::map<std::array<int, 3>, std::uint32_t> id;
+  auto vertex = [&](std::array<int, 3> p) {
+    auto [it, added] = id.emplace(p, static_cast<std::uint32_t>(cube.positions.size()));
+    if (added) cube.positions.push_back({p[0] / float(n), p[1] / float(n), p[2] / float(n)});
+    return it->second;
+  };
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = 0; side < 2; ++side)
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+          auto at = [&](int a, int b) {
+            std::array<int, 3> p{};
+            p[axis] = side * n;
+            p[(axis + 1) % 3] = a;
+            p[(axis + 2) % 3] = b;
+            return vertex(p);
+          };
+          const std::uint32_t q[4] = {at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)};
+          // Outward: counter-clockwise seen from outside on the far side, the other way on the near one.
+          if (side == 1) {
+            cube.triangles.push_back({{q[0], q[1], q[2]}});
+            cube.triangles.push_back({{q[0], q[2], q[3]}});
+          } else {
+            cube.triangles.push_back({{q[0], q[2], q[1]}});
+            cube.triangles.push_back({{q[0], q[3], q[2]}});
+          }
+        }
+  testing::ScratchDir tmp;
+  const std::string path = tmp.file("cube.ply");
+  {
+    auto out = format::OutputFile::create(path, true);
+    ASSERT_TRUE(out.is_ok());
+    ASSERT_TRUE(format::write_ply(**out, cube.view(), {}).is_ok());
+    ASSERT_TRUE((*out)->commit().is_ok());
+  }
+  for (const SampleTest test : {SampleTest::kExact, SampleTest::kPaper}) {
+    Case c{path};
+    c.chunk_faces = 400;
+    c.test = test;
+    expect_same_as_in_core(c);
+  }
+  OutOfCoreSimplifyOptions options;
+  options.spheres.assign(1, {});
+  options.spheres[0].frequency = 4;
+  options.partition.max_chunk_faces = 400;
+  options.partition.tmp_dir = (tmp.path() / "run").string();
+  std::filesystem::create_directory(options.partition.tmp_dir);
+  auto run = simplify_out_of_core(path, {}, options);
+  ASSERT_TRUE(run.is_ok()) << run.status().to_string();
+  // Every chunk a loop chunk; the faces pass C reads are those near the cube's edges: 12 edges of
+  // n segments, a few rings of faces on each side of them.
+  EXPECT_EQ(run->loop_chunks, run->chunks);
+  EXPECT_LT(run->loop_faces, cube.triangles.size() / 4);
+  EXPECT_EQ(run->mesh.triangles.size(), 12u);
+  std::printf("cube: %zu chunks, %zu of %zu faces read by pass C\n", run->chunks, static_cast<std::size_t>(run->loop_faces),
+              cube.triangles.size());
+}
+
 TEST(ChunkSimplify, DamagedLoopChunksAreBadInput) {
   // A loop chunk file is read by load_chunk like a chunk file, with its own checks: a piece on a
   // face the chunk does not own or none on one it owns, corners of one vertex that disagree on
@@ -362,13 +436,20 @@ TEST(ChunkSimplify, DamagedLoopChunksAreBadInput) {
   MeshAdjacency adjacency;
   ASSERT_TRUE(build_mesh_adjacency(chunk->view(), adjacency).is_ok());
   std::vector<std::uint32_t> piece_index(chunk->triangles.size(), 0xFFFFFFFFu);
-  for (std::uint32_t f = 0; f < piece_index.size(); ++f)
-    if (chunk->owned_face[f]) piece_index[f] = 0;  // one piece: R is the chunk's border
+  std::vector<std::uint8_t> feature(chunk->triangles.size(), 0);
+  for (std::uint32_t f = 0; f < piece_index.size(); ++f) {
+    if (!chunk->owned_face[f]) continue;
+    piece_index[f] = 0;  // one piece whose edges to other owners are features: R is the chunk's border
+    for (int i = 0; i < 3; ++i) {
+      const std::uint32_t g = adjacency.edge_neighbor[3 * f + i];
+      if (g == MeshAdjacency::kNoFace || !chunk->owned_face[g]) feature[f] |= static_cast<std::uint8_t>(1u << i);
+    }
+  }
   ChunkInfo loop_info;
   std::vector<std::array<double, 3>> areas;
   auto file = format::RecordSegmentFile::create(tmp.file("loop.gmr"));
   ASSERT_TRUE(file.is_ok());
-  auto written = write_loop_chunk(*chunk, info, adjacency, piece_index, {}, **file, loop_info, areas);
+  auto written = write_loop_chunk(*chunk, info, adjacency, piece_index, feature, {}, **file, loop_info, areas);
   ASSERT_TRUE(written.is_ok() && *written);
   ASSERT_TRUE(load_chunk(loop_info).is_ok());
   // The file's one segment is the whole file: rewritten below as a record file of its own.
