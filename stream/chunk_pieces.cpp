@@ -29,7 +29,8 @@ std::uint32_t face_owner(const Partition& partition, const ChunkMesh& chunk, std
 
 void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const MeshAdjacency& adjacency,
                        const std::vector<std::uint32_t>& labels, const std::vector<std::uint8_t>& feature,
-                       ChunkPieces& out, std::vector<std::uint32_t>* piece_index) {
+                       ChunkPieces& out, std::vector<std::uint32_t>* piece_index,
+                       const std::vector<std::uint32_t>* candidates) {
   const std::size_t nf = chunk.triangles.size();
   const std::uint32_t* nb = adjacency.edge_neighbor.data();
   // Pieces, numbered by their lowest face: one pass in face order joins each owned face to the
@@ -85,18 +86,19 @@ void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const
   const std::uint32_t* corners = adjacency.vertex_corners.data();
   const std::uint8_t* flags = adjacency.slot_flags.data();
   std::vector<std::uint8_t> in_star(nf, 0);
-  for (std::uint32_t v = 0; v < chunk.owned_vertex.size(); ++v) {
-    if (!chunk.owned_vertex[v]) continue;
-    const std::uint32_t sb = adjacency.star_begin(v), se = adjacency.star_end(v);
+  auto is_candidate = [&](std::uint32_t v) {
     // Entering break edges: one per open fan, at its last slot (mesh_adjacency.h), so counted
     // from the slot flags.
     std::uint32_t count = 0;
-    for (std::uint32_t k = sb; k < se; ++k) {
+    for (std::uint32_t k = adjacency.star_begin(v); k < adjacency.star_end(v); ++k) {
       const std::uint32_t c = corners[k];
       count += feature[c / 3] >> (c % 3) & 1;
       count += (flags[k] & (MeshAdjacency::kFanStart | MeshAdjacency::kFanClosed)) == MeshAdjacency::kFanStart;
     }
-    if (count < 3) continue;
+    return count >= 3;
+  };
+  auto add_candidate = [&](std::uint32_t v) {
+    const std::uint32_t sb = adjacency.star_begin(v), se = adjacency.star_end(v);
     out.candidates.push_back({chunk.global_vertex[v], static_cast<std::uint32_t>(out.star.size()), se - sb});
     for (std::uint32_t k = sb; k < se; ++k) {
       const std::uint32_t f = corners[k] / 3, i = corners[k] % 3;
@@ -113,6 +115,13 @@ void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const
       in_star[f] = 1;
       if (g != MeshAdjacency::kNoFace) in_star[g] = 1;
     }
+  };
+  if (candidates) {
+    for (const std::uint32_t v : *candidates)
+      if (v < chunk.owned_vertex.size() && chunk.owned_vertex[v]) add_candidate(v);
+  } else {
+    for (std::uint32_t v = 0; v < chunk.owned_vertex.size(); ++v)
+      if (chunk.owned_vertex[v] && is_candidate(v)) add_candidate(v);
   }
   // One pass over the owned faces: border edges (to faces owned elsewhere); one entry (lower
   // piece << 32 | higher piece) per feature edge between two owned faces, counted after a sort

@@ -128,9 +128,14 @@ std::uint32_t face_owner(const Partition& partition, const ChunkMesh& chunk, std
 // computed on the whole chunk mesh). Appends to out (border_faces ascend within the chunk).
 // piece_index (optional): per local face, the index of its piece in this chunk (PieceId & 0xFFFFFFFF),
 // or 0xFFFFFFFF for faces the chunk does not own.
+// candidates (optional): the owned vertices with >= 3 feature edges, local ids ascending, as the
+// sampler found them (its records' is_candidate, from the same feature bits); without it every
+// owned vertex's star is counted here (in pass A that count was a third of this function and
+// repeated the sampler's own).
 void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const MeshAdjacency& adjacency,
                        const std::vector<std::uint32_t>& labels, const std::vector<std::uint8_t>& feature,
-                       ChunkPieces& out, std::vector<std::uint32_t>* piece_index = nullptr);
+                       ChunkPieces& out, std::vector<std::uint32_t>* piece_index = nullptr,
+                       const std::vector<std::uint32_t>* candidates = nullptr);
 
 // The piece of every local face of chunk: owned faces through piece_index (find_chunk_pieces),
 // the others through their owners' answers (PieceJoinFiles::look_up; kNoPiece where none, as

@@ -821,8 +821,10 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::
   };
   auto find_pieces = [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws,
                          const std::vector<GlobalSample>& chunk_samples) {
-    std::vector<std::uint32_t> piece_index;
-    find_chunk_pieces(*partition, chunk, ws.adjacency, ws.labels, ws.feature, pieces[c], &piece_index);
+    std::vector<std::uint32_t> piece_index, candidates;
+    for (const VertexRecord& r : ws.records)  // the sampler's, for these labels (sample_chunk)
+      if (r.is_candidate) candidates.push_back(r.vertex);
+    find_chunk_pieces(*partition, chunk, ws.adjacency, ws.labels, ws.feature, pieces[c], &piece_index, &candidates);
     GM_RETURN_IF_ERROR((*joins)->write_face_pieces(static_cast<std::uint32_t>(c), chunk, piece_index));
     ChunkInfo loop_info;
     std::vector<std::array<double, 3>> piece_area;

@@ -89,7 +89,10 @@ int main(int argc, char** argv) {
     t = Clock::now();
     for (int r = 0; r < reps; ++r) {
       ChunkPieces out;
-      find_chunk_pieces(*part, *chunk, ws.adjacency, ws.labels, ws.feature, out, &piece_index);
+      std::vector<std::uint32_t> candidates;  // as pass A hands them over
+      for (const VertexRecord& rec : ws.records)
+        if (rec.is_candidate) candidates.push_back(rec.vertex);
+      find_chunk_pieces(*part, *chunk, ws.adjacency, ws.labels, ws.feature, out, &piece_index, &candidates);
       check += out.pieces.size() + 3 * out.border.size() + 7 * out.border_faces.size() + 11 * out.star.size() +
                13 * out.adjacency.size() + 17 * out.candidates.size();
     }

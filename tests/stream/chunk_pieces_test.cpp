@@ -98,6 +98,25 @@ void expect_stitch_equals_in_core(const std::string& path, std::uint32_t smooth,
     ChunkSamplingStats stats;
     ASSERT_TRUE(sample_chunk(*chunk, *gauss, options, ws, samples, stats).is_ok());
     find_chunk_pieces(*parts, *chunk, ws.adjacency, ws.labels, ws.feature, chunks[c]);
+    // Pass A hands over the sampler's candidates instead of counting every owned star again:
+    // the same candidates and stars.
+    std::vector<std::uint32_t> listed;
+    for (const VertexRecord& r : ws.records)
+      if (r.is_candidate) listed.push_back(r.vertex);
+    ChunkPieces from_list;
+    find_chunk_pieces(*parts, *chunk, ws.adjacency, ws.labels, ws.feature, from_list, nullptr, &listed);
+    ASSERT_EQ(from_list.candidates.size(), chunks[c].candidates.size()) << "chunk " << c;
+    for (std::size_t k = 0; k < from_list.candidates.size(); ++k) {
+      const CandidateRecord &a = from_list.candidates[k], &b = chunks[c].candidates[k];
+      EXPECT_TRUE(a.vertex == b.vertex && a.first == b.first && a.count == b.count) << "chunk " << c << " candidate " << k;
+    }
+    ASSERT_EQ(from_list.star.size(), chunks[c].star.size());
+    for (std::size_t k = 0; k < from_list.star.size(); ++k) {
+      const StarEntry &a = from_list.star[k], &b = chunks[c].star[k];
+      EXPECT_TRUE(a.face == b.face && a.next == b.next && a.owner == b.owner && a.next_owner == b.next_owner &&
+                  a.entering_break == b.entering_break);
+    }
+    EXPECT_EQ(from_list.border_faces.size(), chunks[c].border_faces.size());
     border += chunks[c].border.size();
     ASSERT_TRUE((*joins)->spill(static_cast<std::uint32_t>(c), chunks[c]).is_ok());
     EXPECT_TRUE(chunks[c].border.empty() && chunks[c].border_faces.empty());
