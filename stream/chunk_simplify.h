@@ -95,7 +95,7 @@ format::Status find_chunk_loops(const ChunkMesh& chunk, const MeshAdjacency& adj
 // flagged. find_chunk_loops on it finds the same runs and vertex records as on the whole chunk.
 // Until session 17 R also held every owned vertex with a face of another owner, and the ends of
 // every edge between an owned face and another owner's: the chunk's whole border, where labels
-// mostly do not change (100M refined cow: 17.7M loop faces -> see docs/out-of-core.md).
+// mostly do not change (100M refined cow: pass C read 17.7M faces, now 8.6M; docs/out-of-core.md).
 // Writes it to path and sets loop_info (a copy of info for it), and returns false (nothing
 // written) when the chunk has faces the mesher skips (collapsed faces, repeats: their adjacency
 // differs) or the file would hold more than 3/4 of the chunk's faces.
