@@ -998,7 +998,7 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::
     GM_RETURN_IF_ERROR(for_each_chunk(
         nc, loop_info_of, partition->faces, options.threads, "chains", options,
         [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
-          if (loop_chunks[c].present && chunk.triangles.empty()) return format::Status();  // no feature edge
+          if (chunk.triangles.empty()) return format::Status();  // no face (an empty loop chunk): no chain
           std::vector<std::uint32_t> patch;
           std::vector<PieceRecord> piece_records;
           if (!chunk.core_face.empty()) GM_RETURN_IF_ERROR((*joins)->read_pieces(static_cast<std::uint32_t>(c), piece_records));
@@ -1110,7 +1110,7 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::
         if (loop_chunk) GM_RETURN_IF_ERROR((*joins)->read_pieces(static_cast<std::uint32_t>(c), piece_records));
         auto is_corner = [&](std::uint32_t v) { return std::binary_search(corners.begin(), corners.end(), v); };
         ChunkLoops found;
-        if (!chunk.triangles.empty()) {  // an empty loop chunk: no loop, only its pieces' areas
+        if (!chunk.triangles.empty()) {  // no face (an empty loop chunk): no loop, only its pieces' areas
           GM_RETURN_IF_ERROR(merged_patches_of_chunk(chunk, ws, patch, piece_records));
           GM_RETURN_IF_ERROR(find_chunk_loops(chunk, ws.adjacency, patch, is_corner, chosen[c], found));
         }
