@@ -134,6 +134,7 @@ int run_simplify_out_of_core(const SimplifyArgs& args, OutputKind kind, const st
     report["stitch_vertices"] = result->stitch_vertices;
     report["fetched_patches"] = result->fetched_patches;
     report["fetched_faces"] = result->fetched_faces;
+    report["fetched_chunks"] = result->fetched_chunks;
     report["loop_chunks"] = result->loop_chunks;
     report["loop_faces"] = result->loop_faces;
     if (sampler.sample_test == stream::SampleTest::kPaper) {

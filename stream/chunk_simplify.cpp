@@ -1180,9 +1180,22 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition* partition, std::
     std::vector<std::uint32_t> now;
     std::set_difference(asked.begin(), asked.end(), wanted.begin(), wanted.end(), std::back_inserter(now));
     if (now.empty()) return format::Status::error(format::Code::kProcessing, "stitch", "fetched faces did not help");
-    std::vector<std::vector<Fetched>> per_chunk(nc);
+    // Only the chunks that own faces of those patches: a merged patch's owned faces are its
+    // pieces' faces, and a piece is its chunk's. (At 300M triangles one patch of 4,683 faces
+    // asked, and a pass over all 2,033 chunks took 16 s.)
+    if (stitched->chunk_first.size() != nc + 1) return damaged("the stitched pieces do not cover the chunks");
+    std::vector<std::uint32_t> holders;
+    for (std::uint32_t c = 0; c < nc; ++c)
+      for (std::uint32_t k = stitched->chunk_first[c]; k < stitched->chunk_first[c + 1]; ++k)
+        if (std::binary_search(now.begin(), now.end(), merged.patch_of[stitched->piece_patch[k]])) {
+          holders.push_back(c);
+          break;
+        }
+    out.fetched_chunks += holders.size();
+    std::vector<std::vector<Fetched>> per_chunk(holders.size());
     GM_RETURN_IF_ERROR(for_each_chunk(
-        *partition, options.threads, "faces", options,
+        holders.size(), [&](std::size_t i) { return partition->chunks[holders[i]]; }, partition->faces,
+        options.threads, "faces", options,
         [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
           std::vector<std::uint32_t> patch_of;
           GM_RETURN_IF_ERROR(merged_patches_of_chunk(chunk, ws, patch_of));

@@ -174,6 +174,7 @@ struct OutOfCoreSimplify {
   std::size_t stitch_runs = 0;        // run summaries the stitch joined
   std::size_t stitch_vertices = 0;    // loop vertices (positions on disk, 5 bytes each in memory)
   std::size_t fetched_patches = 0, fetched_faces = 0;  // input faces fetched for the mesher's last steps
+  std::size_t fetched_chunks = 0;  // chunks read for them (those owning faces of the patches), over all rounds
   // Pass C: chunks it read as loop chunks (write_loop_chunk), and the faces it loaded in all.
   std::size_t loop_chunks = 0;
   std::uint64_t loop_faces = 0;
