@@ -1,5 +1,5 @@
 // gaussmesh compare: symmetric Hausdorff and RMS distance between two meshes, in % of the
-// first mesh's bounding-box diagonal (the measure is stream/mesh_distance; docs/compare.md).
+// first mesh's bounding-box diagonal (the measure is stream/analysis/mesh_distance; docs/compare.md).
 #include <unistd.h>
 
 #include <chrono>
@@ -12,8 +12,8 @@
 
 #include "cli/commands.h"
 #include "cli/report.h"
-#include "stream/mesh.h"
-#include "stream/mesh_distance.h"
+#include "stream/core/mesh.h"
+#include "stream/analysis/mesh_distance.h"
 
 namespace gaussmesh::cli {
 namespace {

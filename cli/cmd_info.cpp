@@ -8,8 +8,8 @@
 #include "cli/commands.h"
 #include "cli/report.h"
 #include "format/mesh_reader.h"
-#include "stream/mesh.h"
-#include "stream/mesh_topology.h"
+#include "stream/core/mesh.h"
+#include "stream/core/mesh_topology.h"
 
 namespace gaussmesh::cli {
 namespace {

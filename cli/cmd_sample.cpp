@@ -14,9 +14,9 @@
 #include "cli/sampling_options.h"
 #include "format/mesh_writer.h"
 #include "format/output_file.h"
-#include "stream/chunk_sampler.h"
-#include "stream/mesh.h"
-#include "stream/sampler.h"
+#include "stream/sampling/chunk_sampler.h"
+#include "stream/core/mesh.h"
+#include "stream/sampling/sampler.h"
 
 namespace gaussmesh::cli {
 namespace {
@@ -109,7 +109,7 @@ Status write_patches(const std::string& path, const stream::Mesh& mesh, const st
   return (*out)->commit();
 }
 
-// --memory: passes 0-2 over chunks on disk (stream/chunk_sampler.h); the samples equal the
+// --memory: passes 0-2 over chunks on disk (stream/sampling/chunk_sampler.h); the samples equal the
 // in-core run's. No patch mesh (it would be the whole input), exact test only.
 int run_sample_out_of_core(const SampleCommandOptions& o, const std::vector<stream::GaussSphereOptions>& spheres,
                            const stream::SamplerOptions& sampler) {

@@ -13,8 +13,8 @@
 #include "cli/sampling_options.h"
 #include "format/mesh_writer.h"
 #include "format/output_file.h"
-#include "stream/mesh.h"
-#include "stream/segmentation.h"
+#include "stream/core/mesh.h"
+#include "stream/analysis/segmentation.h"
 
 namespace gaussmesh::cli {
 namespace {

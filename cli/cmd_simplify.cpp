@@ -10,9 +10,9 @@
 #include "cli/report.h"
 #include "cli/sampling_options.h"
 #include "format/mesh_reader.h"
-#include "stream/chunk_simplify.h"
-#include "stream/mesh.h"
-#include "stream/simplify.h"
+#include "stream/pipeline/out_of_core_simplify.h"
+#include "stream/core/mesh.h"
+#include "stream/pipeline/in_core_simplify.h"
 
 namespace gaussmesh::cli {
 namespace {
@@ -72,7 +72,7 @@ Json simplify_report(const SimplifyArgs& args, OutputKind kind, std::uint64_t in
   return report;
 }
 
-// --memory: the out-of-core pipeline (stream/chunk_simplify.h); same output as in core.
+// --memory: the out-of-core pipeline (stream/pipeline/out_of_core_simplify.h); same output as in core.
 int run_simplify_out_of_core(const SimplifyArgs& args, OutputKind kind, const std::vector<stream::GaussSphereOptions>& spheres,
                              const stream::SamplerOptions& sampler, const format::ReadOptions& read_options,
                              std::chrono::steady_clock::time_point started) {

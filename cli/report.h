@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "format/status.h"
-#include "stream/chunk_partition.h"
+#include "stream/partition/chunk_partition.h"
 
 namespace gaussmesh::cli {
 

@@ -10,8 +10,8 @@
 #include <CLI/CLI.hpp>
 
 #include "format/status.h"
-#include "stream/gauss_sphere.h"
-#include "stream/sampler.h"
+#include "stream/core/gauss_sphere.h"
+#include "stream/sampling/sampler.h"
 
 namespace gaussmesh::cli {
 

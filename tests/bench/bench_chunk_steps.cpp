@@ -22,12 +22,12 @@
 #include <tbb/global_control.h>
 
 #include "format/record_file.h"
-#include "stream/chunk_partition.h"
-#include "stream/chunk_pieces.h"
-#include "stream/chunk_sampler.h"
-#include "stream/chunk_simplify.h"
-#include "stream/gauss_sphere.h"
-#include "stream/polygon_mesher.h"
+#include "stream/partition/chunk_partition.h"
+#include "stream/stitch/chunk_pieces.h"
+#include "stream/sampling/chunk_sampler.h"
+#include "stream/pipeline/out_of_core_simplify.h"
+#include "stream/core/gauss_sphere.h"
+#include "stream/meshing/polygon_mesher.h"
 
 namespace {
 

@@ -1,4 +1,4 @@
-// Benchmark of passes 0 and 1 (stream/chunk_partition.h): generates refined-cow PLY inputs with
+// Benchmark of passes 0 and 1 (stream/partition/chunk_partition.h): generates refined-cow PLY inputs with
 // make_large_mesh, optionally a badly ordered copy (vertex ids and face order shuffled), runs
 // partition_mesh on each in a child process (fork + exec of this program, so the child's peak
 // RSS — wait4's ru_maxrss — is its own), and prints a markdown table.
@@ -30,9 +30,9 @@
 #include "format/mesh_writer.h"
 #include "format/output_file.h"
 #include "format/temp_registry.h"
-#include "stream/chunk_partition.h"
-#include "stream/mesh.h"
-#include "stream/mesh_adjacency.h"
+#include "stream/partition/chunk_partition.h"
+#include "stream/core/mesh.h"
+#include "stream/core/mesh_adjacency.h"
 #include "tests/support/child_process.h"
 
 namespace gaussmesh::bench {

@@ -1,4 +1,4 @@
-// Speed of the planar polygon triangulator (stream/polygon_triangulation.h) on random star
+// Speed of the planar polygon triangulator (stream/meshing/polygon_triangulation.h) on random star
 // polygons of growing size, with and without holes. Prints a table; asserts nothing.
 #include <chrono>
 #include <cmath>
@@ -6,7 +6,7 @@
 #include <random>
 #include <vector>
 
-#include "stream/polygon_triangulation.h"
+#include "stream/meshing/polygon_triangulation.h"
 
 using namespace gaussmesh::stream;
 

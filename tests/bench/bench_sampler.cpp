@@ -25,10 +25,10 @@
 
 #include <tbb/global_control.h>
 
-#include "stream/mesh.h"
-#include "stream/mesh_adjacency.h"
-#include "stream/patch_filters.h"
-#include "stream/sampler.h"
+#include "stream/core/mesh.h"
+#include "stream/core/mesh_adjacency.h"
+#include "stream/sampling/patch_filters.h"
+#include "stream/sampling/sampler.h"
 
 namespace {
 

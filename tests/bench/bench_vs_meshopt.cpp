@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "stream/mesh_distance.h"
-#include "stream/simplify.h"
+#include "stream/analysis/mesh_distance.h"
+#include "stream/pipeline/in_core_simplify.h"
 #include "tests/support/test_util.h"
 
 using namespace gaussmesh;

@@ -26,8 +26,8 @@
 #include <utility>
 #include <vector>
 
-#include "stream/mesh.h"
-#include "stream/mesh_distance.h"
+#include "stream/core/mesh.h"
+#include "stream/analysis/mesh_distance.h"
 #include "tests/support/shapes.h"
 #include "tests/support/test_util.h"
 

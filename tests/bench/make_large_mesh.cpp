@@ -34,8 +34,8 @@
 #include <vector>
 
 #include "format/output_file.h"
-#include "stream/exact_predicates.h"
-#include "stream/mesh.h"
+#include "stream/core/exact_predicates.h"
+#include "stream/core/mesh.h"
 #include "tests/support/test_util.h"
 
 namespace gaussmesh::bench {
@@ -44,7 +44,7 @@ namespace {
 using format::Code;
 using format::Status;
 
-// stream::Vec3d and its operators, dot and cross (stream/exact_predicates.h).
+// stream::Vec3d and its operators, dot and cross (stream/core/exact_predicates.h).
 using stream::Vec3d;
 Vec3d normalized(Vec3d a) {
   double n = std::sqrt(dot(a, a));

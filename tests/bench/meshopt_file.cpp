@@ -21,7 +21,7 @@
 
 #include "format/mesh_writer.h"
 #include "format/output_file.h"
-#include "stream/mesh.h"
+#include "stream/core/mesh.h"
 
 namespace gaussmesh::bench {
 namespace {

@@ -15,8 +15,8 @@
 
 #include "format/mesh_writer.h"
 #include "format/output_file.h"
-#include "stream/mesh.h"
-#include "stream/segmentation.h"
+#include "stream/core/mesh.h"
+#include "stream/analysis/segmentation.h"
 #include "tests/support/shapes.h"
 #include "tests/support/test_util.h"
 

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "stream/mesh_distance.h"
-#include "stream/mesh_topology.h"
-#include "stream/simplify.h"
+#include "stream/analysis/mesh_distance.h"
+#include "stream/core/mesh_topology.h"
+#include "stream/pipeline/in_core_simplify.h"
 #include "tests/support/test_util.h"
 
 using namespace gaussmesh;

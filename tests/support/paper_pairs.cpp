@@ -4,9 +4,9 @@
 #include <cstdint>
 #include <vector>
 
-#include "stream/mesh_adjacency.h"
-#include "stream/paper_chains.h"
-#include "stream/patch_filters.h"
+#include "stream/core/mesh_adjacency.h"
+#include "stream/stitch/paper_chains.h"
+#include "stream/sampling/patch_filters.h"
 
 namespace gaussmesh::stream {
 

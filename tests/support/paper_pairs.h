@@ -4,9 +4,9 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "stream/gauss_sphere.h"
-#include "stream/mesh.h"
-#include "stream/sampler.h"
+#include "stream/core/gauss_sphere.h"
+#include "stream/core/mesh.h"
+#include "stream/sampling/sampler.h"
 
 namespace gaussmesh::stream {
 

@@ -13,7 +13,7 @@
 // on a convex surface, and each adds a saddle to the Gauss map (spurious samples).
 #include "tests/support/shapes.h"
 
-#include "stream/exact_predicates.h"
+#include "stream/core/exact_predicates.h"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 
@@ -43,7 +43,7 @@ constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 // ---------------------------------------------------------------------------------------------
 // Small double-precision vector algebra for the generators.
 
-// stream::Vec3d and its operators, dot and cross (stream/exact_predicates.h).
+// stream::Vec3d and its operators, dot and cross (stream/core/exact_predicates.h).
 using stream::Vec3d;
 double norm(Vec3d a) { return std::sqrt(dot(a, a)); }
 Vec3f to_float(Vec3d p) {

@@ -11,7 +11,7 @@
 #include <cstdint>
 #include <span>
 
-#include "stream/mesh.h"
+#include "stream/core/mesh.h"
 
 namespace gaussmesh::testing {
 
