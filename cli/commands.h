@@ -5,11 +5,11 @@
 
 #include <CLI/CLI.hpp>
 
-#include "format/status.h"
+#include "gaussmesh/gaussmesh.h"
 
 namespace gaussmesh::cli {
 
-// Returns the process exit code (format::Code values; 0 on success).
+// Returns the process exit code (gaussmesh::Code values; 0 on success).
 using Runner = std::function<int()>;
 
 void register_info(CLI::App& app, Runner& run);
@@ -19,10 +19,13 @@ void register_compare(CLI::App& app, Runner& run);
 void register_segment(CLI::App& app, Runner& run);
 
 // Prints "gaussmesh: <where>: <message>" on stderr and returns the exit code for status.
-int report_error(const format::Status& status);
+int report_error(const Status& status);
 
 // Global verbosity: -q sets 0, default 1, -v sets 2.
 int verbosity();
 void set_verbosity(int level);
+
+// "-" for standard input or output, else the path.
+Source input_source(const std::string& path, MeshFormat format = MeshFormat::kUnknown);
 
 }  // namespace gaussmesh::cli

@@ -12,7 +12,6 @@
 #include <CLI/CLI.hpp>
 
 #include "cli/commands.h"
-#include "format/temp_registry.h"
 
 namespace gaussmesh::cli {
 namespace {
@@ -22,35 +21,32 @@ int g_verbosity = 1;
 int verbosity() { return g_verbosity; }
 void set_verbosity(int level) { g_verbosity = level; }
 
-int report_error(const format::Status& status) {
+int report_error(const Status& status) {
   std::fprintf(stderr, "gaussmesh: %s\n", status.to_string().c_str());
   return static_cast<int>(status.code());
 }
+
+Source input_source(const std::string& path, MeshFormat format) { return Source::file(path, format); }
 
 }  // namespace gaussmesh::cli
 
 int main(int argc, char** argv) {
   using namespace gaussmesh;
-  format::install_signal_cleanup();
+  install_signal_cleanup();
 #ifdef __GLIBC__
-  // One malloc arena for every thread. The chunk passes allocate and free each chunk's arrays
-  // on two threads; with an arena per thread the free pages of one were never reused by the
-  // other, and at 100M triangles under --memory 64M the passes after the partition peaked
-  // 3-9 MB above it (65-73 MB against 63.8 MB with one arena). Measured: no CPU cost at 1M
-  // (in core) or 10M (out of core) — the threads' small allocations go through glibc's
-  // per-thread caches, the large ones are a few per chunk.
+  // One malloc arena for every thread: the chunk passes allocate and free each chunk's arrays on
+  // several threads, and with an arena per thread one thread's free pages are never reused by
+  // another, which lifts the streaming passes' peak over the budget.
   ::mallopt(M_ARENA_MAX, 1);
-  // Blocks of 2 MiB and more come from mmap and go back to the system when freed. glibc's
-  // default threshold rises to 32 MiB once such a block is freed, after which the stitch's
-  // tables and the piece join's buckets came from the heap and stayed resident after use
-  // (100M triangles under 64 MiB: the merge peaked at 52 instead of 48 MiB). Below 2 MiB (pass
-  // A's per-chunk arrays) nothing changes; at 1 MiB the 100M run took 7x the page faults.
+  // Blocks of 2 MiB and more come from mmap and go back to the system when freed; glibc would
+  // otherwise raise the threshold after the first such free, and the stitch's large tables
+  // would then stay resident after use. Smaller blocks (the per-chunk arrays) stay on the heap,
+  // where reuse is cheap.
   ::mallopt(M_MMAP_THRESHOLD, 2 << 20);
   ::mallopt(M_TRIM_THRESHOLD, 4 << 20);
 #endif
-  // The open-file limit up to its hard limit (Debian's shells start at 1,024 of 524,288): the
-  // partition keeps a descriptor per chunk file open only when the limit leaves room, else it
-  // reopens the file for every frame (100M triangles, 1,464 chunks: ~0.9M opens and closes).
+  // The open-file limit up to its hard limit: the partition keeps a descriptor per chunk file
+  // open when the limit leaves room, else it reopens the file for every frame.
   rlimit files{};
   if (::getrlimit(RLIMIT_NOFILE, &files) == 0 && files.rlim_cur < files.rlim_max) {
     files.rlim_cur = std::min<rlim_t>(files.rlim_max, rlim_t{1} << 20);
@@ -75,15 +71,15 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     std::fprintf(stderr, "gaussmesh: usage: %s\n", e.what());
-    return static_cast<int>(format::Code::kUsage);
+    return static_cast<int>(Code::kUsage);
   }
   try {
-    return run ? run() : static_cast<int>(format::Code::kUsage);
+    return run ? run() : static_cast<int>(Code::kUsage);
   } catch (const std::bad_alloc&) {
     std::fprintf(stderr, "gaussmesh: out of memory\n");
-    return static_cast<int>(format::Code::kResources);
+    return static_cast<int>(Code::kResources);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "gaussmesh: internal error: %s\n", e.what());
-    return static_cast<int>(format::Code::kProcessing);
+    return static_cast<int>(Code::kProcessing);
   }
 }

@@ -1,7 +1,7 @@
 // Names of mesh formats, for messages and reports.
-#include "format/mesh_types.h"
+#include "gaussmesh/mesh.h"
 
-namespace gaussmesh::format {
+namespace gaussmesh {
 
 const char* format_name(MeshFormat format) {
   switch (format) {
@@ -15,4 +15,4 @@ const char* format_name(MeshFormat format) {
   return "unknown";
 }
 
-}  // namespace gaussmesh::format
+}  // namespace gaussmesh

@@ -1,7 +1,7 @@
 // Error values: names and one-line rendering.
-#include "format/status.h"
+#include "gaussmesh/status.h"
 
-namespace gaussmesh::format {
+namespace gaussmesh {
 
 const char* code_name(Code code) {
   switch (code) {
@@ -20,4 +20,4 @@ std::string Status::to_string() const {
   return where_ + ": " + message_;
 }
 
-}  // namespace gaussmesh::format
+}  // namespace gaussmesh

@@ -1,27 +1,30 @@
-// --memory / --threads / --tmp, and the progress line. See pipeline_options.h.
-#include "cli/pipeline_options.h"
+// --memory / --engine / --threads / --tmp, and the progress line. See resource_options.h.
+#include "cli/resource_options.h"
 
 #include <unistd.h>
 
 #include <cctype>
 #include <cstdio>
 #include <limits>
-#include <thread>
 
 #include "cli/commands.h"
 
 namespace gaussmesh::cli {
 
-void add_pipeline_options(CLI::App& sub, PipelineOptions& options) {
-  sub.add_option("--memory", options.memory,
-                 "Run out of core within SIZE bytes of working memory (K, M, G suffixes; at least 16M)");
-  sub.add_option("--threads", options.threads, "Chunks processed at once (0: one per core)")->capture_default_str();
-  sub.add_option("--tmp", options.tmp, "Directory for temporary files (default: $TMPDIR, else /tmp)");
+void add_resource_options(CLI::App& sub, ResourceFlags& flags) {
+  sub.add_option("--memory", flags.memory,
+                 "Working-memory budget: SIZE (K, M, G suffixes; at least 16M) or auto (docs/cli.md)")
+      ->capture_default_str();
+  sub.add_option("--engine", flags.engine, "auto (from the budget and the input size), in-core or out-of-core")
+      ->capture_default_str();
+  sub.add_option("--threads", flags.threads, "Chunks processed at once (0: one per core)")->capture_default_str();
+  sub.add_option("--tmp", flags.tmp, "Directory for temporary files (default: $TMPDIR, else /tmp)");
 }
 
-format::Result<std::uint64_t> parse_memory_size(const std::string& text) {
+Result<std::uint64_t> parse_memory_size(const std::string& text) {
+  if (text == "auto") return std::uint64_t{0};
   auto bad = [&](const std::string& why) {
-    return format::Status::error(format::Code::kUsage, "--memory", "'" + text + "': " + why);
+    return Status::error(Code::kUsage, "--memory", "'" + text + "': " + why);
   };
   std::size_t i = 0;
   std::uint64_t value = 0;
@@ -47,10 +50,18 @@ format::Result<std::uint64_t> parse_memory_size(const std::string& text) {
   return value << shift;
 }
 
-std::uint32_t pipeline_threads(const PipelineOptions& options) {
-  if (options.threads > 0) return options.threads;
-  const unsigned n = std::thread::hardware_concurrency();
-  return n == 0 ? 1 : n;
+Result<ResourceOptions> resource_options(const ResourceFlags& flags) {
+  auto memory = parse_memory_size(flags.memory);
+  if (!memory) return memory.status();
+  ResourceOptions options;
+  options.memory_bytes = *memory;
+  if (flags.engine == "auto") options.engine = Engine::kAuto;
+  else if (flags.engine == "in-core") options.engine = Engine::kInCore;
+  else if (flags.engine == "out-of-core") options.engine = Engine::kOutOfCore;
+  else return Status::error(Code::kUsage, "--engine", "expected auto, in-core or out-of-core, got '" + flags.engine + "'");
+  options.threads = flags.threads;
+  options.tmp_dir = flags.tmp;
+  return options;
 }
 
 Progress::Progress() : enabled_(verbosity() > 0 && ::isatty(2) == 1) {}
@@ -59,7 +70,7 @@ Progress::~Progress() {
   if (dirty_) std::fputc('\n', stderr);
 }
 
-void Progress::update(const char* pass, std::size_t done, std::size_t total, std::uint64_t triangles) {
+void Progress::update(const char* pass, std::uint64_t done, std::uint64_t total, std::uint64_t triangles) {
   if (!enabled_) return;
   const auto now = std::chrono::steady_clock::now();
   if (pass_ != pass) {

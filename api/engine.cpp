@@ -1,0 +1,93 @@
+// Choosing in core or out of core, and the automatic memory budget (docs/api.md, "Choosing the
+// engine"); the process-level helpers of the API.
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <fstream>
+
+#include "api/internal.h"
+#include "format/output_file.h"
+#include "format/temp_registry.h"
+
+namespace gaussmesh {
+namespace {
+
+std::uint64_t physical_memory() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+  if (pages <= 0 || page <= 0) return 0;
+  return static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page);
+}
+
+// Fewest input bytes a face takes in any format we read (binary PLY: a 13-byte face record and
+// a share of the 12-byte vertices; Draco is compressed further but decodes whole anyway), so
+// that the estimate errs towards more faces and hence towards streaming.
+constexpr std::uint64_t kMinBytesPerFace = 16;
+// In-core working set: the mesh, its adjacency, the sampler's per-face and per-vertex arrays and
+// the mesher's, with a margin over what docs/benchmarks.md measures ("Engine choice").
+constexpr std::uint64_t kInCoreBytesPerFace = 96;
+constexpr std::uint64_t kProcessBytes = std::uint64_t{16} << 20;
+
+}  // namespace
+
+std::uint64_t auto_memory_budget() {
+  const std::uint64_t physical = physical_memory();
+  const std::uint64_t cap = std::uint64_t{64} << 20;
+  if (physical == 0) return cap;
+  return std::clamp(physical / 64, kMinMemory, cap);
+}
+
+std::uint64_t in_core_bytes(std::uint64_t faces) { return kProcessBytes + kInCoreBytesPerFace * faces; }
+
+Result<EngineChoice> choose_engine(const Source& source, const ResourceOptions& resources) {
+  if (resources.memory_bytes != 0 && resources.memory_bytes < kMinMemory) {
+    return Status::error(Code::kUsage, "--memory", "at least 16M (the reader's window and the spill buffers)");
+  }
+  EngineChoice choice;
+  choice.memory_bytes = resources.memory_bytes != 0 ? resources.memory_bytes : auto_memory_budget();
+  if (source.kind == Source::Kind::kMemory) {
+    choice.estimated_faces = source.mesh.triangles.size();
+    choice.engine = Engine::kInCore;  // already in memory; the streaming engines read files
+    if (resources.engine == Engine::kOutOfCore) {
+      return Status::error(Code::kUsage, "engine", "a mesh in memory runs in core (the streaming engine reads a file or stdin)");
+    }
+    return choice;
+  }
+  bool known = false;  // a regular file's size; a pipe's is not known
+  if (source.kind == Source::Kind::kFile) {
+    struct stat st {};
+    if (::stat(source.path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) {
+      known = true;
+      choice.estimated_faces = static_cast<std::uint64_t>(st.st_size) / kMinBytesPerFace;
+    }
+  }
+  if (resources.engine != Engine::kAuto) {
+    choice.engine = resources.engine;
+    return choice;
+  }
+  const std::uint64_t in_core_limit = resources.memory_bytes != 0 ? resources.memory_bytes : physical_memory() / 4;
+  choice.engine = known && choice.estimated_faces <= kInCoreMaxFaces && in_core_bytes(choice.estimated_faces) <= in_core_limit
+                      ? Engine::kInCore
+                      : Engine::kOutOfCore;
+  return choice;
+}
+
+void install_signal_cleanup() { format::install_signal_cleanup(); }
+
+Status write_report(const std::string& path, const std::string& report_json) {
+  auto out = format::OutputFile::create(path, false);
+  if (!out) return out.status();
+  GM_RETURN_IF_ERROR((*out)->write(report_json + "\n"));
+  return (*out)->commit();
+}
+
+std::uint64_t peak_rss_bytes() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::stoull(line.substr(6)) * 1024;
+  }
+  return 0;
+}
+
+}  // namespace gaussmesh

@@ -1,0 +1,246 @@
+// gaussmesh::simplify: the main job, in core or streaming, into a sink, with the run's record.
+#include "api/internal.h"
+#include "stream/core/stopwatch.h"
+#include "stream/pipeline/in_core_simplify.h"
+#include "stream/pipeline/out_of_core_simplify.h"
+
+namespace gaussmesh {
+namespace {
+
+using api::Json;
+using stream::Clock;
+using stream::seconds_since;
+
+// The record's fields in and out of core share; result is a stream::SimplifyResult or a
+// stream::OutOfCoreSimplify.
+Json common_report(const Source& source, const Sink& sink, const SimplifyOptions& o, std::uint64_t input_vertices,
+                   std::uint64_t input_faces, const stream::GaussSphereOptions& sphere,
+                   const stream::SamplerOptions& sampler, const auto& result, std::size_t chosen, std::uint64_t bytes) {
+  Json report;
+  report["command"] = "simplify";
+  report["input"] = source.kind == Source::Kind::kFile ? source.path : source.kind == Source::Kind::kMemory ? "<memory>" : "-";
+  report["output"] = sink.kind == Sink::Kind::kFile ? sink.path : sink.kind == Sink::Kind::kMemory ? "<memory>" : "-";
+  report["output_format"] = sink.kind == Sink::Kind::kMemory ? "memory" : output_format_name(sink.resolved_format());
+  report["input_vertices"] = input_vertices;
+  report["input_faces"] = input_faces;
+  report["gauss_base"] = stream::gauss_base_name(sphere.base);
+  report["gauss_frequency"] = sphere.frequency;
+  report["gauss_vertices"] = result.gauss_vertices;
+  report["gauss_triangles"] = result.gauss_triangles;
+  report["rotation"] = result.rotation;
+  report["orientations"] = result.samples_per_orientation.size();
+  report["orientation_chosen"] = chosen;
+  report["samples_per_orientation"] = result.samples_per_orientation;
+  report["sample_test"] = stream::sample_test_name(sampler.sample_test);
+  report["smooth"] = sampler.smooth_iterations;
+  report["patches"] = result.patches;
+  report["candidates"] = result.candidates;
+  report["samples"] = result.samples;
+  report["mesher_rounds"] = result.polygon.rounds;
+  report["refined_patches"] = result.polygon.refined_patches;
+  report["guards"] = result.polygon.guards;
+  report["output_vertices"] = result.mesh.positions.size();
+  report["output_faces"] = result.mesh.triangles.size();
+  report["output_bytes"] = bytes;
+  report["qp"] = o.draco.quantization_bits;
+  report["cl"] = o.draco.compression_level;
+  return report;
+}
+
+Status no_faces(const Source& source, std::uint64_t vertices) {
+  return Status::error(Code::kBadInput, source.name(), "no faces to simplify (" + std::to_string(vertices) + " vertices)");
+}
+
+Status empty_approximation(const Source& source) {
+  return Status::error(Code::kProcessing, source.name(), "the approximation has no faces (too few samples: raise --frequency)");
+}
+
+Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sink, const SimplifyOptions& o,
+                                           const std::vector<stream::GaussSphereOptions>& spheres,
+                                           const stream::SamplerOptions& sampler, std::uint64_t memory,
+                                           Clock::time_point started) {
+  if (o.mesher != Mesher::kPatch) {
+    return Status::error(Code::kUsage, "simplify", "the streaming engine runs the per-patch mesher only (--mesher voronoi runs in core)");
+  }
+  stream::OutOfCoreSimplifyOptions options;
+  options.partition.memory_bytes = memory;
+  options.partition.tmp_dir = o.resources.tmp_dir;
+  options.threads = api::thread_count(o.resources.threads);
+  options.spheres = spheres;
+  options.sampler = sampler;
+  if (o.resources.progress) {
+    const ProgressFn& progress = o.resources.progress;
+    options.progress = [&progress](const char* pass, std::size_t done, std::size_t total, std::uint64_t faces) {
+      progress(pass, done, total, faces);
+    };
+    options.partition.progress = [&progress](const char* pass, std::uint64_t done, std::uint64_t total) {
+      progress(pass, done, total, total);
+    };
+  }
+  auto result = stream::simplify_out_of_core(api::stream_path(source), api::read_options(source), options);
+  if (!result) return result.status();
+  if (result->faces == 0) return no_faces(source, result->vertices);
+  if (result->mesh.triangles.empty()) return empty_approximation(source);
+  auto t = Clock::now();
+  auto bytes = api::write_mesh(sink, result->mesh.view(), o.draco);
+  if (!bytes) return bytes.status();
+  const double seconds_write = seconds_since(t);
+
+  SimplifyStats stats;
+  stats.input_vertices = result->vertices;
+  stats.input_faces = result->faces;
+  stats.output_vertices = result->mesh.positions.size();
+  stats.output_faces = result->mesh.triangles.size();
+  stats.output_bytes = *bytes;
+  stats.samples = result->samples;
+  stats.out_of_core = true;
+  stats.memory_bytes = memory;
+  stats.chunks = result->chunks;
+  stats.peak_rss_bytes = peak_rss_bytes();
+  stats.seconds = seconds_since(started);
+
+  Json report = common_report(source, sink, o, result->vertices, result->faces, spheres[0], sampler, *result,
+                              result->chosen, *bytes);
+  report["merged_patches"] = result->merged_patches;
+  report["merge_rounds"] = result->merge_rounds;
+  report["mesher"] = "patch";
+  report["out_of_core"] = true;
+  report["memory_bytes"] = memory;
+  report["threads"] = options.threads;
+  report["chunks"] = result->chunks;
+  report["bytes_spilled"] = result->bytes_spilled;
+  report["stitch_half_edges"] = result->stitch_half_edges;
+  report["stitch_runs"] = result->stitch_runs;
+  report["stitch_vertices"] = result->stitch_vertices;
+  report["fetched_patches"] = result->fetched_patches;
+  report["fetched_faces"] = result->fetched_faces;
+  report["fetched_chunks"] = result->fetched_chunks;
+  report["loop_chunks"] = result->loop_chunks;
+  report["loop_faces"] = result->loop_faces;
+  if (sampler.sample_test == stream::SampleTest::kPaper) {
+    report["candidate_pairs"] = result->candidate_pairs;
+    report["chain_fragments"] = result->chain_fragments;
+    report["paper_filters"] = {{"tree_filtered", result->tree_filtered},
+                               {"unwinding_filtered", result->unwinding_filtered},
+                               {"noisy_filtered", result->noisy_filtered}};
+  }
+  report["peak_rss_bytes"] = stats.peak_rss_bytes;
+  report["peak_rss_after_partition_bytes"] = result->peak_rss_after_partition;
+  report["peak_rss_after_pieces_bytes"] = result->peak_rss_after_pieces;
+  report["peak_rss_after_merge_bytes"] = result->peak_rss_after_merge;
+  report["peak_rss_after_loops_bytes"] = result->peak_rss_after_loops;
+  report["seconds"] = {{"ingest", result->seconds_ingest},
+                       {"partition", result->seconds_partition},
+                       {"sample", result->seconds_sample},
+                       {"stitch", result->seconds_stitch},
+                       {"mesh", result->seconds_mesh},
+                       {"cleanup", result->seconds_cleanup},
+                       {"write", seconds_write},
+                       {"total", stats.seconds}};
+  report["partition_seconds"] = {{"plan", result->partition_steps.plan},
+                                 {"rings", result->partition_steps.rings},
+                                 {"chunks", result->partition_steps.chunks}};
+  report["stitch_seconds"] = {{"pieces", result->stitch_steps.pieces},
+                              {"merge", result->stitch_steps.merge},
+                              {"chains", result->stitch_steps.chains},
+                              {"loops", result->stitch_steps.loops},
+                              {"loop_stitch", result->stitch_steps.loop_stitch}};
+  stats.report_json = report.dump(2);
+  return stats;
+}
+
+Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, const SimplifyOptions& o,
+                                       const std::vector<stream::GaussSphereOptions>& spheres,
+                                       const stream::SamplerOptions& sampler, Clock::time_point started) {
+  auto t = Clock::now();
+  auto mesh = api::load(source);
+  if (!mesh) return mesh.status();
+  const double seconds_read = seconds_since(t);
+  const MeshView input = mesh->view;
+  if (input.triangles.empty()) return no_faces(source, input.positions.size());
+
+  stream::SimplifyOptions options;
+  options.spheres = spheres;
+  options.sampler = sampler;
+  options.mesher = o.mesher == Mesher::kVoronoi ? stream::MesherKind::kVoronoi : stream::MesherKind::kPatch;
+  auto result = stream::simplify_mesh(input, options);
+  if (!result) return result.status();
+  if (result->mesh.triangles.empty()) return empty_approximation(source);
+
+  t = Clock::now();
+  auto bytes = api::write_mesh(sink, result->mesh.view(), o.draco);
+  if (!bytes) return bytes.status();
+  const double seconds_write = seconds_since(t);
+
+  SimplifyStats stats;
+  stats.input_vertices = input.positions.size();
+  stats.input_faces = input.triangles.size();
+  stats.output_vertices = result->mesh.positions.size();
+  stats.output_faces = result->mesh.triangles.size();
+  stats.output_bytes = *bytes;
+  stats.samples = result->samples;
+  stats.chunks = 1;
+  stats.peak_rss_bytes = peak_rss_bytes();
+  stats.seconds = seconds_since(started);
+
+  Json report = common_report(source, sink, o, input.positions.size(), input.triangles.size(), options.spheres[0],
+                              options.sampler, *result, result->orientation_index, *bytes);
+  report["mesher"] = stream::mesher_name(options.mesher);
+  report["out_of_core"] = false;
+  report["chains"] = result->graph.chains;
+  report["corners"] = result->graph.corners;
+  report["kept_corners"] = result->kept_corners;
+  report["kept_chain_vertices"] = result->kept_chain_vertices;
+  report["kept_interior_vertices"] = result->kept_interior_vertices;
+  report["skipped_input_faces"] = result->skipped_input_faces;
+  report["planar_patches"] = result->planar_patches;
+  report["collapse_patches"] = result->collapse_patches;
+  report["mean_plane_patches"] = result->polygon.mean_plane_patches;
+  report["densified_patches"] = result->polygon.densified_patches;
+  report["collapsed_patches"] = result->polygon.collapsed_patches;
+  report["original_patches"] = result->polygon.original_patches;
+  report["interior_samples"] = result->polygon.interior_samples;
+  report["mesher_fallback"] = result->mesher_fallback;
+  if (result->mesher_fallback) report["mesher_fallback_reason"] = result->mesher_fallback_reason;
+  report["chunks"] = 1;
+  report["peak_rss_bytes"] = stats.peak_rss_bytes;
+  report["seconds"] = {{"read", seconds_read},
+                       {"sample", result->seconds_sample},
+                       {"mesh", result->seconds_mesh},
+                       {"write", seconds_write},
+                       {"total", stats.seconds}};
+  stats.report_json = report.dump(2);
+  return stats;
+}
+
+}  // namespace
+
+Result<SimplifyStats> simplify(const Source& source, const Sink& sink, const SimplifyOptions& options) {
+  const auto started = Clock::now();
+  if (options.draco.quantization_bits < 1 || options.draco.quantization_bits > 24) {
+    return Status::error(Code::kUsage, "--qp", "Draco quantization bits must be between 1 and 24");
+  }
+  if (options.draco.compression_level < 0 || options.draco.compression_level > 10) {
+    return Status::error(Code::kUsage, "--cl", "Draco compression level must be between 0 and 10");
+  }
+  auto spheres = api::gauss_spheres(options.sampling);
+  if (!spheres) return spheres.status();
+  const stream::SamplerOptions sampler = api::sampler_options(options.sampling);
+  GM_RETURN_IF_ERROR(api::check_not_a_terminal(source, "simplify"));
+  ResourceOptions resources = options.resources;
+  // The Voronoi mesher has no streaming engine: in core unless the budget forbids it.
+  if (options.mesher == Mesher::kVoronoi && resources.engine == Engine::kAuto) resources.engine = Engine::kInCore;
+  auto engine = choose_engine(source, resources);
+  if (!engine) return engine.status();
+  if (options.mesher == Mesher::kVoronoi && engine->engine == Engine::kInCore && options.resources.memory_bytes != 0 &&
+      options.resources.engine == Engine::kAuto && in_core_bytes(engine->estimated_faces) > options.resources.memory_bytes) {
+    return Status::error(Code::kUsage, "--mesher", "voronoi runs in core, and the input needs more than --memory (~" +
+                                                       std::to_string(in_core_bytes(engine->estimated_faces) >> 20) + " MiB)");
+  }
+  if (engine->engine == Engine::kOutOfCore) {
+    return simplify_out_of_core(source, sink, options, *spheres, sampler, engine->memory_bytes, started);
+  }
+  return simplify_in_core(source, sink, options, *spheres, sampler, started);
+}
+
+}  // namespace gaussmesh

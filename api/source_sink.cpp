@@ -1,0 +1,195 @@
+// Sources and sinks: naming them, reading a source into memory, writing a result mesh through
+// OutputFile's write-then-rename.
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <thread>
+
+#include "api/internal.h"
+#include "format/output_file.h"
+
+namespace gaussmesh {
+namespace {
+
+std::string lower(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return std::tolower(c); });
+  return text;
+}
+
+bool ends_with(const std::string& text, const std::string& suffix) {
+  return text.size() >= suffix.size() && text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+}  // namespace
+
+MeshFormat parse_mesh_format(std::string_view name) { return format::parse_format_name(name); }
+
+Source Source::file(std::string path, MeshFormat format) {
+  if (path == "-") return standard_input(format);
+  Source s;
+  s.kind = Kind::kFile;
+  s.path = std::move(path);
+  s.format = format;
+  return s;
+}
+
+Source Source::standard_input(MeshFormat format) {
+  Source s;
+  s.kind = Kind::kStandardInput;
+  s.format = format;
+  return s;
+}
+
+Source Source::memory(MeshView mesh) {
+  Source s;
+  s.kind = Kind::kMemory;
+  s.mesh = mesh;
+  return s;
+}
+
+std::string Source::name() const {
+  switch (kind) {
+    case Kind::kFile: return path;
+    case Kind::kStandardInput: return "<stdin>";
+    case Kind::kMemory: return "<memory>";
+  }
+  return path;
+}
+
+std::optional<OutputFormat> parse_output_format(const std::string& name) {
+  const std::string flag = lower(name);
+  if (flag.empty()) return OutputFormat::kAuto;
+  if (flag == "draco" || flag == "drc") return OutputFormat::kDraco;
+  if (flag == "ply") return OutputFormat::kPlyBinary;
+  if (flag == "ply-ascii") return OutputFormat::kPlyAscii;
+  if (flag == "obj") return OutputFormat::kObj;
+  return std::nullopt;
+}
+
+const char* output_format_name(OutputFormat format) {
+  switch (format) {
+    case OutputFormat::kAuto: return "auto";
+    case OutputFormat::kDraco: return "draco";
+    case OutputFormat::kPlyBinary: return "ply";
+    case OutputFormat::kPlyAscii: return "ply-ascii";
+    case OutputFormat::kObj: return "obj";
+  }
+  return "draco";
+}
+
+Sink Sink::file(std::string path, OutputFormat format) {
+  if (path == "-") return standard_output(format);
+  Sink s;
+  s.kind = Kind::kFile;
+  s.path = std::move(path);
+  s.format = format;
+  return s;
+}
+
+Sink Sink::standard_output(OutputFormat format) {
+  Sink s;
+  s.kind = Kind::kStandardOutput;
+  s.format = format;
+  return s;
+}
+
+Sink Sink::memory(Mesh* mesh) {
+  Sink s;
+  s.kind = Kind::kMemory;
+  s.mesh = mesh;
+  return s;
+}
+
+OutputFormat Sink::resolved_format() const {
+  if (format != OutputFormat::kAuto) return format;
+  if (kind == Kind::kFile) {
+    const std::string name = lower(path);
+    if (ends_with(name, ".ply")) return OutputFormat::kPlyBinary;
+    if (ends_with(name, ".obj")) return OutputFormat::kObj;
+  }
+  return OutputFormat::kDraco;
+}
+
+namespace api {
+
+format::ReadOptions read_options(const Source& source) {
+  format::ReadOptions options;
+  options.format = source.format;
+  return options;
+}
+
+std::string stream_path(const Source& source) { return source.kind == Source::Kind::kFile ? source.path : "-"; }
+
+Result<LoadedMesh> load(const Source& source) {
+  LoadedMesh loaded;
+  if (source.kind == Source::Kind::kMemory) {
+    for (const Triangle& t : source.mesh.triangles) {
+      for (VertexIndex v : t.v) {
+        if (v >= source.mesh.positions.size()) {
+          return Status::error(Code::kBadInput, "<memory>", "a triangle references vertex " + std::to_string(v) +
+                                                                " of " + std::to_string(source.mesh.positions.size()));
+        }
+      }
+    }
+    loaded.view = source.mesh;
+    return loaded;
+  }
+  auto mesh = stream::load_mesh(stream_path(source), read_options(source));
+  if (!mesh) return mesh.status();
+  loaded.owned = std::move(*mesh);
+  loaded.view = loaded.owned.view();
+  return loaded;
+}
+
+Result<std::uint64_t> write_mesh(const Sink& sink, MeshView mesh, const DracoOptions& draco) {
+  if (sink.kind == Sink::Kind::kMemory) {
+    if (sink.mesh == nullptr) return Status::error(Code::kUsage, "sink", "a memory sink needs a mesh to fill");
+    sink.mesh->positions.assign(mesh.positions.begin(), mesh.positions.end());
+    sink.mesh->triangles.assign(mesh.triangles.begin(), mesh.triangles.end());
+    return std::uint64_t{0};
+  }
+  const OutputFormat kind = sink.resolved_format();
+  const bool binary = kind == OutputFormat::kDraco || kind == OutputFormat::kPlyBinary;
+  auto out = format::OutputFile::create(sink.kind == Sink::Kind::kFile ? sink.path : "-", binary);
+  if (!out) return out.status();
+  Status status;
+  switch (kind) {
+    case OutputFormat::kAuto:
+    case OutputFormat::kDraco: {
+      format::DracoWriteOptions options;
+      options.quantization_bits = draco.quantization_bits;
+      options.compression_level = draco.compression_level;
+      status = format::write_draco(**out, mesh, options);
+      break;
+    }
+    case OutputFormat::kPlyBinary:
+    case OutputFormat::kPlyAscii: {
+      format::PlyWriteOptions ply;
+      ply.binary = kind == OutputFormat::kPlyBinary;
+      ply.comments.push_back("written by gaussmesh");
+      status = format::write_ply(**out, mesh, ply);
+      break;
+    }
+    case OutputFormat::kObj: status = format::write_obj(**out, mesh); break;
+  }
+  GM_RETURN_IF_ERROR(status);
+  GM_RETURN_IF_ERROR((*out)->commit());
+  return (*out)->bytes_written();
+}
+
+std::uint32_t thread_count(std::uint32_t threads) {
+  if (threads > 0) return threads;
+  const unsigned cores = std::thread::hardware_concurrency();
+  return cores > 0 ? cores : 1;
+}
+
+Status check_not_a_terminal(const Source& source, const char* job) {
+  if (source.kind == Source::Kind::kStandardInput && ::isatty(0)) {
+    return Status::error(Code::kUsage, job, "no input file, and standard input is a terminal");
+  }
+  return {};
+}
+
+}  // namespace api
+}  // namespace gaussmesh
