@@ -1,0 +1,171 @@
+// The public API as an embedding program uses it (include/gaussmesh/gaussmesh.h only): sources
+// and sinks in memory and on disk, the engine choice, errors as values, the same mesh from
+// either engine.
+#include <gaussmesh/gaussmesh.h>
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "tests/support/test_util.h"
+
+namespace gaussmesh {
+namespace {
+
+using testing::fixture;
+using testing::ScratchDir;
+
+// A closed UV sphere of (rings - 1) * segments * 2 triangles, outward-facing.
+Mesh uv_sphere(std::uint32_t rings, std::uint32_t segments) {
+  Mesh m;
+  const double pi = std::acos(-1.0);
+  m.positions.push_back({0, 0, 1});
+  for (std::uint32_t r = 1; r < rings; ++r) {
+    const double theta = pi * r / rings;
+    for (std::uint32_t s = 0; s < segments; ++s) {
+      const double phi = 2 * pi * s / segments;
+      m.positions.push_back({float(std::sin(theta) * std::cos(phi)), float(std::sin(theta) * std::sin(phi)), float(std::cos(theta))});
+    }
+  }
+  m.positions.push_back({0, 0, -1});
+  const auto ring = [&](std::uint32_t r, std::uint32_t s) { return 1 + (r - 1) * segments + s % segments; };
+  const VertexIndex south = static_cast<VertexIndex>(m.positions.size() - 1);
+  for (std::uint32_t s = 0; s < segments; ++s) {
+    m.triangles.push_back({{0, ring(1, s), ring(1, s + 1)}});
+    for (std::uint32_t r = 1; r + 1 < rings; ++r) {
+      m.triangles.push_back({{ring(r, s), ring(r + 1, s), ring(r + 1, s + 1)}});
+      m.triangles.push_back({{ring(r, s), ring(r + 1, s + 1), ring(r, s + 1)}});
+    }
+    m.triangles.push_back({{ring(rings - 1, s), south, ring(rings - 1, s + 1)}});
+  }
+  return m;
+}
+
+TEST(GaussmeshApi, SimplifiesAMeshInMemoryIntoMemory) {
+  const Mesh sphere = uv_sphere(40, 80);
+  Mesh out;
+  auto stats = simplify(Source::memory(sphere.view()), Sink::memory(&out));
+  ASSERT_TRUE(stats) << stats.status().to_string();
+  EXPECT_FALSE(stats->out_of_core);
+  EXPECT_EQ(stats->input_faces, sphere.triangles.size());
+  EXPECT_EQ(stats->output_faces, out.triangles.size());
+  EXPECT_GT(out.triangles.size(), 20u);
+  EXPECT_LT(out.triangles.size(), sphere.triangles.size() / 4);
+  auto measured = info(Source::memory(out.view()));
+  ASSERT_TRUE(measured) << measured.status().to_string();
+  EXPECT_TRUE(measured->closed && measured->manifold);
+  ASSERT_TRUE(measured->genus.has_value());
+  EXPECT_EQ(*measured->genus, 0);
+  EXPECT_NE(stats->report_json.find("\"output_faces\""), std::string::npos);
+}
+
+TEST(GaussmeshApi, BothEnginesGiveTheSameMesh) {
+  ScratchDir tmp;
+  for (const char* name : {"real/cow.off", "real/mech-holes-shark.off"}) {
+    Mesh in_core, streamed;
+    SimplifyOptions options;
+    options.resources.engine = Engine::kInCore;
+    auto a = simplify(Source::file(fixture(name)), Sink::memory(&in_core), options);
+    ASSERT_TRUE(a) << a.status().to_string();
+    options.resources.engine = Engine::kOutOfCore;
+    options.resources.memory_bytes = kMinMemory;
+    options.resources.tmp_dir = tmp.path().string();
+    auto b = simplify(Source::file(fixture(name)), Sink::memory(&streamed), options);
+    ASSERT_TRUE(b) << b.status().to_string();
+    EXPECT_FALSE(a->out_of_core);
+    EXPECT_TRUE(b->out_of_core);
+    EXPECT_GT(b->chunks, 1u) << name;
+    EXPECT_EQ(in_core.positions, streamed.positions) << name;
+    EXPECT_EQ(in_core.triangles, streamed.triangles) << name;
+  }
+}
+
+TEST(GaussmeshApi, EngineFollowsTheBudgetAndTheInputSize) {
+  const Source small = Source::file(fixture("real/cow.off"));
+  ResourceOptions automatic;
+  auto choice = choose_engine(small, automatic);
+  ASSERT_TRUE(choice);
+  EXPECT_EQ(choice->engine, Engine::kInCore);
+  EXPECT_EQ(choice->memory_bytes, auto_memory_budget());
+
+  ResourceOptions tight;
+  tight.memory_bytes = kMinMemory;  // less than the in-core working set of any mesh
+  choice = choose_engine(small, tight);
+  ASSERT_TRUE(choice);
+  EXPECT_EQ(choice->engine, Engine::kOutOfCore);
+  EXPECT_EQ(choice->memory_bytes, kMinMemory);
+
+  choice = choose_engine(Source::standard_input(), automatic);  // size unknown: stream
+  ASSERT_TRUE(choice);
+  EXPECT_EQ(choice->engine, Engine::kOutOfCore);
+
+  ResourceOptions forced;
+  forced.engine = Engine::kOutOfCore;
+  choice = choose_engine(small, forced);
+  ASSERT_TRUE(choice);
+  EXPECT_EQ(choice->engine, Engine::kOutOfCore);
+
+  EXPECT_GE(auto_memory_budget(), kMinMemory);
+  EXPECT_LE(auto_memory_budget(), std::uint64_t{64} << 20);
+  EXPECT_GT(in_core_bytes(kInCoreMaxFaces), in_core_bytes(1));
+}
+
+TEST(GaussmeshApi, ErrorsAreValuesWithTheirCode) {
+  ResourceOptions too_small;
+  too_small.memory_bytes = 1 << 20;
+  auto choice = choose_engine(Source::file(fixture("real/cow.off")), too_small);
+  ASSERT_FALSE(choice);
+  EXPECT_EQ(choice.status().code(), Code::kUsage);
+
+  SimplifyOptions bad_frequency;
+  bad_frequency.sampling.frequency = 0;
+  Mesh out;
+  auto stats = simplify(Source::file(fixture("real/cow.off")), Sink::memory(&out), bad_frequency);
+  ASSERT_FALSE(stats);
+  EXPECT_EQ(stats.status().code(), Code::kUsage);
+
+  stats = simplify(Source::file(fixture("bad/invalid.off")), Sink::memory(&out));
+  ASSERT_FALSE(stats);
+  EXPECT_EQ(stats.status().code(), Code::kBadInput);
+  EXPECT_NE(stats.status().where().find("invalid.off"), std::string::npos);
+
+  Mesh broken;
+  broken.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  broken.triangles = {{{0, 1, 7}}};
+  stats = simplify(Source::memory(broken.view()), Sink::memory(&out));
+  ASSERT_FALSE(stats);
+  EXPECT_EQ(stats.status().code(), Code::kBadInput);
+
+  SimplifyOptions streaming;
+  streaming.resources.engine = Engine::kOutOfCore;
+  stats = simplify(Source::memory(uv_sphere(8, 16).view()), Sink::memory(&out), streaming);
+  ASSERT_FALSE(stats);
+  EXPECT_EQ(stats.status().code(), Code::kUsage);
+}
+
+TEST(GaussmeshApi, WritesFilesThroughSinksAndSamplesIntoVectors) {
+  ScratchDir dir;
+  auto stats = simplify(Source::file(fixture("real/fandisk.off")), Sink::file(dir.file("f.ply")));
+  ASSERT_TRUE(stats) << stats.status().to_string();
+  auto back = info(Source::file(dir.file("f.ply")));
+  ASSERT_TRUE(back) << back.status().to_string();
+  EXPECT_EQ(back->format, MeshFormat::kPly);
+  EXPECT_EQ(back->faces, stats->output_faces);
+
+  std::vector<Sample> samples;
+  auto sampled = sample(Source::file(fixture("real/fandisk.off")), dir.file("s.ply"), {}, &samples);
+  ASSERT_TRUE(sampled) << sampled.status().to_string();
+  EXPECT_EQ(samples.size(), sampled->samples);
+  EXPECT_GT(samples.size(), 10u);
+  auto points = info(Source::file(dir.file("s.ply")));
+  ASSERT_TRUE(points) << points.status().to_string();
+  EXPECT_EQ(points->vertices, samples.size());
+
+  auto d = compare(Source::file(fixture("real/fandisk.off")), Source::file(dir.file("f.ply")));
+  ASSERT_TRUE(d) << d.status().to_string();
+  EXPECT_GT(d->hausdorff, 0);
+  EXPECT_LT(d->pct(d->hausdorff), 8.0);
+}
+
+}  // namespace
+}  // namespace gaussmesh
