@@ -142,7 +142,7 @@ int main(int argc, char** argv) {
   const int warm_passes = argc > 5 ? std::max(1, std::atoi(argv[5])) : 1;
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   Timer t;
-  Mesh mesh;
+  stream::Mesh mesh;
   if (from_file) {
     auto loaded = stream::load_mesh(argv[1]);
     if (!loaded) {

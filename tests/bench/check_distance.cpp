@@ -167,18 +167,18 @@ int main(int argc, char** argv) {
   const std::size_t samples = argc > 1 ? std::strtoull(argv[1], nullptr, 10) : 200000;
   std::vector<Pair> pairs;
   {
-    const Mesh cow = load(testing::fixture("real/cow.off"));
+    const stream::Mesh cow = load(testing::fixture("real/cow.off"));
     pairs.push_back({"cow vs meshopt 25%", cow, simplified(cow, 0.25)});
     pairs.push_back({"cow vs meshopt 5%", cow, simplified(cow, 0.05)});
-    const Mesh fandisk = load(testing::fixture("real/fandisk.off"));
+    const stream::Mesh fandisk = load(testing::fixture("real/fandisk.off"));
     pairs.push_back({"fandisk vs meshopt 10%", fandisk, simplified(fandisk, 0.10)});
-    const Mesh knot = load(testing::fixture("real/knot1.off"));
+    const stream::Mesh knot = load(testing::fixture("real/knot1.off"));
     pairs.push_back({"knot1 vs meshopt 10%", knot, simplified(knot, 0.10)});
   }
   {
     testing::ShapeOptions shape;
     shape.vertices = 20000;
-    const Mesh sphere = testing::make_sphere(shape);
+    const stream::Mesh sphere = testing::make_sphere(shape);
     testing::ShapeOptions noisy = shape;
     noisy.noise = 0.002;
     pairs.push_back({"sphere vs noisy sphere", sphere, testing::make_sphere(noisy)});
