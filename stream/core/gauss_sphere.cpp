@@ -323,8 +323,7 @@ format::Result<GaussSphere> GaussSphere::create(const GaussSphereOptions& option
       height = std::min(height, std::asin(std::min(1.0, std::abs(dot(n, g.vertices_[tv[i]])))));
     }
   }
-  g.clearance_ = std::max(0.0, height - 1e-6);
-  g.clearance_cos_ = std::cos(g.clearance_);
+  g.clearance_cos_ = std::cos(std::max(0.0, height - 1e-6));
   g.build_locate_table();
   return g;
 }
@@ -413,11 +412,6 @@ void GaussSphere::build_locate_table() {
             cell = {static_cast<std::uint16_t>(t1), static_cast<std::uint16_t>(t2), static_cast<std::uint16_t>(3 * t1 + e1), 0};
         }
     }
-}
-
-std::size_t GaussSphere::locate_table_hits() const {
-  return static_cast<std::size_t>(
-      std::count_if(fine_.begin(), fine_.end(), [](const FineCell& c) { return c.plus != kNoFine; }));
 }
 
 // Inlined into both locate()s: the batch loop then makes no call for the 98 % of directions

@@ -88,10 +88,9 @@ class GaussSphere {
   double triangle_cap_angle_cos(std::uint32_t t) const { return cap_angle_[t].cos; }
   double triangle_cap_angle_sin(std::uint32_t t) const { return cap_angle_[t].sin; }
 
-  // A lower bound (radians, with a margin of 1e-6) on the angle from any point of a Gaussian
-  // triangle t to any Gaussian vertex that is not a corner of t, and its cosine: a cap around a
-  // point of t narrower than this holds no Gaussian vertex but t's corners.
-  double vertex_clearance() const { return clearance_; }
+  // The cosine of a lower bound (radians, with a margin of 1e-6) on the angle from any point of
+  // a Gaussian triangle t to any Gaussian vertex that is not a corner of t: a cap around a point
+  // of t narrower than that angle holds no Gaussian vertex but t's corners.
   double vertex_clearance_cos() const { return clearance_cos_; }
 
   // The Gaussian triangle holding direction n (any length > 0; the zero vector yields some
@@ -112,7 +111,6 @@ class GaussSphere {
   // how many of its cells it answers (one triangle, or two across one edge; the others fall
   // back to the full computation).
   std::uint32_t locate_table_cells() const { return fine_cells_; }
-  std::size_t locate_table_hits() const;
 
  private:
   GaussSphere() = default;
@@ -160,7 +158,7 @@ class GaussSphere {
     double angle, cos, sin;
   };
   std::vector<CapAngle> cap_angle_;
-  double clearance_ = 0, clearance_cos_ = 1;
+  double clearance_cos_ = 1;
 };
 
 }  // namespace gaussmesh::stream

@@ -559,13 +559,6 @@ void PatchMergeGraph::finish(PatchMergeResult& out) {
   out.rounds = rounds_;
 }
 
-void merge_untriangulatable_patches(const PatchGraphInput& input, const PatchMergeGraph::Reevaluate& reevaluate,
-                                    PatchMergeGraph& graph, PatchMergeResult& out) {
-  graph.reset(input);
-  graph.merge(reevaluate);
-  graph.finish(out);
-}
-
 void patch_neighbors_from_pairs(std::span<const PatchPair> pairs, PatchGraphInput& input) {
   const std::size_t np = input.patch_label.size();
   std::vector<std::uint32_t>& offsets = input.neighbor_offsets;

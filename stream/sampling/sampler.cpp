@@ -323,15 +323,6 @@ FanDecision fan_decisions(const Vec3d* poly, std::size_t k, const Vec3d& g) {
 
 const char* sample_test_name(SampleTest test) { return test == SampleTest::kExact ? "exact" : "paper"; }
 
-const char* characteristic_name(Characteristic c) {
-  switch (c) {
-    case Characteristic::kNone: return "none";
-    case Characteristic::kConvex: return "convex";
-    case Characteristic::kConcave: return "concave";
-    case Characteristic::kSaddle: return "saddle";
-  }
-  return "?";
-}
 
 namespace {
 

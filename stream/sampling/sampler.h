@@ -32,7 +32,6 @@ const char* sample_test_name(SampleTest test);
 // of the plane normal to g its neighbours lie on; w < 0 (orientation reversed, curvature < 0)
 // is a saddle; w = 0 is kNone (the polygon does not enclose g).
 enum class Characteristic : std::uint8_t { kNone = 0, kConvex = 1, kConcave = 2, kSaddle = 3 };
-const char* characteristic_name(Characteristic c);
 
 struct SamplerOptions {
   std::uint32_t smooth_iterations = 0;  // --smooth N: low-pass filter of face normals ([Tau01])
