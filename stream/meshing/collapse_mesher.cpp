@@ -561,7 +561,7 @@ class Mesher {
 
 }  // namespace
 
-format::Result<PatchMesherResult> mesh_patches(const PatchMesherInput& input) {
+format::Result<PatchMesherResult> mesh_patches_by_collapse(const PatchMesherInput& input) {
   const size_t vertices = input.mesh.positions.size();
   if (input.face_patch.size() != input.mesh.triangles.size()) {
     return format::Status::error(format::Code::kProcessing, "patch mesher",

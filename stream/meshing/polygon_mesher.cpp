@@ -697,7 +697,7 @@ class PolygonMesher {
     for (std::size_t i = 0; i < vertices.size(); ++i)
       if (keep_[vertices[i]] == Keep::kSample) roles[i] = VertexRole::kSample;
     const std::vector<std::uint32_t> one_patch(sub.triangles.size(), 0);
-    auto meshed = mesh_patches({sub.view(), one_patch, roles});
+    auto meshed = mesh_patches_by_collapse({sub.view(), one_patch, roles});
     if (!meshed || meshed->skipped_input_faces > 0) return Collapse::kFailed;
     bool retry = false;
     for (std::uint32_t b : meshed->birth) {
@@ -932,7 +932,7 @@ class PolygonMesher {
     for (const auto& t : out_tris_) mesh.triangles.push_back({{index_of(t[0]), index_of(t[1]), index_of(t[2])}});
     std::vector<format::Vec3f> plane(plane_.begin(), plane_.end());
     PatchMesherInput phase_two{mesh.view(), out_patch_, roles, plane, true};
-    auto collapsed = mesh_patches(phase_two);
+    auto collapsed = mesh_patches_by_collapse(phase_two);
     if (!collapsed) return collapsed.status();
     if (collapsed->skipped_input_faces > 0) return fail("a vertex of the output would not be manifold");
     if (source_ && !source_->status().is_ok()) return source_->status();

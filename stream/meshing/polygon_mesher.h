@@ -89,12 +89,12 @@ struct PolygonMesherResult {
   std::vector<std::uint32_t> needs_faces;
 };
 
-// Same input and preconditions as mesh_patches (patch ids are expected to be the sampler's:
+// Same input and preconditions as mesh_patches_by_collapse (patch ids are expected to be the sampler's:
 // edge-connected, numbered by lowest face). Output: a manifold mesh with no degenerate or
 // duplicate faces whose vertices are input vertices; a closed manifold input gives a closed
 // manifold output of the same Euler characteristic. Memory: O(patch boundaries + output) on
 // top of the input's adjacency. Errors: kProcessing when the preconditions do not hold, or when
-// the result would not be a valid mesh (the caller may fall back to mesh_patches).
+// the result would not be a valid mesh (the caller may fall back to mesh_patches_by_collapse).
 format::Result<PolygonMesherResult> mesh_patch_polygons(const PatchMesherInput& input);
 
 // The same mesher fed from records (the out-of-core stitch): what mesh_patch_polygons builds
