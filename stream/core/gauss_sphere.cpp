@@ -1,5 +1,5 @@
 // The tessellated Gaussian sphere G (paper §3.1 "iterated regular subdivision of the faces of a
-// regular polyhedron", §4.1 orientation; DESIGN §1): construction, ids, adjacency, location.
+// regular polyhedron", §4.1 orientation): construction, ids, adjacency, location.
 #include "stream/core/gauss_sphere.h"
 
 #include <algorithm>
@@ -414,8 +414,8 @@ void GaussSphere::build_locate_table() {
     }
 }
 
-// Inlined into both locate()s: the batch loop then makes no call for the 98 % of directions
-// the table answers (an out-of-line locate() per face cost a call and a spill of n). The
+// Inlined into both locate()s: the batch loop then makes no call for the directions the table
+// answers, nearly all of them (an out-of-line locate() per face costs a call and a spill of n). The
 // table comes as arguments so that the loop keeps it in registers (a member would be reloaded
 // after every store of a label).
 [[gnu::always_inline]] inline std::uint32_t GaussSphere::locate_in_table(const Vec3d& m, const FineCell* fine,

@@ -1,6 +1,7 @@
-// The tessellated Gaussian sphere G (paper §3.1, §4; DESIGN §1): a base polyhedron whose faces
-// are split into f² sub-triangles, pushed onto the unit sphere and rotated; O(1) point location
-// by central projection; global ids for Gaussian vertices and triangles; adjacency tables.
+// The tessellated Gaussian sphere G (paper §3.1, §4; docs/sampling.md): a base polyhedron whose
+// faces are split into f² sub-triangles, pushed onto the unit sphere and rotated; O(1) point
+// location by central projection; global ids for Gaussian vertices and triangles; adjacency
+// tables.
 #pragma once
 
 #include <array>
@@ -105,7 +106,8 @@ class GaussSphere {
   // `for_zero` for the zero vector. One call per batch lets the table lookup inline into the
   // loop. Precondition: out.size() >= directions.size().
   void locate(std::span<const format::Vec3f> directions, std::span<std::uint32_t> out, std::uint32_t for_zero) const;
-  // The same answer as locate() without the fine lookup table (for tests and benchmarks).
+  // The same answer as locate() without the fine lookup table: what locate() computes where
+  // the table has no answer, and the reference that tests and benchmarks compare it with.
   std::uint32_t locate_without_table(const Vec3d& n) const;
   // Cells per side of each cube face in the fine lookup table of locate() (0: no table), and
   // how many of its cells it answers (one triangle, or two across one edge; the others fall
