@@ -1,5 +1,5 @@
 // Patch-level steps of the sampler (paper §4, "Untriangulatable Patch Filtering" Fig. 6 and
-// "Noisy Sample Filtering" Figs. 9-10; DESIGN §1 "Per patch").
+// "Noisy Sample Filtering" Figs. 9-10): the steps that need a traversal beyond the 1-ring.
 #include "stream/sampling/patch_filters.h"
 #include "stream/core/disjoint_sets.h"
 
