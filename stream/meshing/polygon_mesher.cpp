@@ -1,6 +1,7 @@
-// Shape approximation, polygon first (paper §5 "Shape Approximation", per-patch approach):
-// patch loops, canonical guards, planar triangulation per patch, densify-and-retry, then the
-// corner collapses of stream/meshing/collapse_mesher on the output-sized mesh. See polygon_mesher.h.
+// Shape approximation, polygon first (paper §5 "Shape Approximation", per-patch approach), the
+// default mesher: patch loops, canonical guards, planar triangulation per patch,
+// densify-and-retry, then the corner collapses of stream/meshing/collapse_mesher on the
+// output-sized mesh. See polygon_mesher.h.
 #include "stream/meshing/polygon_mesher.h"
 
 #include <algorithm>
@@ -347,7 +348,7 @@ class PolygonMesher {
 
   // Chains between stops, canonical (the same whichever patch's loop they are read from), and
   // the guard rules over them. The loops are read one at a time (out of core they stay in their
-  // file: 10.6 MB at 100M input triangles), each chain leaving a record of what the rules need.
+  // file, which grows with the input), each chain leaving a record of what the rules need.
   // A chain's interior vertices have two feature edges each, so its first edge decides its path:
   // two records with the same ends, length and second vertex are one chain, read from its two
   // sides (the path's hash only guards that argument).
