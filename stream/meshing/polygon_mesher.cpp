@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "stream/core/edge_key_map.h"
 #include "stream/core/hash_mix.h"
 #include "stream/core/mesh_adjacency.h"
 #include "stream/meshing/polygon_triangulation.h"

@@ -1,7 +1,7 @@
-// Tests of the per-patch meshers — the collapse mesher (mesh_patches_by_collapse) and the polygon-first
-// mesher (mesh_patch_polygons) run the same tests: topology is kept, samples survive, no
-// degenerate or duplicate faces, on tiny meshes built in code with a stand-in labelling
-// (octant of the face normal).
+// Tests of the per-patch meshers — the collapse mesher (mesh_patches_by_collapse) and the
+// polygon-first mesher (mesh_patch_polygons) run the same tests: topology is kept, samples
+// survive, no degenerate or duplicate faces, on tiny meshes built in code with a stand-in
+// labelling (octant of the face normal).
 #include "stream/meshing/collapse_mesher.h"
 #include "stream/meshing/polygon_mesher.h"
 
