@@ -1,19 +1,7 @@
-// Error values: names and one-line rendering.
+// Error values: the one-line rendering of a Status.
 #include "format/status.h"
 
 namespace gaussmesh::format {
-
-const char* code_name(Code code) {
-  switch (code) {
-    case Code::kOk: return "ok";
-    case Code::kUsage: return "usage";
-    case Code::kBadInput: return "bad input";
-    case Code::kProcessing: return "processing";
-    case Code::kOutput: return "output";
-    case Code::kResources: return "resources";
-  }
-  return "unknown";
-}
 
 std::string Status::to_string() const {
   if (where_.empty()) return message_;

@@ -17,8 +17,6 @@ enum class Code : int {
   kResources = 5,   // a limit was hit: memory budget, index range, interrupted
 };
 
-const char* code_name(Code code);
-
 // An expected failure: a code, where it happened (file and byte offset or line, chunk, ...)
 // and what went wrong. Default-constructed Status is success.
 class [[nodiscard]] Status {

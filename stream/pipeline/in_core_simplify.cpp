@@ -76,7 +76,7 @@ format::Result<SimplifyResult> simplify_mesh(MeshView mesh, const SimplifyOption
     } else {
       result.mesher_fallback = true;
       result.mesher_fallback_reason = polygons.status().to_string();
-      auto collapsed = mesh_patches(input);
+      auto collapsed = mesh_patches_by_collapse(input);
       if (!collapsed) return collapsed.status();
       meshed = std::move(collapsed).value();
     }
