@@ -5,7 +5,7 @@
 #include <numeric>
 #include <string>
 
-#include "stream/sampling/chunk_sampler.h"
+#include "stream/core/process_memory.h"
 #include "stream/stitch/piece_joins.h"
 
 namespace gaussmesh::stream {
@@ -197,7 +197,7 @@ format::Status chunk_face_pieces(const Partition& partition, const ChunkMesh& ch
 }
 
 format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, const PieceJoinFiles& joins,
-                                              std::uint64_t memory_bytes, std::uint32_t threads) {
+                                              const MemoryBudget& budget, std::uint32_t threads) {
   // Pieces in one array, chunk after chunk, each chunk's in index order: a piece's dense index
   // is its chunk's first plus its index (no sort, no id table). The chunks' copies are freed.
   StitchedPatches out;
@@ -228,9 +228,9 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
     shared.resize(w);
     compacted = w;
   };
-  // Unsummed entries beyond twice the summed ones: 1/64 of the budget (a fixed 2^20 entries was
-  // 16 MB: half a 64 MiB budget at 100M triangles once doubled).
-  const std::size_t slack = std::max<std::uint64_t>(memory_bytes / 64 / sizeof(Shared), 4096);
+  // Unsummed entries beyond twice the summed ones: 1/64 of the budget (a fixed count would take a
+  // large share of a small budget once doubled), at least 4,096.
+  const std::size_t slack = std::max<std::uint64_t>(budget.fraction(1, 64) / sizeof(Shared), 4096);
   auto add_shared = [&](std::uint32_t a, std::uint32_t b, std::uint64_t edges) {
     make_room_for_one(shared, compacted, slack, compact);
     shared.push_back({std::min(a, b), std::max(a, b), edges});
@@ -281,7 +281,7 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
   // Border edges: both sides of every edge, joined on the unordered face pair a bucket at a
   // time.
   GM_RETURN_IF_ERROR(joins.join_border_edges(
-      memory_bytes, [&](const BorderEdgeRecord& x, const BorderEdgeRecord& y) -> format::Status {
+      budget, [&](const BorderEdgeRecord& x, const BorderEdgeRecord& y) -> format::Status {
         const std::int64_t a = dense(x.piece), b = dense(y.piece);
         if (a < 0 || b < 0) return damaged("a border edge names an unknown piece");
         if (x.feature) {
@@ -294,7 +294,7 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
         return format::Status();
       },
       threads));
-  release_free_memory();  // the buckets the join read and sorted (100M under 64 MiB: ~11 MiB)
+  release_free_memory();  // the buckets the join read and sorted
   // Patches, numbered by lowest face: each root gathers its pieces' lowest face and size.
   for (std::uint32_t i = 0; i < np; ++i) {
     const std::uint32_t r = find(i);
@@ -329,7 +329,7 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
   // Candidates' stars in patches: each face's piece from its owner's answers, for a group of
   // chunks at a time (each answer file read once per group, the group's requests in memory),
   // then the chunks' stars are dropped.
-  const std::size_t group_entries = std::max<std::uint64_t>(bucket_bytes(memory_bytes) / 64, 1024);  // ~60 B an entry
+  const std::size_t group_entries = std::max<std::uint64_t>(bucket_bytes(budget) / 64, 1024);  // ~60 B an entry
   std::vector<std::uint32_t> owners;
   std::vector<std::uint64_t> faces;
   std::vector<PieceId> found;

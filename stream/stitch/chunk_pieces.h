@@ -19,6 +19,7 @@
 
 #include "format/status.h"
 #include "stream/partition/chunk_partition.h"
+#include "stream/core/memory_budget.h"
 #include "stream/core/mesh_adjacency.h"
 #include "stream/sampling/patch_filters.h"
 
@@ -190,7 +191,7 @@ struct StitchedPatches {
 };
 
 // Joins the pieces of every chunk over the border edges in `joins` (spilled and finished; the
-// join holds about bucket_bytes(memory_bytes) of them per thread at a time, read and sorted on
+// join holds about bucket_bytes(budget) of them per thread at a time, read and sorted on
 // `threads` threads) and resolves the candidates'
 // stars to patches through the answer files of the faces' owners (each read once).
 // chunks[c] holds chunk c's pieces, adjacency, candidates with their stars, and collapsed faces,
@@ -202,7 +203,7 @@ struct StitchedPatches {
 // pieces, their union-find and piece-pair feature-edge counts, the candidates' stars and the
 // output — nothing per border edge or border face.
 format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, const PieceJoinFiles& joins,
-                                              std::uint64_t memory_bytes, std::uint32_t threads = 1);
+                                              const MemoryBudget& budget, std::uint32_t threads = 1);
 
 // Step 3: the untriangulatable-patch merge (stream/sampling/patch_filters.h, the patch-graph merge that
 // sample_mesh runs in core) on the stitched patches, for the exact sample test: a touched

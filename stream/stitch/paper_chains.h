@@ -28,6 +28,7 @@
 #include "format/status.h"
 #include "stream/partition/chunk_partition.h"
 #include "stream/core/gauss_sphere.h"
+#include "stream/core/memory_budget.h"
 #include "stream/core/mesh.h"
 #include "stream/core/mesh_adjacency.h"
 #include "stream/sampling/sampler.h"
@@ -112,10 +113,10 @@ format::Result<ChunkRecordSegment> write_chain_fragments(std::span<const ChainFr
 
 // Joins the fragments of every chunk across their links and appends a pair for each chain that
 // ends at two distinct candidates. Memory: 4 bytes per fragment (a union-find) plus the links of
-// one part at a time (about memory_bytes / 16, at least 1 MiB; the files are read once per part)
+// one part at a time (about 1/16 of the budget, at least 1 MiB; the files are read once per part)
 // and the candidate ends. Errors: a damaged file, a link not seen as often from each side, a
 // chain with one or more than two candidate ends (kBadInput).
-format::Status join_chain_fragments(std::span<const ChunkRecordSegment> files, std::uint64_t memory_bytes,
+format::Status join_chain_fragments(std::span<const ChunkRecordSegment> files, const MemoryBudget& budget,
                                     std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs);
 
 // A digest of a sorted, duplicate-free pair list (FNV-1a over the ids): the report's and the
