@@ -235,7 +235,7 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
     make_room_for_one(shared, compacted, slack, compact);
     shared.push_back({std::min(a, b), std::max(a, b), edges});
   };
-  // Pieces and their feature edges inside a chunk; what pass B spilled comes back from the
+  // Pieces and their feature edges inside a chunk; what the sample pass spilled comes back from the
   // files, a chunk at a time. Adjacency records name pieces of their own chunk.
   std::vector<PieceAdjacencyRecord> spilled_adjacency;
   out.chunk_first.assign(chunks.size() + 1, 0);
@@ -334,7 +334,7 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
   std::vector<std::uint64_t> faces;
   std::vector<PieceId> found;
   auto patch_of = [&](PieceId piece) { return piece == kNoPiece ? -1 : out.patch_of_piece(piece); };
-  // A chunk's candidates and their star entries: in memory, or (spilled in pass B) from its
+  // A chunk's candidates and their star entries: in memory, or (spilled by the sample pass) from its
   // candidate and star files.
   auto spilled = [&](std::size_t c) { return chunks[c].candidates.empty() && chunks[c].star.empty(); };
   auto entries_of = [&](std::size_t c) {
@@ -439,7 +439,7 @@ PatchGraphInput take_merge_input(StitchedPatches& stitched, CandidateEdges& edge
   std::vector<StitchedPatches::Collapsed>().swap(stitched.collapsed);
   std::sort(collapsed.begin(), collapsed.end());
   // Sized once by their bounds (a candidate's patches are its star's and its collapsed faces'),
-  // not by doubling: at 100M, 0.5M patch entries and edges out of 0.7M star entries.
+  // not by doubling: the bounds are close to the sizes.
   input.candidate_patches.reserve(stitched.star.size() + collapsed.size());
   input.candidate_offsets.reserve(stitched.candidates.size() + 1);
   input.candidate_offsets.push_back(0);
@@ -508,8 +508,7 @@ PatchMergeResult merge_stitched_patches(const CandidateEdges& edges, PatchGraphI
   PatchMergeGraph graph;
   PatchMergeResult result;
   graph.reset_taking_neighbors(input);
-  // The graph copied the labels and chained the neighbour lists: neither is read again (1.2 MB
-  // at 100M triangles).
+  // The graph copied the labels and chained the neighbour lists: neither is read again.
   std::vector<std::uint32_t>().swap(input.patch_label);
   std::vector<std::uint32_t>().swap(input.neighbor_offsets);
   graph.merge(reevaluate);

@@ -3,13 +3,13 @@
 // candidate adjacency along feature chains (find_candidate_adjacency) and the noisy-sample filter
 // (paper §4 "Noisy Sample Filtering", Figs. 9-10) — from per-chunk records joined across chunks.
 //
-// - Pass A writes each owned candidate's *star geometry* (its position; per star slot, in the
+// - The sample pass writes each owned candidate's *star geometry* (its position; per star slot, in the
 //   adjacency's fan order: the fan flags, the face normal after smoothing, whether the face is
 //   degenerate, and the position of the vertex across its leaving edge). After the merge the
 //   stitch re-evaluates every surviving candidate from it with the labels of the merged patches
 //   (evaluate_vertex_list on a mesh made of the star alone), which is what sample_mesh's merge
 //   left in its records.
-// - A chain pass, per chunk, follows the feature edges of the vertices the chunk owns under the
+// - The chains pass, per chunk, follows the feature edges of the vertices the chunk owns under the
 //   merged labels: candidate pairs joined by a feature edge, and the chain pieces through owned
 //   non-candidates (each of which has exactly two feature-edge sides). A piece whose two ends are
 //   candidates is a pair; one that leaves the chunk is a *fragment*, written to disk.
@@ -55,7 +55,7 @@ struct ChunkRecordSegment {
   std::uint64_t records = 0;
 };
 
-// Pass A: the star geometry of the candidates among `records` (evaluate_vertex_list's, over the
+// The sample pass: the star geometry of the candidates among `records` (evaluate_vertex_list's, over the
 // chunk's owned vertices: local ids, ascending), from the chunk's adjacency and normals, appended
 // to `file` as one record file. Errors: kOutput.
 format::Result<ChunkRecordSegment> write_star_geometry(const ChunkMesh& chunk, const MeshAdjacency& adjacency,

@@ -45,14 +45,16 @@ inline constexpr std::uint32_t kStarRecordBytes = 24;
 inline constexpr std::uint32_t kCandidateRecordKind = 0x44434D47u;
 inline constexpr std::uint32_t kCandidateRecordBytes = 8;
 // A chunk's pieces ("GMPC": u64 piece id, u64 lowest face, u64 faces, u32 label, 3 × f64 vector
-// area — zero unless pass A wrote a loop chunk, whose pass C reads the pieces again) and its
+// area — zero unless the sample pass wrote a loop chunk, for which the loops pass reads the pieces
+// again) and its
 // manifold feature edges between two of its pieces ("GMPA": u64 piece a, u64 piece b, u64 edges).
 inline constexpr std::uint32_t kPieceRecordKind = 0x43504D47u;
 inline constexpr std::uint32_t kPieceRecordBytes = 52;
 inline constexpr std::uint32_t kPieceAdjacencyRecordKind = 0x41504D47u;
 inline constexpr std::uint32_t kPieceAdjacencyRecordBytes = 24;
 // The piece of each owned face of a chunk, in the chunk's face order ("GMFP": u32 index of the
-// piece in its chunk): passes C and D read it instead of labelling the chunk again.
+// piece in its chunk): the chains, loops and fetch passes read it instead of labelling the chunk
+// again.
 inline constexpr std::uint32_t kFacePieceRecordKind = 0x50464D47u;
 inline constexpr std::uint32_t kFacePieceRecordBytes = 4;
 // More buckets than this are never made (each holds a descriptor and a pending frame).
@@ -135,7 +137,7 @@ class PieceJoinFiles {
   // The pieces and piece adjacency spill() took from chunk. Errors as read_stars.
   format::Status read_pieces(std::uint32_t chunk, std::vector<PieceRecord>& pieces,
                              std::vector<PieceAdjacencyRecord>& adjacency) const;
-  // The pieces alone (pass C reads a loop chunk's pieces for their areas).
+  // The pieces alone (the loops pass reads a loop chunk's pieces for their areas).
   format::Status read_pieces(std::uint32_t chunk, std::vector<PieceRecord>& pieces) const;
   std::uint64_t border_records() const { return border_records_; }
   std::uint64_t answer_records() const { return answer_records_; }
@@ -166,7 +168,7 @@ class PieceJoinFiles {
   std::unique_ptr<format::RecordCompressor> compressor_;  // shared by the bucket writers, under mutex_
   std::vector<std::unique_ptr<format::RecordWriter>> writers_;
   std::vector<std::uint8_t> answered_;  // per chunk: its answer file is written
-  // Per chunk, per Part, where it is: 16 bytes (96 per chunk; 0.78 MB at 8,103 chunks).
+  // Per chunk, per Part, where it is: 16 bytes (96 per chunk).
   struct Stored {
     std::uint64_t offset = 0;
     std::uint32_t bytes = 0;

@@ -98,7 +98,7 @@ void expect_stitch_equals_in_core(const std::string& path, std::uint32_t smooth,
     ChunkSamplingStats stats;
     ASSERT_TRUE(sample_chunk(*chunk, *gauss, options, ws, samples, stats).is_ok());
     find_chunk_pieces(*parts, *chunk, ws.adjacency, ws.labels, ws.feature, chunks[c]);
-    // Pass A hands over the sampler's candidates instead of counting every owned star again:
+    // The sample pass hands over the sampler's candidates instead of counting every owned star again:
     // the same candidates and stars.
     std::vector<std::uint32_t> listed;
     for (const VertexRecord& r : ws.records)

@@ -25,7 +25,7 @@ namespace gaussmesh::stream {
 namespace {
 
 TEST(LoopChunks, LoopChunksFindTheWholeChunksLoopsUnderAnyCoarserPatches) {
-  // Pass C reads, where it can, a loop chunk: the faces near the chunk's feature edges
+  // The loops pass reads, where it can, a loop chunk: the faces near the chunk's feature edges
   // (write_loop_chunk). Pieces here are cells of a fine grid (by face centroid) within each chunk,
   // feature edges the edges between cells (and breaks), and the merged patches any coarser
   // grouping of cells (every cell, pairs, or a hash into a few groups): an edge inside a cell

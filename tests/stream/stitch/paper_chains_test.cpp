@@ -1,7 +1,8 @@
 // The paper test's chain fragments (stream/stitch/paper_chains.h): joined across chunks by the feature
 // edges they leave by, a chain through several chunks gives one pair, a closed chain or one that
 // comes back to its candidate none; damaged joins are kBadInput. (The whole pass against the
-// in-core find_candidate_adjacency: tests/stream/chunk_simplify_test.cpp, chunk_sampler_test.cpp.)
+// in-core find_candidate_adjacency: tests/stream/pipeline/out_of_core_simplify_test.cpp,
+// out_of_core_sample_test.cpp.)
 #include "stream/stitch/paper_chains.h"
 
 #include <gtest/gtest.h>
