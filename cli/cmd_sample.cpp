@@ -14,7 +14,7 @@
 #include "cli/sampling_options.h"
 #include "format/mesh_writer.h"
 #include "format/output_file.h"
-#include "stream/sampling/chunk_sampler.h"
+#include "stream/pipeline/out_of_core_sample.h"
 #include "stream/core/mesh.h"
 #include "stream/sampling/sampler.h"
 
@@ -122,7 +122,7 @@ int run_sample_out_of_core(const SampleCommandOptions& o, const std::vector<stre
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   stream::OutOfCoreSamplingOptions options;
-  options.partition.memory_bytes = *memory;
+  options.memory = stream::MemoryBudget(*memory);
   options.partition.tmp_dir = o.pipeline.tmp;
   options.threads = pipeline_threads(o.pipeline);
   options.spheres = spheres;

@@ -84,7 +84,7 @@ int run_simplify_out_of_core(const SimplifyArgs& args, OutputKind kind, const st
     return report_error(Status::error(Code::kUsage, "simplify", "--memory runs the per-patch mesher only"));
   }
   stream::OutOfCoreSimplifyOptions options;
-  options.partition.memory_bytes = *memory;
+  options.memory = stream::MemoryBudget(*memory);
   options.partition.tmp_dir = args.pipeline.tmp;
   options.threads = pipeline_threads(args.pipeline);
   options.spheres = spheres;
