@@ -27,7 +27,6 @@ class OutputFile {
   const std::string& name() const { return display_; }
   // Bytes handed to write() so far.
   std::uint64_t bytes_written() const { return total_; }
-  bool is_stdout() const { return fd_ == 1; }
 
  private:
   OutputFile() = default;

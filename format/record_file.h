@@ -51,9 +51,8 @@ struct RecordField {
 inline constexpr std::size_t kMaxRecordFields = 11;
 
 struct RecordWriterOptions {
-  // zstd level of the writer's own context. -4: on the column frames of passes A and C it is
-  // several times faster than level 1 both ways, for ~3 % more bytes (10M cow: 178 -> 183 MB of
-  // temporary files, 0.1-0.9 s less user CPU in three alternated pairs; docs/records.md).
+  // zstd level of the writer's own context. -4: on the out-of-core passes' column frames it is
+  // several times faster than level 1 both ways, for a few percent more bytes (docs/records.md).
   int level = -4;
   std::size_t frame_bytes = std::size_t{1} << 20;  // frames are cut at whole records below this
   RecordCompressor* shared = nullptr;          // if set: used instead of an own context (not owned)
@@ -72,9 +71,9 @@ struct RecordSegment {
 };
 
 // A file of record files back to back ("segments"), for a pass that writes many small record
-// files: one file is created instead of one per record file. A create cost ~0.5 ms on this
-// machine's ext4, and passes A and C of `simplify --memory` made seven files per chunk (10.3k
-// at 100M; docs/records.md, "Segment files").
+// files: one file is created instead of one per record file. Creating a file costs far more
+// than appending to an open one, and such a pass writes several record files per chunk
+// (docs/records.md, "Segment files").
 // Each segment is a whole record file, byte for byte, at an offset: RecordWriter::create_in
 // appends one and RecordReader::open(path, ..., segment) reads one. One writer at a time. The
 // file is closed on destruction and left in place, as record files are; its directory's owner

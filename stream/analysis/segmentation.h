@@ -1,6 +1,6 @@
-// Segmentation for spherical parameterization (paper §6, §6.1, Figs. 20-22; DESIGN §1): cut a
-// closed genus-g mesh into g+1 connected segments whose normal fields each wrap the Gaussian
-// sphere once. In core: the whole mesh, its adjacency and a few per-face arrays are in memory.
+// Segmentation for spherical parameterization (paper §6, §6.1, Figs. 20-22; docs/segment.md):
+// cut a closed genus-g mesh into g+1 connected segments whose normal fields each wrap the
+// Gaussian sphere once. In core: the whole mesh, its adjacency and a few per-face arrays are in memory.
 #pragma once
 
 #include <cstdint>

@@ -1,5 +1,5 @@
 // A union-find over dense ids whose roots are the lowest ids of their sets (path halving): the
-// patch filters' groups and the paper test's chain fragments.
+// patch filters' groups, the paper test's chain fragments, and mesh topology's fans and loops.
 #pragma once
 
 #include <algorithm>

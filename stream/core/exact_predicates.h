@@ -1,5 +1,6 @@
 // Exact orientation signs on the Gaussian sphere: sign of det[a, b, c] for three vectors, the
-// only predicate the exact sample test (paper §4, Fig. 5; DESIGN §1) and the sphere tests need.
+// only predicate the exact sample test (paper §4, Fig. 5; docs/sampling.md) and the sphere tests
+// need.
 // Wraps CGAL's filtered exact predicate (LGPL kernel, header-only); CGAL stays in the .cpp.
 #pragma once
 

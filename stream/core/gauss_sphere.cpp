@@ -1,5 +1,5 @@
 // The tessellated Gaussian sphere G (paper §3.1 "iterated regular subdivision of the faces of a
-// regular polyhedron", §4.1 orientation; DESIGN §1): construction, ids, adjacency, location.
+// regular polyhedron", §4.1 orientation): construction, ids, adjacency, location.
 #include "stream/core/gauss_sphere.h"
 
 #include <algorithm>
@@ -323,8 +323,7 @@ format::Result<GaussSphere> GaussSphere::create(const GaussSphereOptions& option
       height = std::min(height, std::asin(std::min(1.0, std::abs(dot(n, g.vertices_[tv[i]])))));
     }
   }
-  g.clearance_ = std::max(0.0, height - 1e-6);
-  g.clearance_cos_ = std::cos(g.clearance_);
+  g.clearance_cos_ = std::cos(std::max(0.0, height - 1e-6));
   g.build_locate_table();
   return g;
 }
@@ -415,13 +414,8 @@ void GaussSphere::build_locate_table() {
     }
 }
 
-std::size_t GaussSphere::locate_table_hits() const {
-  return static_cast<std::size_t>(
-      std::count_if(fine_.begin(), fine_.end(), [](const FineCell& c) { return c.plus != kNoFine; }));
-}
-
-// Inlined into both locate()s: the batch loop then makes no call for the 98 % of directions
-// the table answers (an out-of-line locate() per face cost a call and a spill of n). The
+// Inlined into both locate()s: the batch loop then makes no call for the directions the table
+// answers, nearly all of them (an out-of-line locate() per face costs a call and a spill of n). The
 // table comes as arguments so that the loop keeps it in registers (a member would be reloaded
 // after every store of a label).
 [[gnu::always_inline]] inline std::uint32_t GaussSphere::locate_in_table(const Vec3d& m, const FineCell* fine,

@@ -1,6 +1,7 @@
-// The tessellated Gaussian sphere G (paper §3.1, §4; DESIGN §1): a base polyhedron whose faces
-// are split into f² sub-triangles, pushed onto the unit sphere and rotated; O(1) point location
-// by central projection; global ids for Gaussian vertices and triangles; adjacency tables.
+// The tessellated Gaussian sphere G (paper §3.1, §4; docs/sampling.md): a base polyhedron whose
+// faces are split into f² sub-triangles, pushed onto the unit sphere and rotated; O(1) point
+// location by central projection; global ids for Gaussian vertices and triangles; adjacency
+// tables.
 #pragma once
 
 #include <array>
@@ -88,10 +89,9 @@ class GaussSphere {
   double triangle_cap_angle_cos(std::uint32_t t) const { return cap_angle_[t].cos; }
   double triangle_cap_angle_sin(std::uint32_t t) const { return cap_angle_[t].sin; }
 
-  // A lower bound (radians, with a margin of 1e-6) on the angle from any point of a Gaussian
-  // triangle t to any Gaussian vertex that is not a corner of t, and its cosine: a cap around a
-  // point of t narrower than this holds no Gaussian vertex but t's corners.
-  double vertex_clearance() const { return clearance_; }
+  // The cosine of a lower bound (radians, with a margin of 1e-6) on the angle from any point of
+  // a Gaussian triangle t to any Gaussian vertex that is not a corner of t: a cap around a point
+  // of t narrower than that angle holds no Gaussian vertex but t's corners.
   double vertex_clearance_cos() const { return clearance_cos_; }
 
   // The Gaussian triangle holding direction n (any length > 0; the zero vector yields some
@@ -106,13 +106,13 @@ class GaussSphere {
   // `for_zero` for the zero vector. One call per batch lets the table lookup inline into the
   // loop. Precondition: out.size() >= directions.size().
   void locate(std::span<const format::Vec3f> directions, std::span<std::uint32_t> out, std::uint32_t for_zero) const;
-  // The same answer as locate() without the fine lookup table (for tests and benchmarks).
+  // The same answer as locate() without the fine lookup table: what locate() computes where
+  // the table has no answer, and the reference that tests and benchmarks compare it with.
   std::uint32_t locate_without_table(const Vec3d& n) const;
   // Cells per side of each cube face in the fine lookup table of locate() (0: no table), and
   // how many of its cells it answers (one triangle, or two across one edge; the others fall
   // back to the full computation).
   std::uint32_t locate_table_cells() const { return fine_cells_; }
-  std::size_t locate_table_hits() const;
 
  private:
   GaussSphere() = default;
@@ -160,7 +160,7 @@ class GaussSphere {
     double angle, cos, sin;
   };
   std::vector<CapAngle> cap_angle_;
-  double clearance_ = 0, clearance_cos_ = 1;
+  double clearance_cos_ = 1;
 };
 
 }  // namespace gaussmesh::stream

@@ -58,11 +58,9 @@ void partner_by_counts(const std::uint32_t* next, const std::uint32_t* prev, std
 // The same for a star of at most 8 slots (almost every star), branch-free: each slot's two
 // counts come from four compares of eight lanes. SSE2 is x86-64's baseline; elsewhere
 // partner_by_counts runs. The lanes past the star repeat slot 0's ids, masked out of both counts.
-// Until session 15 a distinctness check and a search took a quarter of the adjacency's time.
-// The lanes come in registers (session 16): loaded from the arrays the star's gather had just
-// written slot by slot, a 16-byte load waited for those 4-byte stores to reach the cache (no
-// store forwarding across them): a sixth of build_star's samples in `perf`; bench_chunk_steps'
-// sample step ~2 % cheaper without it.
+// The lanes come in registers, not from the arrays the star's gather has just written slot by
+// slot: a 16-byte load there would wait for those 4-byte stores to reach the cache (no store
+// forwarding across them).
 void partner_small(const std::uint32_t* next, __m128i n_lo, __m128i n_hi, __m128i p_lo, __m128i p_hi, std::uint32_t degree,
                    std::uint32_t* partner) {
   constexpr std::uint32_t kNone = MeshAdjacency::kNoFace;
@@ -176,7 +174,7 @@ std::size_t build_star(const Triangle* tris, std::uint32_t begin, std::uint32_t 
   if (breaks == 0) {
     std::uint32_t r = 0, n = 0;
     do {
-      slot_flags[begin + n] = 0;  // in the loop: a fill here was a memset call per star
+      slot_flags[begin + n] = 0;  // cleared here: a separate fill would be a memset call per star
       corners[begin + n++] = corner[r];
       r = next_slot[r];
     } while (r != 0 && n < degree);

@@ -1,4 +1,4 @@
-// Compact mesh adjacency for the sampler (paper §4, DESIGN §1 "per vertex, 1-ring local"):
+// Compact mesh adjacency for the sampler (paper §4: every per-vertex decision reads the 1-ring):
 // vertex stars in fan order and the face across each edge, built from flat arrays with no
 // hash maps. Handles boundaries, non-manifold edges and vertices, and collapsed faces.
 #pragma once

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "stream/core/disjoint_sets.h"
+
 namespace gaussmesh::stream {
 namespace {
 
@@ -19,31 +21,6 @@ using format::Triangle;
 using format::Vec3f;
 
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
-
-// Union-find over 0..n-1 with path halving; roots are linked towards the smaller index.
-class DisjointSets {
- public:
-  explicit DisjointSets(std::size_t n) : parent_(n) {
-    for (std::size_t i = 0; i < n; ++i) parent_[i] = static_cast<std::uint32_t>(i);
-  }
-  std::uint32_t find(std::uint32_t x) {
-    while (parent_[x] != x) {
-      parent_[x] = parent_[parent_[x]];
-      x = parent_[x];
-    }
-    return x;
-  }
-  void unite(std::uint32_t a, std::uint32_t b) {
-    a = find(a);
-    b = find(b);
-    if (a == b) return;
-    if (a < b) std::swap(a, b);
-    parent_[a] = b;
-  }
-
- private:
-  std::vector<std::uint32_t> parent_;
-};
 
 // Union-find whose links carry a parity bit: relate(a, b, p) states flip(a) xor flip(b) = p and
 // returns false when that contradicts what is already known.

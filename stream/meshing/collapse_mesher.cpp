@@ -1,4 +1,5 @@
-// Shape approximation, per-patch approach (paper §5, DESIGN §1 "Shape approximation").
+// The collapse mesher, the polygon mesher's fallback (collapse_mesher.h says when it runs):
+// per-patch shape approximation (paper §5, "Shape Approximation") by edge collapses.
 //
 // The mesher works on the input mesh itself (OpenMesh half-edges) and only ever collapses
 // edges, so every intermediate mesh is a manifold triangulation of the same topology:
@@ -12,19 +13,18 @@
 //      vertices along their chain — so each chain becomes straight edges between kept
 //      vertices and each patch becomes a triangulation of its boundary polygon; the patch
 //      keeps its orientation (no new face may turn away from the patch's mean normal);
-//   3b. each patch polygon is re-triangulated in the plane of its Gaussian triangle with exact
-//      predicates and Delaunay flips (stream/meshing/polygon_triangulation.h), never creating an edge
-//      that already exists outside the patch; where that is impossible the collapse result
+//   4. each patch polygon is re-triangulated in the plane of its Gaussian triangle with exact
+//      predicates and Delaunay flips (stream/meshing/polygon_triangulation.h), never creating an
+//      edge that already exists outside the patch; where that is impossible the collapse result
 //      stays;
-//   4. phase 2: non-sample corners are collapsed along a feature edge where that keeps the
+//   5. phase 2: non-sample corners are collapsed along a feature edge where that keeps the
 //      mesh manifold (OpenMesh's link-condition test) and flips no face.
 // Every collapse moves no position: output vertices are input vertices ("birth" indices).
 #include "stream/meshing/collapse_mesher.h"
 
 // Our asserts stay on in release builds (CMakeLists.txt); OpenMesh's are off. Its every property
 // access (mesh.point(v), status, a face's patch) asserts that the property's type name equals the
-// handle's, a string compare: a tenth of the mesher's samples in `perf` (1M refined cow), and in
-// six alternated in-core runs the mesh step took 0.196-0.273 s without them against 0.221-0.308.
+// handle's, a string compare: a large share of the mesher's time, for no check of ours.
 // This is the only file that includes OpenMesh; <cassert> is included again below so that an
 // assert of ours after these headers still checks.
 #ifndef NDEBUG
@@ -158,7 +158,7 @@ class Mesher {
 
   // A boundary vertex where the boundary turns by more than kBoundaryTurnDegrees. Normals
   // cannot see a boundary's curvature within its surface (paper §5, "Handling Meshes with
-  // Boundaries": such curves are otherwise filled); without this a flat square became a
+  // Boundaries": such curves are otherwise filled); without this a flat square would become a
   // triangle. A decision of the vertex and its two boundary neighbours only.
   bool is_boundary_turn(VH vh) const {
     static constexpr double kBoundaryTurnDegrees = 30;
@@ -500,9 +500,9 @@ class Mesher {
   }
 
   void phase_two() {
-    // A corner collapse may turn no remaining face by more than this: without it one collapse
-    // at a crease junction of fandisk moved the surface by 9 % of the diagonal (5 % with the
-    // collapse mesher); 45° costs 0-2 % more faces on the fixtures.
+    // A corner collapse may turn no remaining face by more than this: without a limit a single
+    // collapse at a crease junction can move the surface by several percent of the diagonal
+    // (fandisk), while 45° keeps only a few more faces (docs/simplify.md).
     static constexpr double kMaxTurnDegrees = 45;
     max_turn_cos_ = std::cos(kMaxTurnDegrees * 3.14159265358979323846 / 180);
     for (bool progress = true; progress;) {
@@ -561,7 +561,7 @@ class Mesher {
 
 }  // namespace
 
-format::Result<PatchMesherResult> mesh_patches(const PatchMesherInput& input) {
+format::Result<PatchMesherResult> mesh_patches_by_collapse(const PatchMesherInput& input) {
   const size_t vertices = input.mesh.positions.size();
   if (input.face_patch.size() != input.mesh.triangles.size()) {
     return format::Status::error(format::Code::kProcessing, "patch mesher",

@@ -1,7 +1,14 @@
-// Shape approximation, per-patch approach (paper §5): the patch graph (corners, chains,
-// patches) and the mesher that turns every chain into straight edges between kept vertices,
-// triangulates every patch over its boundary, then removes non-sample corners by edge
-// collapses that keep the mesh manifold and flip no face.
+// The collapse mesher: the fallback beside the default polygon mesher (polygon_mesher.h), for
+// the inputs and patches that the polygon mesher cannot triangulate by itself. It runs
+//  - in core, on the whole input, when mesh_patch_polygons refuses it (its output would not be a
+//    valid mesh): simplify_mesh then reports mesher_fallback and the reason;
+//  - inside the polygon mesher, on the faces of one patch whose loops are simple in no plane;
+//  - as the polygon mesher's last step (corners_only): the collapses of non-sample corners on
+//    its output-sized mesh.
+// Per-patch shape approximation (paper §5) by edge collapses on the input mesh itself: it builds
+// the patch graph (corners, chains, patches), turns every chain into straight edges between
+// kept vertices, triangulates every patch over its boundary, then removes non-sample corners by
+// collapses that keep the mesh manifold and flip no face. docs/simplify.md.
 #pragma once
 
 #include <cstddef>
@@ -37,7 +44,8 @@ struct PatchMesherInput {
   bool corners_only = false;
 };
 
-// Counts of the patch graph the mesher built (DESIGN §1, "shape approximation").
+// Counts of the patch graph the mesher built: corners, the chains between them, and patches
+// bounded by chains.
 struct PatchGraphStats {
   std::size_t feature_edges = 0;   // boundary, non-manifold, or between two patches
   std::size_t corners = 0;         // vertices where the feature graph branches, plus candidates on it
@@ -68,6 +76,6 @@ struct PatchMesherResult {
 // duplicate faces whose every vertex is an input vertex; a closed manifold input yields a
 // closed manifold output of the same Euler characteristic. Memory: O(input) (OpenMesh).
 // Errors: kProcessing if the preconditions do not hold.
-format::Result<PatchMesherResult> mesh_patches(const PatchMesherInput& input);
+format::Result<PatchMesherResult> mesh_patches_by_collapse(const PatchMesherInput& input);
 
 }  // namespace gaussmesh::stream

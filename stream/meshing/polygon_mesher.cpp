@@ -1,6 +1,7 @@
-// Shape approximation, polygon first (paper §5 "Shape Approximation", per-patch approach):
-// patch loops, canonical guards, planar triangulation per patch, densify-and-retry, then the
-// corner collapses of stream/meshing/collapse_mesher on the output-sized mesh. See polygon_mesher.h.
+// Shape approximation, polygon first (paper §5 "Shape Approximation", per-patch approach), the
+// default mesher: patch loops, canonical guards, planar triangulation per patch,
+// densify-and-retry, then the corner collapses of stream/meshing/collapse_mesher on the
+// output-sized mesh. See polygon_mesher.h.
 #include "stream/meshing/polygon_mesher.h"
 
 #include <algorithm>
@@ -13,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "stream/core/edge_key_map.h"
 #include "stream/core/hash_mix.h"
 #include "stream/core/mesh_adjacency.h"
 #include "stream/meshing/polygon_triangulation.h"
@@ -347,7 +349,7 @@ class PolygonMesher {
 
   // Chains between stops, canonical (the same whichever patch's loop they are read from), and
   // the guard rules over them. The loops are read one at a time (out of core they stay in their
-  // file: 10.6 MB at 100M input triangles), each chain leaving a record of what the rules need.
+  // file, which grows with the input), each chain leaving a record of what the rules need.
   // A chain's interior vertices have two feature edges each, so its first edge decides its path:
   // two records with the same ends, length and second vertex are one chain, read from its two
   // sides (the path's hash only guards that argument).
@@ -697,7 +699,7 @@ class PolygonMesher {
     for (std::size_t i = 0; i < vertices.size(); ++i)
       if (keep_[vertices[i]] == Keep::kSample) roles[i] = VertexRole::kSample;
     const std::vector<std::uint32_t> one_patch(sub.triangles.size(), 0);
-    auto meshed = mesh_patches({sub.view(), one_patch, roles});
+    auto meshed = mesh_patches_by_collapse({sub.view(), one_patch, roles});
     if (!meshed || meshed->skipped_input_faces > 0) return Collapse::kFailed;
     bool retry = false;
     for (std::uint32_t b : meshed->birth) {
@@ -932,7 +934,7 @@ class PolygonMesher {
     for (const auto& t : out_tris_) mesh.triangles.push_back({{index_of(t[0]), index_of(t[1]), index_of(t[2])}});
     std::vector<format::Vec3f> plane(plane_.begin(), plane_.end());
     PatchMesherInput phase_two{mesh.view(), out_patch_, roles, plane, true};
-    auto collapsed = mesh_patches(phase_two);
+    auto collapsed = mesh_patches_by_collapse(phase_two);
     if (!collapsed) return collapsed.status();
     if (collapsed->skipped_input_faces > 0) return fail("a vertex of the output would not be manifold");
     if (source_ && !source_->status().is_ok()) return source_->status();

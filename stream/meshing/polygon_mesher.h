@@ -9,9 +9,9 @@
 //      loop keeps 3 vertices spread from its lowest id, a loop through one corner 2 more, and
 //      each of several chains joining the same two corners its middle vertex);
 //   3. each patch's loops, reduced to kept vertices, are triangulated in the plane of its
-//      Gaussian triangle (stream/meshing/polygon_triangulation.h) — else in the plane of its mean
-//      normal —, patches in id order, never making an edge that already exists; samples inside
-//      a patch are inserted into its triangulation;
+//      Gaussian triangle (stream/meshing/polygon_triangulation.h) — else in the plane of its
+//      mean normal —, patches in id order, never making an edge that already exists; samples
+//      inside a patch are inserted into its triangulation;
 //   4. a patch that cannot be triangulated gets the middle vertex of every stretch of its loops
 //      between kept vertices (so do its neighbours along the shared chains), up to 6 times,
 //      and the whole triangulation is redone each time; one that still fails is meshed by the
@@ -89,12 +89,13 @@ struct PolygonMesherResult {
   std::vector<std::uint32_t> needs_faces;
 };
 
-// Same input and preconditions as mesh_patches (patch ids are expected to be the sampler's:
-// edge-connected, numbered by lowest face). Output: a manifold mesh with no degenerate or
-// duplicate faces whose vertices are input vertices; a closed manifold input gives a closed
-// manifold output of the same Euler characteristic. Memory: O(patch boundaries + output) on
-// top of the input's adjacency. Errors: kProcessing when the preconditions do not hold, or when
-// the result would not be a valid mesh (the caller may fall back to mesh_patches).
+// The default mesher. Same input and preconditions as mesh_patches_by_collapse (patch ids are
+// expected to be the sampler's: edge-connected, numbered by lowest face). Output: a manifold
+// mesh with no degenerate or duplicate faces whose vertices are input vertices; a closed
+// manifold input gives a closed manifold output of the same Euler characteristic. Memory:
+// O(patch boundaries + output) on top of the input's adjacency. Errors: kProcessing when the
+// preconditions do not hold, or when the result would not be a valid mesh (the caller may fall
+// back to mesh_patches_by_collapse).
 format::Result<PolygonMesherResult> mesh_patch_polygons(const PatchMesherInput& input);
 
 // The same mesher fed from records (the out-of-core stitch): what mesh_patch_polygons builds

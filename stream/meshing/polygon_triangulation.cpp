@@ -30,6 +30,8 @@
 #include <tuple>
 #include <utility>
 
+#include "stream/core/edge_key_map.h"
+
 namespace gaussmesh::stream {
 namespace {
 

@@ -2,25 +2,17 @@
 #include "stream/pipeline/in_core_simplify.h"
 
 #include <algorithm>
-#include <chrono>
 #include <optional>
 
+#include "stream/core/stopwatch.h"
 #include "stream/meshing/voronoi_mesher.h"
 
 namespace gaussmesh::stream {
-namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-}  // namespace
-
 const char* mesher_name(MesherKind mesher) { return mesher == MesherKind::kPatch ? "patch" : "voronoi"; }
 
 format::Result<SimplifyResult> simplify_mesh(MeshView mesh, const SimplifyOptions& options) {
   SimplifyResult result;
-  auto start = std::chrono::steady_clock::now();
+  auto start = Clock::now();
   std::optional<SamplingResult> best;
   std::optional<GaussSphere> best_gauss;
   std::vector<GaussSphereOptions> spheres = options.spheres;
@@ -47,7 +39,7 @@ format::Result<SimplifyResult> simplify_mesh(MeshView mesh, const SimplifyOption
   result.samples = sampling.samples.size();
   result.sampling = sampling.stats;
 
-  start = std::chrono::steady_clock::now();
+  start = Clock::now();
   if (options.mesher == MesherKind::kVoronoi) {
     std::vector<std::uint32_t> sample_ids;
     sample_ids.reserve(sampling.samples.size());
@@ -76,7 +68,7 @@ format::Result<SimplifyResult> simplify_mesh(MeshView mesh, const SimplifyOption
     } else {
       result.mesher_fallback = true;
       result.mesher_fallback_reason = polygons.status().to_string();
-      auto collapsed = mesh_patches(input);
+      auto collapsed = mesh_patches_by_collapse(input);
       if (!collapsed) return collapsed.status();
       meshed = std::move(collapsed).value();
     }

@@ -1,5 +1,5 @@
 // Patch-level steps of the sampler (paper §4, "Untriangulatable Patch Filtering" Fig. 6 and
-// "Noisy Sample Filtering" Figs. 9-10; DESIGN §1 "Per patch").
+// "Noisy Sample Filtering" Figs. 9-10): the steps that need a traversal beyond the 1-ring.
 #include "stream/sampling/patch_filters.h"
 #include "stream/core/disjoint_sets.h"
 
@@ -557,13 +557,6 @@ void PatchMergeGraph::finish(PatchMergeResult& out) {
   for (std::size_t k = 0; k < dead_.size(); ++k) out.is_candidate[k] = !dead_[k];
   out.merged_patches = merged_;
   out.rounds = rounds_;
-}
-
-void merge_untriangulatable_patches(const PatchGraphInput& input, const PatchMergeGraph::Reevaluate& reevaluate,
-                                    PatchMergeGraph& graph, PatchMergeResult& out) {
-  graph.reset(input);
-  graph.merge(reevaluate);
-  graph.finish(out);
 }
 
 void patch_neighbors_from_pairs(std::span<const PatchPair> pairs, PatchGraphInput& input) {

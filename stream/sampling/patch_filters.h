@@ -194,10 +194,6 @@ class PatchMergeGraph {
   std::size_t merged_ = 0, rounds_ = 0;
 };
 
-// The whole merge: reset, merge, finish.
-void merge_untriangulatable_patches(const PatchGraphInput& input, const PatchMergeGraph::Reevaluate& reevaluate,
-                                    PatchMergeGraph& graph, PatchMergeResult& out);
-
 // Fills input.neighbor_offsets / neighbors (for input.patch_label.size() patches) from
 // unordered pairs (a, b, shared edges), each pair once, a != b.
 struct PatchPair {

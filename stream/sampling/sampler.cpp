@@ -1,4 +1,4 @@
-// Memoryless Gauss mesh sampling (paper §4 "Sampling Manifold Meshes", §4.1 noise; DESIGN §1):
+// Memoryless Gauss mesh sampling (paper §4 "Sampling Manifold Meshes", §4.1 noise):
 // face normals and labels, feature edges, candidates, non-sample filter, represented Gaussian
 // vertex, curvature characteristic, and the exact sample test (winding numbers with exact
 // orientation signs); sample_mesh() chains them with the patch filters.
@@ -142,7 +142,7 @@ Characteristic classify(int winding, double neighbour_side) {
 
 // Scratch buffers reused across vertices (no per-vertex allocation).
 // A set of ids for one cap search: open addressing over a table that grows with the search
-// (never with G), cleared per search. Replaces linear scans that were quadratic on big caps.
+// (never with G), cleared per search: linear scans would be quadratic on big caps.
 class IdSet {
  public:
   void clear() {
@@ -323,15 +323,6 @@ FanDecision fan_decisions(const Vec3d* poly, std::size_t k, const Vec3d& g) {
 
 const char* sample_test_name(SampleTest test) { return test == SampleTest::kExact ? "exact" : "paper"; }
 
-const char* characteristic_name(Characteristic c) {
-  switch (c) {
-    case Characteristic::kNone: return "none";
-    case Characteristic::kConvex: return "convex";
-    case Characteristic::kConcave: return "concave";
-    case Characteristic::kSaddle: return "saddle";
-  }
-  return "?";
-}
 
 namespace {
 
@@ -763,9 +754,9 @@ template <typename Labels>
     std::size_t corners_in_poly = 0;
     for (std::uint32_t j = k; j < fan_end; ++j) {
       const std::uint32_t f = corners[j] / 3;
-      // The star's triangles, for neighbour_side after a positive winding: only 1 candidate in
-      // 10 on a noisy mesh, but those loads missed the cache (the triangles were last read by
-      // the normals), about 10 % of this function's time on the 20 M torus.
+      // The star's triangles, for neighbour_side after a positive winding: few candidates need
+      // them, but unprefetched those loads miss the cache (the triangles were last read by the
+      // normals).
       __builtin_prefetch(tris + f);
       poly[corners_in_poly] = to_d(normal[f]);  // kept unless the face is degenerate
       corners_in_poly += !degenerate[f];
@@ -956,8 +947,8 @@ format::Status sample_mesh(format::MeshView mesh, const GaussSphere& gauss, cons
 
   // Untriangulatable patches (Fig. 6 a, b): merge into a neighbour, then re-evaluate the
   // vertices of the merged faces, which may lose feature edges and candidacy (Fig. 6 c, d).
-  // The rounds run on the patch graph (PatchMergeGraph, stream/sampling/patch_filters.h), built once
-  // from the first find_patches; the faces are relabelled once at the end.
+  // The rounds run on the patch graph (PatchMergeGraph, stream/sampling/patch_filters.h), built
+  // once from the first find_patches; the faces are relabelled once at the end.
   const double stage_wall = wall_seconds(), stage_cpu = thread_cpu_seconds();
   std::vector<std::uint8_t>& is_candidate = ws.is_candidate;
   is_candidate.assign(nv, 0);

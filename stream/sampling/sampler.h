@@ -1,5 +1,5 @@
-// Memoryless Gauss mesh sampling (paper §4; DESIGN §1): per-face normals, smoothing and labels,
-// per-vertex feature edges, candidates, non-sample filter, represented Gaussian vertex,
+// Memoryless Gauss mesh sampling (paper §4; docs/sampling.md): per-face normals, smoothing and
+// labels, per-vertex feature edges, candidates, non-sample filter, represented Gaussian vertex,
 // curvature characteristic and the exact winding sample test; then the patch-level filters
 // (stream/sampling/patch_filters.h). The result is what the patch graph and the meshers consume.
 #pragma once
@@ -32,7 +32,6 @@ const char* sample_test_name(SampleTest test);
 // of the plane normal to g its neighbours lie on; w < 0 (orientation reversed, curvature < 0)
 // is a saddle; w = 0 is kNone (the polygon does not enclose g).
 enum class Characteristic : std::uint8_t { kNone = 0, kConvex = 1, kConcave = 2, kSaddle = 3 };
-const char* characteristic_name(Characteristic c);
 
 struct SamplerOptions {
   std::uint32_t smooth_iterations = 0;  // --smooth N: low-pass filter of face normals ([Tau01])
@@ -116,9 +115,10 @@ void evaluate_vertex_list(format::MeshView mesh, const MeshAdjacency& adjacency,
                           std::vector<VertexRecord>& out);
 
 // How many vertex rings around an owned vertex a chunk must hold for every decision of steps
-// 1 and 2 about that vertex to equal the whole mesh's (DESIGN §2): its star, one ring for the
-// edge neighbours of its faces (degenerate faces inherit across edges), one per smoothing
-// iteration, one so that those faces' edges are classified with all their faces present.
+// 1 and 2 about that vertex to equal the whole mesh's (docs/out-of-core.md): its star, one ring
+// for the edge neighbours of its faces (degenerate faces inherit across edges), one per
+// smoothing iteration, one so that those faces' edges are classified with all their faces
+// present.
 inline std::uint32_t required_overlap_rings(std::uint32_t smooth_iterations) { return 3 + smooth_iterations; }
 
 // ---- The whole in-core pass ------------------------------------------------------------------
@@ -142,7 +142,7 @@ struct SamplingStats {
   std::size_t merge_rounds = 0;         // rounds of the untriangulatable-patch merge that merged
 };
 
-// What the patch graph / meshers (issue 4) consume. All per-face arrays have one entry per input
+// What the patch graph and the meshers consume. All per-face arrays have one entry per input
 // face (collapsed faces included: they get kNoLabel and a patch of their own).
 struct SamplingResult {
   // Gaussian triangle of each face after the untriangulatable-patch merge (a merged patch takes
@@ -176,8 +176,8 @@ format::Result<SamplingResult> sample_mesh(format::MeshView mesh, const GaussSph
                                            const SamplerOptions& options);
 
 // Buffers of the whole pass, reused across calls (chunks, orientations): refilling warm memory
-// costs a fraction of first-touching new pages (DESIGN §2). One per thread; contents between
-// calls are unspecified.
+// costs a fraction of first-touching new pages. One per thread; contents between calls are
+// unspecified.
 struct SamplerWorkspace {
   SamplerWorkspace();
   ~SamplerWorkspace();
@@ -207,8 +207,8 @@ struct SamplerWorkspace {
 format::Status sample_mesh(format::MeshView mesh, const GaussSphere& gauss, const SamplerOptions& options,
                            SamplerWorkspace& workspace, SamplingResult& result);
 
-// --orientations K (DESIGN §1 "Default orientation"): samples the mesh once per Gaussian
-// sphere in `spheres` and keeps the one with the fewest samples (ties: the earliest).
+// --orientations K: samples the mesh once per Gaussian sphere in `spheres` and keeps the one
+// with the fewest samples (ties: the earliest); cheap because the pass is linear.
 // Precondition: spheres is not empty. Errors: those of sample_mesh and GaussSphere::create.
 struct OrientedSampling {
   std::optional<GaussSphere> gauss;  // the chosen sphere (always set on success)

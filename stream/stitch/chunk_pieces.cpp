@@ -5,7 +5,7 @@
 #include <numeric>
 #include <string>
 
-#include "stream/sampling/chunk_sampler.h"
+#include "stream/core/process_memory.h"
 #include "stream/stitch/piece_joins.h"
 
 namespace gaussmesh::stream {
@@ -197,7 +197,7 @@ format::Status chunk_face_pieces(const Partition& partition, const ChunkMesh& ch
 }
 
 format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, const PieceJoinFiles& joins,
-                                              std::uint64_t memory_bytes, std::uint32_t threads) {
+                                              const MemoryBudget& budget, std::uint32_t threads) {
   // Pieces in one array, chunk after chunk, each chunk's in index order: a piece's dense index
   // is its chunk's first plus its index (no sort, no id table). The chunks' copies are freed.
   StitchedPatches out;
@@ -228,14 +228,14 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
     shared.resize(w);
     compacted = w;
   };
-  // Unsummed entries beyond twice the summed ones: 1/64 of the budget (a fixed 2^20 entries was
-  // 16 MB: half a 64 MiB budget at 100M triangles once doubled).
-  const std::size_t slack = std::max<std::uint64_t>(memory_bytes / 64 / sizeof(Shared), 4096);
+  // Unsummed entries beyond twice the summed ones: 1/64 of the budget (a fixed count would take a
+  // large share of a small budget once doubled), at least 4,096.
+  const std::size_t slack = std::max<std::uint64_t>(budget.fraction(1, 64) / sizeof(Shared), 4096);
   auto add_shared = [&](std::uint32_t a, std::uint32_t b, std::uint64_t edges) {
     make_room_for_one(shared, compacted, slack, compact);
     shared.push_back({std::min(a, b), std::max(a, b), edges});
   };
-  // Pieces and their feature edges inside a chunk; what pass B spilled comes back from the
+  // Pieces and their feature edges inside a chunk; what the sample pass spilled comes back from the
   // files, a chunk at a time. Adjacency records name pieces of their own chunk.
   std::vector<PieceAdjacencyRecord> spilled_adjacency;
   out.chunk_first.assign(chunks.size() + 1, 0);
@@ -281,7 +281,7 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
   // Border edges: both sides of every edge, joined on the unordered face pair a bucket at a
   // time.
   GM_RETURN_IF_ERROR(joins.join_border_edges(
-      memory_bytes, [&](const BorderEdgeRecord& x, const BorderEdgeRecord& y) -> format::Status {
+      budget, [&](const BorderEdgeRecord& x, const BorderEdgeRecord& y) -> format::Status {
         const std::int64_t a = dense(x.piece), b = dense(y.piece);
         if (a < 0 || b < 0) return damaged("a border edge names an unknown piece");
         if (x.feature) {
@@ -294,7 +294,7 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
         return format::Status();
       },
       threads));
-  release_free_memory();  // the buckets the join read and sorted (100M under 64 MiB: ~11 MiB)
+  release_free_memory();  // the buckets the join read and sorted
   // Patches, numbered by lowest face: each root gathers its pieces' lowest face and size.
   for (std::uint32_t i = 0; i < np; ++i) {
     const std::uint32_t r = find(i);
@@ -329,12 +329,12 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
   // Candidates' stars in patches: each face's piece from its owner's answers, for a group of
   // chunks at a time (each answer file read once per group, the group's requests in memory),
   // then the chunks' stars are dropped.
-  const std::size_t group_entries = std::max<std::uint64_t>(bucket_bytes(memory_bytes) / 64, 1024);  // ~60 B an entry
+  const std::size_t group_entries = std::max<std::uint64_t>(bucket_bytes(budget) / 64, 1024);  // ~60 B an entry
   std::vector<std::uint32_t> owners;
   std::vector<std::uint64_t> faces;
   std::vector<PieceId> found;
   auto patch_of = [&](PieceId piece) { return piece == kNoPiece ? -1 : out.patch_of_piece(piece); };
-  // A chunk's candidates and their star entries: in memory, or (spilled in pass B) from its
+  // A chunk's candidates and their star entries: in memory, or (spilled by the sample pass) from its
   // candidate and star files.
   auto spilled = [&](std::size_t c) { return chunks[c].candidates.empty() && chunks[c].star.empty(); };
   auto entries_of = [&](std::size_t c) {
@@ -439,7 +439,7 @@ PatchGraphInput take_merge_input(StitchedPatches& stitched, CandidateEdges& edge
   std::vector<StitchedPatches::Collapsed>().swap(stitched.collapsed);
   std::sort(collapsed.begin(), collapsed.end());
   // Sized once by their bounds (a candidate's patches are its star's and its collapsed faces'),
-  // not by doubling: at 100M, 0.5M patch entries and edges out of 0.7M star entries.
+  // not by doubling: the bounds are close to the sizes.
   input.candidate_patches.reserve(stitched.star.size() + collapsed.size());
   input.candidate_offsets.reserve(stitched.candidates.size() + 1);
   input.candidate_offsets.push_back(0);
@@ -508,8 +508,7 @@ PatchMergeResult merge_stitched_patches(const CandidateEdges& edges, PatchGraphI
   PatchMergeGraph graph;
   PatchMergeResult result;
   graph.reset_taking_neighbors(input);
-  // The graph copied the labels and chained the neighbour lists: neither is read again (1.2 MB
-  // at 100M triangles).
+  // The graph copied the labels and chained the neighbour lists: neither is read again.
   std::vector<std::uint32_t>().swap(input.patch_label);
   std::vector<std::uint32_t>().swap(input.neighbor_offsets);
   graph.merge(reevaluate);

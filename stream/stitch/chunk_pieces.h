@@ -1,5 +1,5 @@
-// The first step of the out-of-core stitch (docs/out-of-core.md, "Pass 3 for simplify"): patch
-// pieces per chunk and their joining across chunks into the sampler's patches (before the
+// The pieces and merge steps of the out-of-core stitch (docs/out-of-core.md): patch pieces per
+// chunk and their joining across chunks into the sampler's patches (before the
 // untriangulatable merge), with the patch adjacency and its shared feature-edge counts — from
 // per-chunk records only, never the mesh.
 //
@@ -19,6 +19,7 @@
 
 #include "format/status.h"
 #include "stream/partition/chunk_partition.h"
+#include "stream/core/memory_budget.h"
 #include "stream/core/mesh_adjacency.h"
 #include "stream/sampling/patch_filters.h"
 
@@ -37,7 +38,7 @@ struct PieceRecord {
   std::uint64_t faces = 0;     // owned faces in the piece
   std::uint64_t min_face = 0;  // lowest global face id
   // Vector area (its faces' cross products summed in face order): set by write_loop_chunk for
-  // pass C, zero otherwise.
+  // the loops pass, zero otherwise.
   std::array<double, 3> area = {0, 0, 0};
 };
 
@@ -100,8 +101,8 @@ struct CollapsedFaceRecord {
 // Makes room for one more entry in v, a list that compact() shrinks to its distinct entries
 // (summing or dropping repeats) and that held `compacted` of them after the last compaction:
 // when v is full, compacts it if it is at least 2 * compacted + slack long, and if it is still
-// full grows its capacity by hand to that size. (A doubling vector overshot by up to 2x: 24 MB
-// of loop-vertex ids and 32 MB of piece pairs at 100M triangles.)
+// full grows its capacity by hand to that size, where a doubling vector would overshoot by up
+// to 2x.
 template <typename T, typename Compact>
 void make_room_for_one(std::vector<T>& v, const std::size_t& compacted, std::size_t slack, const Compact& compact) {
   if (v.size() != v.capacity()) return;
@@ -130,8 +131,8 @@ std::uint32_t face_owner(const Partition& partition, const ChunkMesh& chunk, std
 // or 0xFFFFFFFF for faces the chunk does not own.
 // candidates (optional): the owned vertices with >= 3 feature edges, local ids ascending, as the
 // sampler found them (its records' is_candidate, from the same feature bits); without it every
-// owned vertex's star is counted here (in pass A that count was a third of this function and
-// repeated the sampler's own).
+// owned vertex's star is counted here, repeating the sampler's own count (the sample pass hands
+// them over).
 void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const MeshAdjacency& adjacency,
                        const std::vector<std::uint32_t>& labels, const std::vector<std::uint8_t>& feature,
                        ChunkPieces& out, std::vector<std::uint32_t>* piece_index = nullptr,
@@ -179,7 +180,7 @@ struct StitchedPatches {
   std::vector<Candidate> candidates;
   std::vector<Star> star;
   // Per star entry: whether its entering edge is a break. Beside star rather than in it: 8 bytes
-  // an entry instead of 12 (728k entries at 100M, live through the merge).
+  // an entry instead of 12, and they are live through the merge.
   std::vector<std::uint8_t> entering_break;
   // Collapsed faces: their patch and distinct candidate vertices (global ids).
   struct Collapsed {
@@ -190,7 +191,7 @@ struct StitchedPatches {
 };
 
 // Joins the pieces of every chunk over the border edges in `joins` (spilled and finished; the
-// join holds about bucket_bytes(memory_bytes) of them per thread at a time, read and sorted on
+// join holds about bucket_bytes(budget) of them per thread at a time, read and sorted on
 // `threads` threads) and resolves the candidates'
 // stars to patches through the answer files of the faces' owners (each read once).
 // chunks[c] holds chunk c's pieces, adjacency, candidates with their stars, and collapsed faces,
@@ -202,9 +203,9 @@ struct StitchedPatches {
 // pieces, their union-find and piece-pair feature-edge counts, the candidates' stars and the
 // output — nothing per border edge or border face.
 format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, const PieceJoinFiles& joins,
-                                              std::uint64_t memory_bytes, std::uint32_t threads = 1);
+                                              const MemoryBudget& budget, std::uint32_t threads = 1);
 
-// Step 3: the untriangulatable-patch merge (stream/sampling/patch_filters.h, the patch-graph merge that
+// The merge: the untriangulatable-patch merge (stream/sampling/patch_filters.h, the patch-graph merge that
 // sample_mesh runs in core) on the stitched patches, for the exact sample test: a touched
 // candidate keeps its candidacy when its star, with the patches' current labels, still counts
 // >= 3 feature edges. Returns the merged patches in find_patches' numbering (lowest face), as
@@ -218,8 +219,8 @@ PatchMergeResult merge_stitched_patches(const StitchedPatches& stitched);
 // and the star's edges between two different patches, each as the positions of its two
 // patches in the candidate's sorted list of the merge input (PatchGraphInput::candidate_patches):
 // a byte each while the list has at most 256 patches, else the two patch ids, in `wide`. Edges
-// inside one patch never count and are left out. At 100M triangles: 121k candidates, 729k star
-// entries, 535k edges kept, 1.7 MB against the stars' 6.6 MB.
+// inside one patch never count and are left out: a fraction of the stars' size
+// (docs/benchmarks.md).
 struct CandidateEdges {
   static constexpr std::uint8_t kWide = 0x80;  // in fixed: the candidate's edges are in wide
   std::vector<std::uint32_t> first;  // candidates + 1: candidate k's edges are narrow[first[k], first[k + 1])

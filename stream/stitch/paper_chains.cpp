@@ -288,7 +288,7 @@ format::Result<ChunkRecordSegment> write_chain_fragments(std::span<const ChainFr
                        file);
 }
 
-format::Status join_chain_fragments(std::span<const ChunkRecordSegment> files, std::uint64_t memory_bytes,
+format::Status join_chain_fragments(std::span<const ChunkRecordSegment> files, const MemoryBudget& budget,
                                     std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs) {
   std::uint64_t total = 0;
   for (const ChunkRecordSegment& f : files) total += f.records;
@@ -318,7 +318,7 @@ format::Status join_chain_fragments(std::span<const ChunkRecordSegment> files, s
     std::uint32_t fragment;
     std::uint32_t upward;  // from the lower id to the higher
   };
-  const std::uint64_t part_bytes = std::max<std::uint64_t>(memory_bytes / 16, std::uint64_t{1} << 20);
+  const std::uint64_t part_bytes = std::max<std::uint64_t>(budget.fraction(1, 16), std::uint64_t{1} << 20);
   const std::uint64_t parts = std::max<std::uint64_t>(1, (links * sizeof(Link) + part_bytes - 1) / part_bytes);
   auto part_of = [&](std::uint64_t edge) { return (edge * 0x9E3779B97F4A7C15ull >> 32) % parts; };
   DisjointSets sets(total);

@@ -3,13 +3,13 @@
 // candidate adjacency along feature chains (find_candidate_adjacency) and the noisy-sample filter
 // (paper §4 "Noisy Sample Filtering", Figs. 9-10) — from per-chunk records joined across chunks.
 //
-// - Pass A writes each owned candidate's *star geometry* (its position; per star slot, in the
+// - The sample pass writes each owned candidate's *star geometry* (its position; per star slot, in the
 //   adjacency's fan order: the fan flags, the face normal after smoothing, whether the face is
 //   degenerate, and the position of the vertex across its leaving edge). After the merge the
 //   stitch re-evaluates every surviving candidate from it with the labels of the merged patches
 //   (evaluate_vertex_list on a mesh made of the star alone), which is what sample_mesh's merge
 //   left in its records.
-// - A chain pass, per chunk, follows the feature edges of the vertices the chunk owns under the
+// - The chains pass, per chunk, follows the feature edges of the vertices the chunk owns under the
 //   merged labels: candidate pairs joined by a feature edge, and the chain pieces through owned
 //   non-candidates (each of which has exactly two feature-edge sides). A piece whose two ends are
 //   candidates is a pair; one that leaves the chunk is a *fragment*, written to disk.
@@ -28,6 +28,7 @@
 #include "format/status.h"
 #include "stream/partition/chunk_partition.h"
 #include "stream/core/gauss_sphere.h"
+#include "stream/core/memory_budget.h"
 #include "stream/core/mesh.h"
 #include "stream/core/mesh_adjacency.h"
 #include "stream/sampling/sampler.h"
@@ -54,7 +55,7 @@ struct ChunkRecordSegment {
   std::uint64_t records = 0;
 };
 
-// Pass A: the star geometry of the candidates among `records` (evaluate_vertex_list's, over the
+// The sample pass: the star geometry of the candidates among `records` (evaluate_vertex_list's, over the
 // chunk's owned vertices: local ids, ascending), from the chunk's adjacency and normals, appended
 // to `file` as one record file. Errors: kOutput.
 format::Result<ChunkRecordSegment> write_star_geometry(const ChunkMesh& chunk, const MeshAdjacency& adjacency,
@@ -112,10 +113,10 @@ format::Result<ChunkRecordSegment> write_chain_fragments(std::span<const ChainFr
 
 // Joins the fragments of every chunk across their links and appends a pair for each chain that
 // ends at two distinct candidates. Memory: 4 bytes per fragment (a union-find) plus the links of
-// one part at a time (about memory_bytes / 16, at least 1 MiB; the files are read once per part)
+// one part at a time (about 1/16 of the budget, at least 1 MiB; the files are read once per part)
 // and the candidate ends. Errors: a damaged file, a link not seen as often from each side, a
 // chain with one or more than two candidate ends (kBadInput).
-format::Status join_chain_fragments(std::span<const ChunkRecordSegment> files, std::uint64_t memory_bytes,
+format::Status join_chain_fragments(std::span<const ChunkRecordSegment> files, const MemoryBudget& budget,
                                     std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs);
 
 // A digest of a sorted, duplicate-free pair list (FNV-1a over the ids): the report's and the

@@ -57,18 +57,18 @@ std::size_t border_bucket_part(std::uint64_t a, std::uint64_t b, std::size_t par
   return static_cast<std::size_t>(mix64(pair_hash(a, b) + 0x9E3779B97F4A7C15ull) % parts);
 }
 
-std::uint64_t bucket_bytes(std::uint64_t memory_bytes) {
-  return std::max<std::uint64_t>(memory_bytes / 16, std::uint64_t{1} << 20);
+std::uint64_t bucket_bytes(const MemoryBudget& budget) {
+  return std::max<std::uint64_t>(budget.fraction(1, 16), std::uint64_t{1} << 20);
 }
 
-std::size_t border_bucket_count(std::uint64_t expected_records, std::uint64_t memory_bytes) {
+std::size_t border_bucket_count(std::uint64_t expected_records, const MemoryBudget& budget) {
   const std::uint64_t bytes = expected_records * sizeof(BorderEdgeRecord);
-  const std::uint64_t per = bucket_bytes(memory_bytes);
+  const std::uint64_t per = bucket_bytes(budget);
   return static_cast<std::size_t>(std::clamp<std::uint64_t>((bytes + per - 1) / per, 1, kMaxBorderBuckets));
 }
 
 format::Result<std::unique_ptr<PieceJoinFiles>> PieceJoinFiles::create(const std::string& dir, std::size_t chunks,
-                                                                       std::size_t buckets, std::uint64_t memory_bytes) {
+                                                                       std::size_t buckets, const MemoryBudget& budget) {
   if (buckets == 0 || buckets > kMaxBorderBuckets) {
     return Status::error(Code::kUsage, "stitch", "border-edge bucket count " + std::to_string(buckets) + " out of range");
   }
@@ -77,7 +77,7 @@ format::Result<std::unique_ptr<PieceJoinFiles>> PieceJoinFiles::create(const std
   files->chunks_ = chunks;
   files->answered_.assign(chunks, 0);
   files->placed_.assign(kParts * chunks, Stored{});
-  files->segments_ = std::make_unique<format::RecordSegmentPool>(dir + "/pass-b-");
+  files->segments_ = std::make_unique<format::RecordSegmentPool>(dir + "/segments-");
   files->star_entries_.assign(chunks, 0);
   files->candidate_entries_.assign(chunks, 0);
   files->piece_entries_.assign(chunks, 0);
@@ -88,9 +88,9 @@ format::Result<std::unique_ptr<PieceJoinFiles>> PieceJoinFiles::create(const std
   files->compressor_ = std::move(*compressor);
   format::RecordWriterOptions options;
   options.frame_bytes = kBucketFrameBytes;
-  if (memory_bytes > 0)
-    options.frame_bytes = static_cast<std::size_t>(
-        std::clamp<std::uint64_t>(memory_bytes / 16 / buckets, kMinBucketFrameBytes, kBucketFrameBytes));
+  if (budget.is_limited())
+    options.frame_bytes = static_cast<std::size_t>(std::clamp<std::uint64_t>(
+        MemoryBudget::of(budget.fraction(1, 16)).per_part(buckets), kMinBucketFrameBytes, kBucketFrameBytes));
   options.shared = files->compressor_.get();
   for (std::size_t b = 0; b < buckets; ++b) {
     files->bucket_paths_.push_back(dir + "/border-" + std::to_string(b) + ".rec");
@@ -432,12 +432,12 @@ Status PieceJoinFiles::finish() {
 }
 
 Status PieceJoinFiles::join_border_edges(
-    std::uint64_t memory_bytes,
+    const MemoryBudget& budget,
     const std::function<Status(const BorderEdgeRecord&, const BorderEdgeRecord&)>& on_edge,
     std::uint32_t threads) const {
   if (!finished_) return Status::error(Code::kProcessing, "stitch", "border edges joined before finish");
   const std::size_t nb = bucket_paths_.size();
-  const std::uint64_t per = bucket_bytes(memory_bytes);
+  const std::uint64_t per = bucket_bytes(budget);
   // A bucket larger than the aim is read once per part, each read keeping one part.
   struct Task {
     std::size_t bucket, part, parts;

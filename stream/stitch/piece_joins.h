@@ -1,4 +1,4 @@
-// The on-disk joins of the out-of-core stitch's first step (docs/out-of-core.md, "Pass B"): the
+// The on-disk joins of the stitch's pieces step (docs/out-of-core.md): the
 // border-edge records of every chunk, bucketed by face pair into temporary record files and
 // joined one bucket at a time, and every chunk's face answers (face -> piece) in a record file
 // of its own (a segment, below), read on demand by whoever needs the piece of a face that chunk
@@ -7,8 +7,8 @@
 //
 // Files live in a directory the caller owns and removes (the partition's temp dir). The
 // per-chunk record files (answers, stars, pieces, piece adjacency, face pieces; and, through
-// segments(), pass A's loop chunks and pass C's run vertices) are segments of a few shared files,
-// `pass-b-N.rec` (format::RecordSegmentPool): one per thread writing at once, not one per chunk
+// segments(), the sample pass's loop chunks and the loops pass's run vertices) are segments of a
+// few shared files, `segments-N.rec` (format::RecordSegmentPool): one per thread writing at once, not one per chunk
 // and kind. Everything read back is untrusted: a damaged file, an edge seen other than exactly
 // twice, two sides that disagree, an answer out of order or from the wrong chunk is a kBadInput
 // error, never a crash.
@@ -24,6 +24,7 @@
 
 #include "format/record_file.h"
 #include "format/status.h"
+#include "stream/core/memory_budget.h"
 #include "stream/stitch/chunk_pieces.h"
 
 namespace gaussmesh::stream {
@@ -44,44 +45,46 @@ inline constexpr std::uint32_t kStarRecordBytes = 24;
 inline constexpr std::uint32_t kCandidateRecordKind = 0x44434D47u;
 inline constexpr std::uint32_t kCandidateRecordBytes = 8;
 // A chunk's pieces ("GMPC": u64 piece id, u64 lowest face, u64 faces, u32 label, 3 × f64 vector
-// area — zero unless pass A wrote a loop chunk, whose pass C reads the pieces again) and its
+// area — zero unless the sample pass wrote a loop chunk, for which the loops pass reads the pieces
+// again) and its
 // manifold feature edges between two of its pieces ("GMPA": u64 piece a, u64 piece b, u64 edges).
 inline constexpr std::uint32_t kPieceRecordKind = 0x43504D47u;
 inline constexpr std::uint32_t kPieceRecordBytes = 52;
 inline constexpr std::uint32_t kPieceAdjacencyRecordKind = 0x41504D47u;
 inline constexpr std::uint32_t kPieceAdjacencyRecordBytes = 24;
 // The piece of each owned face of a chunk, in the chunk's face order ("GMFP": u32 index of the
-// piece in its chunk): passes C and D read it instead of labelling the chunk again.
+// piece in its chunk): the chains, loops and fetch passes read it instead of labelling the chunk
+// again.
 inline constexpr std::uint32_t kFacePieceRecordKind = 0x50464D47u;
 inline constexpr std::uint32_t kFacePieceRecordBytes = 4;
 // More buckets than this are never made (each holds a descriptor and a pending frame).
 inline constexpr std::size_t kMaxBorderBuckets = 256;
 
 // How many buckets for about `expected_records` border-edge records so that one bucket holds
-// about bucket_bytes(memory_bytes) in memory: at least 1, at most kMaxBorderBuckets. A bucket
+// about bucket_bytes(budget) in memory: at least 1, at most kMaxBorderBuckets. A bucket
 // that comes out larger is joined in several reads (join_border_edges), so this is a guess that
 // costs time, never memory, when wrong.
-std::size_t border_bucket_count(std::uint64_t expected_records, std::uint64_t memory_bytes);
+std::size_t border_bucket_count(std::uint64_t expected_records, const MemoryBudget& budget);
 // The in-memory size aimed at for one bucket: 1/16 of the budget, at least 1 MiB.
-std::uint64_t bucket_bytes(std::uint64_t memory_bytes);
+std::uint64_t bucket_bytes(const MemoryBudget& budget);
 
 class PieceJoinFiles {
  public:
-  // The per-chunk record files, each a segment of a pass-b file.
+  // The per-chunk record files, each a segment of a segments-N.rec file.
   enum class Part { kAnswers, kStars, kPieces, kAdjacency, kFacePieces, kCandidates };
   static constexpr std::size_t kParts = static_cast<std::size_t>(Part::kCandidates) + 1;  // kCandidates is last
   struct Placed {
-    std::uint32_t file = 0xFFFFFFFFu;  // pass-b file; all ones: not written
+    std::uint32_t file = 0xFFFFFFFFu;  // segments-N.rec file; all ones: not written
     format::RecordSegment segment;
   };
 
   // Creates `buckets` (1..kMaxBorderBuckets) empty bucket files under dir; answer files are
   // made by write_answers. Errors: kOutput when a file cannot be created; kUsage for a bucket
   // count out of range.
-  // memory_bytes (0: no limit) bounds the bucket writers' pending frames together to 1/16 of it:
-  // each frame holds 4-32 KiB.
+  // budget (unlimited: no bound) bounds the bucket writers' pending frames together to 1/16 of
+  // it: each frame holds 4-32 KiB.
   static format::Result<std::unique_ptr<PieceJoinFiles>> create(const std::string& dir, std::size_t chunks,
-                                                                std::size_t buckets, std::uint64_t memory_bytes = 0);
+                                                                std::size_t buckets, const MemoryBudget& budget = {});
   ~PieceJoinFiles();
   PieceJoinFiles(const PieceJoinFiles&) = delete;
   PieceJoinFiles& operator=(const PieceJoinFiles&) = delete;
@@ -98,13 +101,13 @@ class PieceJoinFiles {
   format::Status finish();
 
   // Joins the two sides of every border edge, a bucket at a time, holding about
-  // bucket_bytes(memory_bytes) of records: on_edge(side of the lower face, side of the higher
+  // bucket_bytes(budget) of records: on_edge(side of the lower face, side of the higher
   // face) once per edge, in no particular order. With threads > 1 the buckets are read and
   // sorted on that many threads (up to `threads` of them in memory at once) while on_edge runs
   // on one thread at a time, in the order one thread would call it. Errors: the files'
   // (kBadInput), an edge not seen exactly once from each side or whose sides disagree on the
   // feature bit (kBadInput), and on_edge's; the first in that order.
-  format::Status join_border_edges(std::uint64_t memory_bytes,
+  format::Status join_border_edges(const MemoryBudget& budget,
                                    const std::function<format::Status(const BorderEdgeRecord&, const BorderEdgeRecord&)>&
                                        on_edge,
                                    std::uint32_t threads = 1) const;
@@ -134,7 +137,7 @@ class PieceJoinFiles {
   // The pieces and piece adjacency spill() took from chunk. Errors as read_stars.
   format::Status read_pieces(std::uint32_t chunk, std::vector<PieceRecord>& pieces,
                              std::vector<PieceAdjacencyRecord>& adjacency) const;
-  // The pieces alone (pass C reads a loop chunk's pieces for their areas).
+  // The pieces alone (the loops pass reads a loop chunk's pieces for their areas).
   format::Status read_pieces(std::uint32_t chunk, std::vector<PieceRecord>& pieces) const;
   std::uint64_t border_records() const { return border_records_; }
   std::uint64_t answer_records() const { return answer_records_; }
@@ -165,7 +168,7 @@ class PieceJoinFiles {
   std::unique_ptr<format::RecordCompressor> compressor_;  // shared by the bucket writers, under mutex_
   std::vector<std::unique_ptr<format::RecordWriter>> writers_;
   std::vector<std::uint8_t> answered_;  // per chunk: its answer file is written
-  // Per chunk, per Part, where it is: 16 bytes (96 per chunk; 0.78 MB at 8,103 chunks).
+  // Per chunk, per Part, where it is: 16 bytes (96 per chunk).
   struct Stored {
     std::uint64_t offset = 0;
     std::uint32_t bytes = 0;

@@ -1,4 +1,4 @@
-// Benchmark of pass A's per-chunk steps on real chunks: partitions MESH as `simplify --memory`
+// Benchmark of the sample pass's per-chunk steps on real chunks: partitions MESH as `simplify --memory`
 // does (2 threads' chunk size), then, on one thread, times for each of the first CHUNKS chunks:
 //   load    load_chunk (once per chunk: its reads go through the page cache)
 //   sample  sample_chunk: adjacency, face normals, labels, feature edges, the exact test
@@ -25,7 +25,8 @@
 #include "stream/partition/chunk_partition.h"
 #include "stream/stitch/chunk_pieces.h"
 #include "stream/sampling/chunk_sampler.h"
-#include "stream/pipeline/out_of_core_simplify.h"
+#include "stream/pipeline/out_of_core_setup.h"
+#include "stream/stitch/loop_chunks.h"
 #include "stream/core/gauss_sphere.h"
 #include "stream/meshing/polygon_mesher.h"
 
@@ -51,7 +52,7 @@ int main(int argc, char** argv) {
   po.memory_bytes = memory;
   po.rings = required_overlap_rings(0);
   po.threads = 2;
-  po.max_chunk_faces = pass_two_chunk_faces(memory, 2);
+  po.max_chunk_faces = sample_pass_chunk_faces(MemoryBudget(memory), 2);
   auto part = partition_mesh(argv[1], {}, po);
   if (!part) {
     std::fprintf(stderr, "bench_chunk_steps: %s\n", part.status().to_string().c_str());
@@ -89,7 +90,7 @@ int main(int argc, char** argv) {
     t = Clock::now();
     for (int r = 0; r < reps; ++r) {
       ChunkPieces out;
-      std::vector<std::uint32_t> candidates;  // as pass A hands them over
+      std::vector<std::uint32_t> candidates;  // as the sample pass hands them over
       for (const VertexRecord& rec : ws.records)
         if (rec.is_candidate) candidates.push_back(rec.vertex);
       find_chunk_pieces(*part, *chunk, ws.adjacency, ws.labels, ws.feature, out, &piece_index, &candidates);

@@ -5,12 +5,12 @@
 // Usage: bench_vs_meshopt [--frequency F] [FILES...]
 #include <meshoptimizer.h>
 
-#include <chrono>
 #include <cstdio>
 #include <string>
 #include <vector>
 
 #include "stream/analysis/mesh_distance.h"
+#include "stream/core/stopwatch.h"
 #include "stream/pipeline/in_core_simplify.h"
 #include "tests/support/test_util.h"
 
@@ -18,9 +18,7 @@ using namespace gaussmesh;
 
 namespace {
 
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
+using stream::seconds_since;
 
 stream::Mesh from_indices(const stream::Mesh& input, const std::vector<unsigned>& indices) {
   stream::Mesh out;
@@ -63,7 +61,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "%s\n", mesh.status().to_string().c_str());
       return 2;
     }
-    auto start = std::chrono::steady_clock::now();
+    auto start = stream::Clock::now();
     auto ours = stream::simplify_mesh(mesh->view(), options);
     double ours_seconds = seconds_since(start);
     if (!ours) {
@@ -76,13 +74,13 @@ int main(int argc, char** argv) {
     for (const auto& t : mesh->triangles) indices.insert(indices.end(), {t.v[0], t.v[1], t.v[2]});
     std::vector<unsigned> out(indices.size());
     const float* xyz = &mesh->positions[0].x;
-    start = std::chrono::steady_clock::now();
+    start = stream::Clock::now();
     float error = 0;
     size_t n = meshopt_simplify(out.data(), indices.data(), indices.size(), xyz, mesh->positions.size(),
                                 sizeof(format::Vec3f), target, 1.0f, 0, &error);
     double seconds = seconds_since(start);
     row(name, "meshopt_simplify", *mesh, from_indices(*mesh, {out.begin(), out.begin() + n}), seconds);
-    start = std::chrono::steady_clock::now();
+    start = stream::Clock::now();
     n = meshopt_simplifySloppy(out.data(), indices.data(), indices.size(), xyz, mesh->positions.size(),
                                sizeof(format::Vec3f), target, 1.0f, &error);
     seconds = seconds_since(start);

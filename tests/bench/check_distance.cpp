@@ -17,7 +17,6 @@
 #include <meshoptimizer.h>
 
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -27,6 +26,7 @@
 #include <vector>
 
 #include "stream/core/mesh.h"
+#include "stream/core/stopwatch.h"
 #include "stream/analysis/mesh_distance.h"
 #include "tests/support/shapes.h"
 #include "tests/support/test_util.h"
@@ -38,11 +38,8 @@ using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Point = Kernel::Point_3;
 using SurfaceMesh = CGAL::Surface_mesh<Point>;
 using gaussmesh::stream::Mesh;
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+using gaussmesh::stream::Clock;
+using gaussmesh::stream::seconds_since;
 
 // Our mesh as a CGAL Surface_mesh, through a repaired and oriented polygon soup (simplified or
 // real meshes may have degenerate or non-manifold faces, which a soup tolerates).

@@ -10,7 +10,6 @@
 // Exit codes: 0 ok, 1 usage, 2 bad input, 3 simplification, 4 output.
 #include <meshoptimizer.h>
 
-#include <chrono>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -22,12 +21,15 @@
 #include "format/mesh_writer.h"
 #include "format/output_file.h"
 #include "stream/core/mesh.h"
+#include "stream/core/stopwatch.h"
 
 namespace gaussmesh::bench {
 namespace {
 
 using format::Status;
 using format::Triangle;
+using stream::Clock;
+using stream::seconds_since;
 
 // The triangle array is handed to meshoptimizer as its flat index buffer, without a copy.
 static_assert(sizeof(Triangle) == 3 * sizeof(unsigned int) && alignof(Triangle) == alignof(unsigned int));
@@ -39,10 +41,6 @@ std::uint64_t peak_rss_bytes() {
     if (line.rfind("VmHWM:", 0) == 0) return std::strtoull(line.c_str() + 6, nullptr, 10) * 1024;
   }
   return 0;
-}
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 int usage() {
@@ -114,7 +112,7 @@ int main(int argc, char** argv) {
   }
   if (input.empty() || (ratio > 0) == (target_faces > 0) || ratio > 1 || !(target_error >= 0)) return usage();
 
-  auto t = std::chrono::steady_clock::now();
+  auto t = Clock::now();
   auto mesh = stream::load_mesh(input);
   if (!mesh) return fail(mesh.status());
   const double read_s = seconds_since(t);
@@ -128,7 +126,7 @@ int main(int argc, char** argv) {
   const size_t input_faces = mesh->triangles.size();
   if (ratio > 0) target_faces = std::uint64_t(double(input_faces) * ratio);
 
-  t = std::chrono::steady_clock::now();
+  t = Clock::now();
   std::vector<Triangle> out_faces(input_faces);
   const auto* indices = reinterpret_cast<const unsigned int*>(mesh->triangles.data());
   auto* destination = reinterpret_cast<unsigned int*>(out_faces.data());
@@ -144,7 +142,7 @@ int main(int argc, char** argv) {
   const double simplify_s = seconds_since(t);
   if (out_faces.empty()) return fail(Status::error(format::Code::kProcessing, input, "no faces left"));
 
-  t = std::chrono::steady_clock::now();
+  t = Clock::now();
   std::vector<format::Vec3f> kept = compact(mesh->positions, out_faces);
   if (!output.empty()) {
     auto file = format::OutputFile::create(output, true);

@@ -1,6 +1,6 @@
 // Generators of the paper's analytic test shapes (Figs. 2-4, genus 2), at any resolution,
-// rotation and noise. Convex shapes are triangulated as convex hulls (DESIGN §3.2): a grid with
-// fixed diagonals leaves slightly reflex edges whose saddles add genuine Gauss preimages.
+// rotation and noise. Convex shapes are triangulated as convex hulls: a grid with fixed
+// diagonals leaves slightly reflex edges whose saddles add genuine Gauss preimages.
 // Non-convex shapes are structured meshes whose edges bend with the surface: convex where the
 // surface is convex, concave where it is concave (saddle regions: whatever the grid gives).
 // Rotation is applied before triangulating convex shapes, so hulls are exactly convex in the

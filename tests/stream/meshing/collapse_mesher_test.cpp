@@ -1,7 +1,7 @@
-// Tests of the per-patch meshers — the collapse mesher (mesh_patches) and the polygon-first
-// mesher (mesh_patch_polygons) run the same tests: topology is kept, samples survive, no
-// degenerate or duplicate faces, on tiny meshes built in code with a stand-in labelling
-// (octant of the face normal).
+// Tests of the per-patch meshers — the collapse mesher (mesh_patches_by_collapse) and the
+// polygon-first mesher (mesh_patch_polygons) run the same tests: topology is kept, samples
+// survive, no degenerate or duplicate faces, on tiny meshes built in code with a stand-in
+// labelling (octant of the face normal).
 #include "stream/meshing/collapse_mesher.h"
 #include "stream/meshing/polygon_mesher.h"
 
@@ -186,7 +186,7 @@ void expect_valid_approximation(const Mesh& input, const Labelled& labels, const
 class Meshers : public ::testing::TestWithParam<std::string> {
  protected:
   format::Result<PatchMesherResult> run(const PatchMesherInput& input) const {
-    if (GetParam() == "collapse") return mesh_patches(input);
+    if (GetParam() == "collapse") return mesh_patches_by_collapse(input);
     auto result = mesh_patch_polygons(input);
     if (!result) return result.status();
     return std::move(result->mesh);

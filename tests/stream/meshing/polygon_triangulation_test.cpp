@@ -623,43 +623,6 @@ TEST(PolygonTriangulation, WorkspaceGivesTheSameTrianglesAndErrors) {
   }
 }
 
-TEST(EdgeKeyMap, AgreesWithStdMapUnderInsertsAndErases) {
-  const std::uint64_t seed = 3;
-  std::mt19937_64 rng(seed);
-  EdgeKeyMap table;
-  std::map<std::uint64_t, std::uint32_t> model;
-  for (int round = 0; round < 3; ++round) {
-    table.reset(round * 100);
-    model.clear();
-    for (int op = 0; op < 20000; ++op) {
-      // Few distinct keys, so inserts, erases and lookups often meet the same ones.
-      const std::uint64_t k = key(std::uint32_t(rng() % 60), std::uint32_t(rng() % 60));
-      switch (rng() % 3) {
-        case 0: {
-          bool inserted = false;
-          table.emplace(k, std::uint32_t(op), &inserted) += 1;
-          auto [it, is_new] = model.emplace(k, std::uint32_t(op));
-          it->second += 1;
-          ASSERT_EQ(inserted, is_new) << "seed " << seed << " op " << op;
-          break;
-        }
-        case 1:
-          ASSERT_EQ(table.erase(k), model.erase(k) == 1) << "seed " << seed << " op " << op;
-          break;
-        default: {
-          const std::uint32_t* found = table.find(k);
-          const auto it = model.find(k);
-          ASSERT_EQ(found != nullptr, it != model.end()) << "seed " << seed << " op " << op;
-          if (found) {
-            ASSERT_EQ(*found, it->second);
-          }
-        }
-      }
-      ASSERT_EQ(table.size(), model.size());
-    }
-  }
-}
-
 TEST(PolygonTriangulation, OrientationOfEqualPointsIsZero) {
   const P2 a{0.1, 0.3}, b{0.7, -2.5};
   EXPECT_EQ(orientation_2d(a, a, b), 0);
@@ -669,7 +632,5 @@ TEST(PolygonTriangulation, OrientationOfEqualPointsIsZero) {
   EXPECT_EQ(orientation_2d(P2{0, 0}, P2{0, 1}, P2{1, 0}), -1);
 }
 
-// Not a timed test: prints the speed quoted in docs/polygon-triangulation.md. Run with
-// --gtest_also_run_disabled_tests --gtest_filter='*Speed*'.
 }  // namespace
 }  // namespace gaussmesh::stream

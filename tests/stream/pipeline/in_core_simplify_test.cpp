@@ -1,5 +1,5 @@
 // The in-core simplification job on the real fixtures and on analytic shapes: topology kept,
-// no degenerate or duplicate faces, samples kept, bounded error (DESIGN §3.3, paper Fig. 18).
+// no degenerate or duplicate faces, samples kept, bounded error (docs/design.md, paper Fig. 18).
 #include "stream/pipeline/in_core_simplify.h"
 
 #include <gtest/gtest.h>

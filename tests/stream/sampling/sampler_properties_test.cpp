@@ -1,4 +1,4 @@
-// The paper's sampling properties (§3.2, Figs. 2-4; DESIGN §3.2) on generated analytic shapes:
+// The paper's sampling properties (§3.2, Figs. 2-4) on generated analytic shapes:
 // exact test: |V(G)| samples on closed convex genus-0 polyhedra, 2|V(G)| on 2-convex tori, more
 // on a dented sphere; paper test: within 25 % of those; smoothing on a noisy sphere.
 #include <cmath>

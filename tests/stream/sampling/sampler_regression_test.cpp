@@ -592,10 +592,10 @@ SamplingResult ref_sample(const Mesh& m, const GaussSphere& g, const SamplerOpti
   return res;
 }
 
-// ---- The previous O(mesh)-per-round merge (reference for the patch-graph merge) ---------------
+// ---- The O(mesh)-per-round merge (reference for the patch-graph merge) ------------------------
 
-// sample_mesh as it was before the merge ran on the patch graph: every round plans over all
-// faces (plan_untriangulatable_merges), relabels the merged faces, updates their feature bits,
+// sample_mesh with the merge run on the mesh instead of the patch graph: every round plans over
+// all faces (plan_untriangulatable_merges), relabels the merged faces, updates their feature bits,
 // re-evaluates every vertex of a merged face and runs find_patches again. Built from the
 // public steps (which the tests above check against their own references).
 SamplingResult mesh_round_sample(const Mesh& m, const GaussSphere& g, const SamplerOptions& o) {

@@ -98,7 +98,7 @@ void expect_stitch_equals_in_core(const std::string& path, std::uint32_t smooth,
     ChunkSamplingStats stats;
     ASSERT_TRUE(sample_chunk(*chunk, *gauss, options, ws, samples, stats).is_ok());
     find_chunk_pieces(*parts, *chunk, ws.adjacency, ws.labels, ws.feature, chunks[c]);
-    // Pass A hands over the sampler's candidates instead of counting every owned star again:
+    // The sample pass hands over the sampler's candidates instead of counting every owned star again:
     // the same candidates and stars.
     std::vector<std::uint32_t> listed;
     for (const VertexRecord& r : ws.records)
@@ -124,7 +124,7 @@ void expect_stitch_equals_in_core(const std::string& path, std::uint32_t smooth,
   EXPECT_GT(border, 0u) << "no border edge: the chunking did not cut any patch";
   ASSERT_TRUE((*joins)->finish().is_ok());
   EXPECT_EQ((*joins)->border_records(), border);
-  auto stitched = stitch_pieces(chunks, **joins, 0);
+  auto stitched = stitch_pieces(chunks, **joins, MemoryBudget());
   ASSERT_TRUE(stitched.is_ok()) << stitched.status().to_string();
   const InCore want = in_core_patches(*mesh, *gauss, options);
   ASSERT_EQ(stitched->patches.size(), want.patches.size());
@@ -162,7 +162,7 @@ void expect_stitch_equals_in_core(const std::string& path, std::uint32_t smooth,
 
   // The faces of every chunk through their pieces (owned) or their owners' answer files (the
   // rest): the in-core patch wherever an answer exists, and an answer for every face sharing a
-  // vertex with an owned face (what pass C needs).
+  // vertex with an owned face (what the loops pass needs).
   std::size_t answered = 0;
   for (std::size_t c = 0; c < nc; ++c) {
     auto chunk = load_chunk(parts->chunks[c]);
@@ -221,14 +221,14 @@ TEST(ChunkPieces, StitchedPatchesEqualTheInCorePatchesOnEveryFixture) {
   expect_stitch_equals_in_core(testing::fixture("real/cow.off"), 2, 64);
 }
 
-// Stitches hand-made chunks: their border edges and answers go through the files as pass B's do.
+// Stitches hand-made chunks: their border edges and answers go through the files as the sample pass's do.
 format::Result<StitchedPatches> stitch(std::vector<ChunkPieces> chunks, std::size_t buckets = 3) {
   testing::ScratchDir tmp;
   auto joins = PieceJoinFiles::create(tmp.path().string(), chunks.size(), buckets);
   if (!joins) return joins.status();
   for (std::size_t c = 0; c < chunks.size(); ++c) GM_RETURN_IF_ERROR((*joins)->spill(static_cast<std::uint32_t>(c), chunks[c]));
   GM_RETURN_IF_ERROR((*joins)->finish());
-  return stitch_pieces(chunks, **joins, 64 << 20);
+  return stitch_pieces(chunks, **joins, MemoryBudget(64 << 20));
 }
 
 TEST(ChunkPieces, CandidateEdgesCountTheStarsFeatureEdges) {

@@ -1,7 +1,8 @@
 // The paper test's chain fragments (stream/stitch/paper_chains.h): joined across chunks by the feature
 // edges they leave by, a chain through several chunks gives one pair, a closed chain or one that
 // comes back to its candidate none; damaged joins are kBadInput. (The whole pass against the
-// in-core find_candidate_adjacency: tests/stream/chunk_simplify_test.cpp, chunk_sampler_test.cpp.)
+// in-core find_candidate_adjacency: tests/stream/pipeline/out_of_core_simplify_test.cpp,
+// out_of_core_sample_test.cpp.)
 #include "stream/stitch/paper_chains.h"
 
 #include <gtest/gtest.h>
@@ -54,7 +55,7 @@ TEST(PaperChains, FragmentsJoinIntoOnePairPerChainAcrossChunks) {
   chunks[0].push_back({{3, std::uint64_t{70} << 32 | 71}, 2});
   chunks[2].push_back({{std::uint64_t{71} << 32 | 70, 9}, 1});
   Pairs pairs;
-  ASSERT_TRUE(join_chain_fragments(write(chunks, dir), 64 << 20, pairs).is_ok());
+  ASSERT_TRUE(join_chain_fragments(write(chunks, dir), MemoryBudget(64 << 20), pairs).is_ok());
   std::sort(pairs.begin(), pairs.end());
   EXPECT_EQ(pairs, (Pairs{{3, 9}, {5, 7}}));
 }
@@ -70,7 +71,7 @@ TEST(PaperChains, ManyFragmentsAreJoinedInParts) {
     chunks[1].push_back({{std::uint64_t{b} << 32 | a, 500000 + k}, 1});
   }
   Pairs pairs;
-  ASSERT_TRUE(join_chain_fragments(write(chunks, dir), 0, pairs).is_ok());
+  ASSERT_TRUE(join_chain_fragments(write(chunks, dir), MemoryBudget(), pairs).is_ok());
   ASSERT_EQ(pairs.size(), kChains);
   std::sort(pairs.begin(), pairs.end());
   for (std::uint32_t k = 0; k < kChains; ++k) EXPECT_EQ(pairs[k], std::make_pair(k, 500000 + k));
@@ -83,7 +84,7 @@ TEST(PaperChains, LinksSeenFromOneSideOrChainsWithThreeEndsAreBadInput) {
     chunks[0].push_back(candidate_and_link(5, 10, 20));
     chunks[1].push_back(candidate_and_link(6, 21, 11));  // not the edge 10-20
     Pairs pairs;
-    const format::Status s = join_chain_fragments(write(chunks, dir), 0, pairs);
+    const format::Status s = join_chain_fragments(write(chunks, dir), MemoryBudget(), pairs);
     EXPECT_EQ(s.code(), format::Code::kBadInput) << s.to_string();
   }
   {
@@ -94,7 +95,7 @@ TEST(PaperChains, LinksSeenFromOneSideOrChainsWithThreeEndsAreBadInput) {
     chunks[1].push_back({{std::uint64_t{20} << 32 | 10, 6}, 1});
     chunks[1].push_back({{std::uint64_t{20} << 32 | 10, 4}, 1});
     Pairs pairs;
-    const format::Status s = join_chain_fragments(write(chunks, dir), 0, pairs);
+    const format::Status s = join_chain_fragments(write(chunks, dir), MemoryBudget(), pairs);
     EXPECT_EQ(s.code(), format::Code::kBadInput) << s.to_string();
   }
 }

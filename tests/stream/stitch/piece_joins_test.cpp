@@ -56,7 +56,7 @@ format::Result<std::unique_ptr<PieceJoinFiles>> spilled(const std::string& dir, 
 
 format::Status join(const PieceJoinFiles& joins, std::vector<Joined>& got, std::uint64_t memory = 64 << 20) {
   got.clear();
-  GM_RETURN_IF_ERROR(joins.join_border_edges(memory, [&](const BorderEdgeRecord& x, const BorderEdgeRecord& y) {
+  GM_RETURN_IF_ERROR(joins.join_border_edges(MemoryBudget(memory), [&](const BorderEdgeRecord& x, const BorderEdgeRecord& y) {
     EXPECT_LT(x.face, y.face);
     got.emplace_back(x.face, y.face, x.piece, y.piece, x.feature);
     return format::Status();
@@ -73,7 +73,7 @@ void forge(const std::string& path, std::uint32_t kind, std::uint32_t record_siz
   ASSERT_TRUE((*writer)->finish().is_ok());
 }
 
-// Appends a forged record file to the pass-b file holding chunk's part and points the part at it.
+// Appends a forged record file to the segments file holding chunk's part and points the part at it.
 void forge_part(PieceJoinFiles& joins, PieceJoinFiles::Part part, std::uint32_t chunk, std::uint32_t kind,
                 std::uint32_t record_size, const std::vector<std::byte>& bytes, const testing::ScratchDir& dir) {
   forge(dir.file("forged.rec"), kind, record_size, bytes);
@@ -84,7 +84,7 @@ void forge_part(PieceJoinFiles& joins, PieceJoinFiles::Part part, std::uint32_t 
   joins.replace_segment_for_test(part, chunk, {held.size(), forged.size()});
 }
 
-// Cuts the pass-b file holding chunk's part `cut` bytes before the part's end.
+// Cuts the segments file holding chunk's part `cut` bytes before the part's end.
 void truncate_part(const PieceJoinFiles& joins, PieceJoinFiles::Part part, std::uint32_t chunk, std::uint64_t cut) {
   const PieceJoinFiles::Placed placed = joins.placed(part, chunk);
   ASSERT_NE(placed.file, PieceJoinFiles::Placed{}.file);
@@ -132,7 +132,7 @@ TEST(PieceJoins, ALargeBucketIsJoinedInParts) {
   std::vector<Joined> want, got;
   auto joins = spilled(dir.path().string(), random_edges(60000, 3, 9, want), 1);
   ASSERT_TRUE(joins.is_ok()) << joins.status().to_string();
-  ASSERT_GT((*joins)->border_records() * sizeof(BorderEdgeRecord), 3 * bucket_bytes(0));
+  ASSERT_GT((*joins)->border_records() * sizeof(BorderEdgeRecord), 3 * bucket_bytes(MemoryBudget()));
   ASSERT_TRUE(join(**joins, got, 0).is_ok());
   EXPECT_EQ(got, want);
 }
@@ -142,7 +142,7 @@ format::Status join_in_order(const PieceJoinFiles& joins, std::uint32_t threads,
                              std::vector<Joined>& got) {
   got.clear();
   return joins.join_border_edges(
-      memory,
+      MemoryBudget(memory),
       [&](const BorderEdgeRecord& x, const BorderEdgeRecord& y) {
         got.emplace_back(x.face, y.face, x.piece, y.piece, x.feature);
         return format::Status();
@@ -180,12 +180,12 @@ TEST(PieceJoins, ThreadsJoinInTheOrderOfOneThread) {
 }
 
 TEST(PieceJoins, BucketCountFollowsTheBudget) {
-  EXPECT_EQ(border_bucket_count(0, 64 << 20), 1u);
-  EXPECT_EQ(border_bucket_count(1000, 64 << 20), 1u);
+  EXPECT_EQ(border_bucket_count(0, MemoryBudget(64 << 20)), 1u);
+  EXPECT_EQ(border_bucket_count(1000, MemoryBudget(64 << 20)), 1u);
   // 4 MiB a bucket at 64 MiB: 10M records of 32 B make 77 buckets.
-  EXPECT_EQ(border_bucket_count(10'000'000, 64 << 20), 77u);
-  EXPECT_EQ(border_bucket_count(std::uint64_t{1} << 40, 64 << 20), kMaxBorderBuckets);
-  EXPECT_EQ(bucket_bytes(0), std::uint64_t{1} << 20);
+  EXPECT_EQ(border_bucket_count(10'000'000, MemoryBudget(64 << 20)), 77u);
+  EXPECT_EQ(border_bucket_count(std::uint64_t{1} << 40, MemoryBudget(64 << 20)), kMaxBorderBuckets);
+  EXPECT_EQ(bucket_bytes(MemoryBudget()), std::uint64_t{1} << 20);
   EXPECT_EQ(PieceJoinFiles::create("/nonexistent", 1, 0).status().code(), Code::kUsage);
   EXPECT_EQ(PieceJoinFiles::create("/nonexistent/dir", 1, 1).status().code(), Code::kOutput);
   // Either order of the faces, the same bucket and part.

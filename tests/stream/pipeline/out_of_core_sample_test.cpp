@@ -1,7 +1,8 @@
-// Pass 2 for sampling (stream/sampling/chunk_sampler.h): for any chunking — hundreds of chunks on small
-// meshes, with smoothing and several orientations — the out-of-core samples are the in-core
-// run's, vertex for vertex, and the per-chunk counts add up to the whole mesh's.
-#include "stream/sampling/chunk_sampler.h"
+// The out-of-core sampling pipeline (stream/pipeline/out_of_core_sample.h): for any chunking —
+// hundreds of chunks on small meshes, with smoothing and several orientations — the out-of-core
+// samples are the in-core run's, vertex for vertex, and the per-chunk counts add up to the whole
+// mesh's.
+#include "stream/pipeline/out_of_core_sample.h"
 
 #include <gtest/gtest.h>
 
@@ -46,7 +47,7 @@ void expect_same_as_in_core(const Case& c, const std::string& tmp) {
   options.sampler.sample_test = c.test;
   options.threads = c.threads;
   options.partition.max_chunk_faces = c.chunk_faces;
-  options.partition.memory_bytes = std::uint64_t{64} << 20;
+  options.memory = MemoryBudget(std::uint64_t{64} << 20);
   options.partition.tmp_dir = tmp;
   auto ooc = sample_out_of_core(c.path, {}, options);
   ASSERT_TRUE(ooc.is_ok()) << ooc.status().to_string();
@@ -85,7 +86,7 @@ void expect_same_as_in_core(const Case& c, const std::string& tmp) {
   EXPECT_TRUE(std::filesystem::is_empty(tmp));
 }
 
-TEST(ChunkSampler, FixturesGiveTheInCoreSamplesWithHundredsOfChunks) {
+TEST(OutOfCoreSample, FixturesGiveTheInCoreSamplesWithHundredsOfChunks) {
   testing::ScratchDir tmp;
   for (const char* name : {"cow.off", "fandisk.off", "homer.off", "knot1.off", "mech-holes-shark.off",
                            "mushroom.off", "bunny-lowres.ply"}) {
@@ -93,7 +94,7 @@ TEST(ChunkSampler, FixturesGiveTheInCoreSamplesWithHundredsOfChunks) {
   }
 }
 
-TEST(ChunkSampler, SmoothingAndOrientationsAndChunkSizes) {
+TEST(OutOfCoreSample, SmoothingAndOrientationsAndChunkSizes) {
   testing::ScratchDir tmp;
   const std::string cow = testing::fixture("real/cow.off");
   expect_same_as_in_core({cow, 2, 3, 48, 2}, tmp.path().string());
@@ -101,7 +102,7 @@ TEST(ChunkSampler, SmoothingAndOrientationsAndChunkSizes) {
   expect_same_as_in_core({cow, 1, 2, 1u << 20, 2}, tmp.path().string());  // one chunk
 }
 
-TEST(ChunkSampler, NoisyShapeWithSmoothing) {
+TEST(OutOfCoreSample, NoisyShapeWithSmoothing) {
   testing::ScratchDir tmp;
   testing::ShapeOptions shape;
   shape.vertices = 6000;
@@ -124,7 +125,7 @@ TEST(ChunkSampler, NoisyShapeWithSmoothing) {
 
 // The paper test runs the stitch up to its samples: the untriangulatable merge, the candidates'
 // records after it, candidate chains across chunks and the noisy filter.
-TEST(ChunkSampler, PaperTestGivesTheInCoreSamplesWithHundredsOfChunks) {
+TEST(OutOfCoreSample, PaperTestGivesTheInCoreSamplesWithHundredsOfChunks) {
   testing::ScratchDir tmp;
   for (std::uint32_t smooth : {0u, 2u})
     for (const char* name : {"cow.off", "fandisk.off", "homer.off", "knot1.off", "mech-holes-shark.off",
@@ -134,7 +135,7 @@ TEST(ChunkSampler, PaperTestGivesTheInCoreSamplesWithHundredsOfChunks) {
 }
 
 // Several orientations: each runs the stitch up to its samples, the fewest win (ties: the first).
-TEST(ChunkSampler, PaperTestWithSeveralOrientations) {
+TEST(OutOfCoreSample, PaperTestWithSeveralOrientations) {
   testing::ScratchDir tmp;
   expect_same_as_in_core({testing::fixture("real/cow.off"), 0, 3, 24, 2, SampleTest::kPaper}, tmp.path().string());
   expect_same_as_in_core({testing::fixture("real/homer.off"), 0, 2, 48, 1, SampleTest::kPaper}, tmp.path().string());  // the second wins
