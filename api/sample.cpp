@@ -3,7 +3,7 @@
 #include "api/internal.h"
 #include "format/output_file.h"
 #include "stream/core/stopwatch.h"
-#include "stream/sampling/chunk_sampler.h"
+#include "stream/pipeline/out_of_core_sample.h"
 
 namespace gaussmesh {
 namespace {
@@ -110,7 +110,7 @@ Result<SampleStats> sample_out_of_core(const Source& source, const std::string& 
   }
   const auto t0 = Clock::now();
   stream::OutOfCoreSamplingOptions options;
-  options.partition.memory_bytes = memory;
+  options.memory = stream::MemoryBudget(memory);
   options.partition.tmp_dir = o.resources.tmp_dir;
   options.threads = api::thread_count(o.resources.threads);
   options.spheres = spheres;

@@ -63,7 +63,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
     return Status::error(Code::kUsage, "simplify", "the streaming engine runs the per-patch mesher only (--mesher voronoi runs in core)");
   }
   stream::OutOfCoreSimplifyOptions options;
-  options.partition.memory_bytes = memory;
+  options.memory = stream::MemoryBudget(memory);
   options.partition.tmp_dir = o.resources.tmp_dir;
   options.threads = api::thread_count(o.resources.threads);
   options.spheres = spheres;

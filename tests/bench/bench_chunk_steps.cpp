@@ -7,8 +7,7 @@
 //   loop    write_loop_chunk (its own skips, the core faces, piece areas, the segment written)
 // and prints nanoseconds per chunk face of each, after REPS repetitions (the first sample_chunk
 // of a chunk, which warms the workspace, is not counted). Figures on this shared VM drift by
-// 10-20 % from minute to minute: compare two builds by alternating them (docs/benchmarks.md,
-// "Session 15"). The check line sums what the steps produced, so two builds that must agree
+// 10-20 % from minute to minute: compare two builds by alternating them (docs/benchmarks.md). The check line sums what the steps produced, so two builds that must agree
 // print the same checks.
 //
 //   bench_chunk_steps MESH [REPS (5)] [CHUNKS (8)] [MEMORY_MIB (64)]

@@ -1,4 +1,4 @@
-// Benchmark of passes 0 and 1 (stream/partition/chunk_partition.h): generates refined-cow PLY inputs with
+// Benchmark of the ingest and partition passes (stream/partition/chunk_partition.h): generates refined-cow PLY inputs with
 // make_large_mesh, optionally a badly ordered copy (vertex ids and face order shuffled), runs
 // partition_mesh on each in a child process (fork + exec of this program, so the child's peak
 // RSS — wait4's ru_maxrss — is its own), and prints a markdown table.
@@ -7,7 +7,7 @@
 //                   [--dir D] [--shuffle-max N] [--keep]
 //   bench_partition --child INPUT MEMORY RINGS THREADS LEVEL TMPDIR [read-back]
 //       (one run; key=value line; read-back: then loads every chunk and builds its adjacency on one
-//       thread, and prints the CPU seconds of each — what passes A and C pay per chunk)
+//       thread, and prints the CPU seconds of each — what the sample and loops passes pay per chunk)
 #include <sys/statvfs.h>
 #include <time.h>
 #include <unistd.h>

@@ -144,7 +144,7 @@ TEST(SampleCli, OutOfCoreBadInputAndOptions) {
 
 TEST(SampleCli, InterruptedOutOfCoreRunLeavesNoTemporaryFiles) {
   ScratchDir dir, tmp;
-  // The input stalls after the header and a few vertices: the run is inside pass 0 with its spill
+  // The input stalls after the header and a few vertices: the run is inside the ingest pass with its spill
   // files open when SIGINT arrives.
   const std::string cow = q(fixture("real/cow.off"));
   auto run = run_command("((head -c 20000 " + cow + "; sleep 4) | " + q(gaussmesh_binary()) + " sample - -o " +

@@ -152,8 +152,8 @@ TEST(SimplifyCli, InterruptedRunLeavesNoFiles) {
 TEST(SimplifyCli, SignalsDuringTheChunkPassesLeaveNoTemporaryFiles) {
   // SIGTERM at several moments of an out-of-core run on two threads. In the chunk passes each
   // chunk spills record files, so while the handler empties the temporary directory the other
-  // thread goes on creating files there (a listing made before a file exists misses it; in
-  // session 6 this left a few files behind in 3 of 12 tries). Every run must leave none.
+  // thread goes on creating files there, and a listing made before a file exists misses it.
+  // Every run must leave none.
   ScratchDir dir, tmp;
   ShapeOptions shape;
   shape.vertices = 250000;
