@@ -79,7 +79,6 @@ class ChunkSets {
       slot.e[0] = static_cast<std::uint32_t>(node_count_);
       nodes_.set(node_count_++, node);
       ++slot.count;
-      ++overflowed_;
     } else {
       ExtraNode head = nodes_.get(slot.e[0]);
       if (head.used < 14) {
@@ -97,17 +96,15 @@ class ChunkSets {
     }
     slots_.set(index - 1, slot);
   }
-  std::uint64_t overflowed() const { return overflowed_; }
-  std::uint64_t nodes() const { return node_count_; }
 
  private:
   // Per vertex, 1 + its slot's index (0: no entries): border vertices are few but spread over
-  // the whole id range, so a slot per vertex (16 bytes) made nearly every block of an
-  // 800 MB file dirty at 100M; the index is 4 bytes a vertex and the slots are dense.
+  // the whole id range, so a slot per vertex (16 bytes) would make nearly every block of a large
+  // file dirty; the index is 4 bytes a vertex and the slots are dense.
   CachedArray<std::uint32_t> index_;
   CachedArray<ExtraSlot> slots_;
   CachedArray<ExtraNode> nodes_;
-  std::uint64_t slot_count_ = 0, node_count_ = 0, overflowed_ = 0;
+  std::uint64_t slot_count_ = 0, node_count_ = 0;
 };
 
 }  // namespace gaussmesh::stream::detail
