@@ -29,16 +29,15 @@ using format::Result;
 using format::Status;
 
 // Slot size: one page, so that a dirty block goes back as a whole page (a write of part of a
-// page the file does not have yet makes the kernel zero the page first: with 3 KiB blocks,
-// 16 % of the 100M ring rounds' thread was that memset) and 4-, 16- and 64-byte records tile it.
-// Small blocks make a miss cheap on badly ordered input (a miss is one pread of the block); on
-// spatially ordered input the hit rate is ~99.9 % at any size (docs/partition.md).
+// page the file does not have yet makes the kernel zero the page first, a memset per write) and
+// 4-, 16- and 64-byte records tile it. Small blocks make a miss cheap on badly ordered input (a
+// miss is one pread of the block); spatially ordered input hits nearly always at any block size
+// (docs/partition.md).
 constexpr std::size_t kSlotBytes = 4096;
 
 // Asks for transparent huge pages on the whole 2 MiB pages inside [data, data + bytes). The
-// scans touch the cache's blocks at random: with 4 KiB pages the TLB misses on this VM cost a
-// seventh of the 10M partition (1.03 -> 0.87 s with huge pages). Advice only: without THP, or
-// with THP off, nothing changes.
+// scans touch the cache's blocks at random, and with 4 KiB pages its TLB misses are a sizeable
+// part of the partition's time. Advice only: without THP, or with THP off, nothing changes.
 inline void advise_huge_pages(void* data, std::size_t bytes) {
   constexpr std::uintptr_t kHuge = std::uintptr_t{1} << 21;
   const auto start = reinterpret_cast<std::uintptr_t>(data);
@@ -54,11 +53,9 @@ inline void advise_huge_pages(void* data, std::size_t bytes) {
 // remembers the keys of its last `usable_` evictions (a ghost list), and when over 1/8 of the
 // misses in a window of `usable_` misses ask for one of them, it doubles. Spatially ordered
 // input misses on first touches and on the next scan's sweep, long after the eviction, at any
-// size (partition alone, 64 MiB: 10M triangles 14.8k misses in 3.75 MiB against 7.0k in 30 MiB,
-// 100M 155k against 151k), so the cache stays small and leaves the budget's pages untouched;
-// badly ordered input asks for recently evicted blocks at once and grows the cache within a few
-// windows (3M shuffled under 64 MiB: 15 MiB, 5.3k misses against 3.3k in 30 MiB; 1M shuffled
-// under 16 MiB: the whole 7.5 MiB).
+// size, so the cache stays small and leaves the budget's pages untouched; badly ordered input
+// asks for recently evicted blocks at once and grows the cache within a few windows
+// (docs/partition.md has the figures).
 class BlockCache {
  public:
   explicit BlockCache(std::size_t budget_bytes) {
@@ -96,9 +93,8 @@ class BlockCache {
 
   // The block; mark it dirty when it will be written. Valid until the next call.
   // A front-table hit reads nothing but the entry: an evicted block's entry is dropped when the
-  // block goes (load, discard), so a matching key always names the block's slot and data. (It
-  // used to check the slot's key too: a load from the slot table per access, 13 % of the ring
-  // rounds at 10M.)
+  // block goes (load, discard), so a matching key always names the block's slot and data, and a
+  // hit costs no load from the slot table.
   std::byte* block(int file, std::uint64_t index, bool dirty) {
     const std::uint64_t key = (static_cast<std::uint64_t>(file) + 1) << 48 | index;
     Tlb& entry = tlb_[tlb_index(key)];
@@ -219,7 +215,7 @@ class BlockCache {
     }
     if (next_unused_ < usable_) return static_cast<std::uint32_t>(next_unused_++);
     // A block in the front table counts as referenced: its hits set no bit (a store into the slot
-    // table per access was a quarter of the final scan's own time). After two sweeps (every slot
+    // table per access would cost the scans more than the lookup). After two sweeps (every slot
     // in the front table: a cache of fewer slots than it) the hand takes the slot it is on.
     for (std::size_t step = 0;; ++step) {
       Slot& s = slots_[hand_];

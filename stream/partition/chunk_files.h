@@ -19,9 +19,9 @@ inline std::string chunk_file_path(const std::string& dir, std::uint32_t chunk) 
 }
 
 // Creates the chunk files, empty, on a thread of its own while the ring rounds run: a create
-// cost ~0.35 ms on this machine's ext4 (inode allocation), 0.5 s of the final scan's thread at
-// 100M (1,474 chunks) when its writers made them. The writers open them with O_TRUNC later; a
-// create that fails here is left to the writer to report.
+// allocates an inode (a fraction of a millisecond on ext4), which the final scan's thread would
+// otherwise pay once per chunk. The writers open them with O_TRUNC later; a create that fails
+// here is left to the writer to report.
 class ChunkFileMaker {
  public:
   ChunkFileMaker(const std::string& dir, std::uint32_t chunks, bool background) {

@@ -32,8 +32,8 @@ using format::Vec3f;
 
 // (global id << 32 | corner) for every corner, sorted: an LSD radix sort on the id's offset from
 // the chunk's lowest id, 11 bits a pass — stable, so corners of one id stay in order. A chunk's ids
-// span a small range on spatially ordered input (one or two passes); std::sort took a seventh of
-// pass 2's time.
+// span a small range on spatially ordered input (one or two passes), where this is much cheaper
+// than a comparison sort.
 std::vector<std::uint64_t> sorted_corner_keys(std::span<const std::uint32_t> ids) {
   const std::size_t n = ids.size();
   std::vector<std::uint64_t> keys(n), scratch(n);
@@ -158,10 +158,10 @@ Numbered number_by_bitmap(std::span<const std::uint32_t> ids, const std::vector<
 // triangles' corners; a vertex whose corners disagree on ownership is bad(). Ids that fill
 // their 2^13-id blocks well enough (any spatially ordered input, where a chunk's ids lie in a
 // few ranges, one per stretch of the input's order): the two-level bitmap numbers them in
-// sequential passes over the corners and no sort, in at most the sort's 48 bytes a face.
-// Scattered ids: one sort of (global id, corner). At 100M refined
-// triangles a chunk's ids span most of the 50M ids (one range per refinement level), and the
-// sort, a one-level bitmap's fallback there, was 12 % of the whole run.
+// sequential passes over the corners and no sort, in at most the sort's 48 bytes a face. Two
+// levels, not one: on a refined input a chunk's ids span most of the id range (one range per
+// refinement level), which a one-level bitmap could not afford. Scattered ids: one sort of
+// (global id, corner).
 template <class Bad>
 Status number_chunk_vertices(const std::vector<std::uint8_t>& owned, ChunkMesh& mesh, Bad&& bad) {
   // The corners hold global ids on entry and are numbered in place: each pass reads a corner's
@@ -169,8 +169,7 @@ Status number_chunk_vertices(const std::vector<std::uint8_t>& owned, ChunkMesh& 
   const std::span<const std::uint32_t> ids(reinterpret_cast<const std::uint32_t*>(mesh.triangles.data()), 3 * mesh.triangles.size());
   const std::size_t n = ids.size();
   if (n == 0) return {};
-  // min and max without branches (minmax_element's compares on scattered ids mispredicted: a
-  // seventh of load_chunk).
+  // min and max without branches (minmax_element's compares mispredict on scattered ids).
   std::uint32_t lo = ids[0], hi = ids[0];
   for (const std::uint32_t id : ids) {
     lo = std::min(lo, id);
@@ -303,11 +302,11 @@ format::Result<ChunkMesh> load_chunk(const ChunkInfo& info) {
   mesh.chunk = info.id;
   const std::size_t faces = static_cast<std::size_t>(info.faces);
   // Sized once by the partition's own count (which the file's seek table matched) and filled by
-  // index: push_back's capacity checks were a third of this loop.
+  // index: push_back's capacity checks would weigh on this loop.
   mesh.global_face.resize(faces);
   mesh.owned_face.resize(faces);
   // The corners' global ids go straight into the triangles, numbered there in place (a separate
-  // array of them was 12 more bytes a face while loading).
+  // array of them would be 12 more bytes a face while loading).
   mesh.triangles.resize(faces);
   std::uint32_t* corner_ids = reinterpret_cast<std::uint32_t*>(mesh.triangles.data());
   std::vector<std::uint8_t> corner_owned(3 * faces), corner_loop;  // corner_loop: loop chunks only
@@ -325,7 +324,7 @@ format::Result<ChunkMesh> load_chunk(const ChunkInfo& info) {
       std::memcpy(&face, r, 8);
       std::memcpy(v, r + 8, 12);
       const auto flags = std::to_integer<std::uint8_t>(r[20]);
-      // Built only on failure: a string per record cost a fifth of pass 2's time.
+      // Built only on failure: a string per record would be a large part of loading's time.
       auto where = [&] { return "face record " + std::to_string(k) + ": "; };
       if (k >= faces) return bad(where() + "more records than the file claims");
       if (k > 0 && face <= global_face[k - 1]) return bad(where() + "face ids not ascending");

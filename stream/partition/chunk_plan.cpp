@@ -22,8 +22,8 @@
 namespace gaussmesh::stream::detail {
 
 // The plan's scans of the positions compute per vertex (a cell, a sub-cell code, an owner) and
-// run on the run's threads: at 100M triangles, five scans of 50M vertices took 2.8 s on one
-// thread. Pieces are small enough that the tests' shapes take the threaded path.
+// run on the run's threads: up to five scans of every vertex would otherwise be a long serial
+// step. Pieces are small enough that the tests' shapes take the threaded path.
 constexpr std::size_t kPlanPieceVertices = std::size_t{1} << 13;
 
 template <class Fn>
@@ -81,8 +81,8 @@ Status PartitionRun::plan() {
   // size is fixed, so their counts grow with the input) gets 8^k sub-cells, k the least that
   // brings a surface's share of it (a quarter per level) to an eighth of a chunk, at most
   // kMaxSplitBits; one more scan of positions.bin counts their vertices. Without this the
-  // largest chunk grew with the input (100M triangles under 64M: a cell of 66k vertices, twice
-  // a chunk; the largest chunk owned 2.2 chunks' vertices, 1.23 with split cells).
+  // largest chunk would grow with the input (a single cell can hold more than a chunk), and the
+  // chunk passes' memory follows the largest chunk.
   // A cell whose vertices gather in a small part of it (a cluster, not a surface across the
   // cell) leaves sub-cells above a quarter of a chunk: its k goes up by two and the sub-cells are
   // counted again, at most twice. The sub-cell counts stay within an eighth of the budget: k is
@@ -111,8 +111,8 @@ Status PartitionRun::plan() {
   // allows (cells in order, while the counts fit), and the counts at k are their sums (a code at
   // k is the top bits of its sub-cells' codes at k + 2: floor(t * 2^(k+2)) >> 2 is floor(t * 2^k)).
   // A cell whose k is raised then has its counts already: the rounds decide as if each counted
-  // at k, and scan again only for a cell raised past what it counted. At 100M under 64M one of
-  // 697 split cells was raised, and a whole scan of the positions counted it again.
+  // at k, and scan again only for a cell raised past what it counted (a whole scan of the
+  // positions for a few cells otherwise).
   std::vector<std::uint32_t> split_offset, sub_histogram, counted_bits, counted_offset, fine;
   bool scan = true;
   for (int round = 0; !p.splits.empty(); ++round) {
@@ -203,9 +203,8 @@ Status PartitionRun::plan() {
   // read owners only (4 bytes a vertex through the cache); positions.bin stays for load_chunk.
   owners_path_ = out_.dir + "/owners.bin";
   vertex_files_->owners = owners_path_;
-  // The writes go to a thread of their own (session 17): copying 200 MB into the page cache at
-  // 100M took the scan's thread 0.4-0.5 s while the other core idled; now the next stripe's
-  // owners are computed meanwhile.
+  // The writes go to a thread of their own, so that the next stripe's owners are computed while
+  // the kernel copies the last one into the page cache.
   SpillWriter owners;
   GM_RETURN_IF_ERROR(owners.open(owners_path_, std::size_t{1} << 20));
   FaceSpill no_faces;

@@ -29,12 +29,9 @@ namespace {
 // whole frame), inline or by `workers` compression threads fed through queues. Writer i belongs
 // to worker i % workers, and the caller gives the writers of one worker one shared zstd context
 // (write_chunks): a chunk's frames stay in order (one consumer per writer, FIFO) and no context
-// is used by two threads. Memory: (chunks + spare) frames.
-//
-// Why several workers: when records carried positions (57 bytes), one compression thread bounded
-// the pass (100M triangles under 64 MiB: ~6 GB of records; the scan ~14 s of CPU, compression
-// ~22 s, the scan waiting for free buffers). With 21-byte records each of two threads uses ~4 s
-// at 100M: compression stays off the scan's path.
+// is used by two threads. Memory: (chunks + spare) frames. Several workers keep compression off
+// the scan's path: the scan's thread is the pass's bottleneck, and one compression thread could
+// fall behind it.
 class ChunkOutput {
  public:
   // Spare frames for the compression threads: enough that the scan seldom waits for one when
@@ -108,9 +105,9 @@ class ChunkOutput {
     std::unique_lock<std::mutex> lock(mutex_);
     jobs_[w].push_back({i, s.data, s.used});
     // A sleeping worker is woken once wake_batch_ frames wait for it (it then drains its queue),
-    // not per frame: at 100M triangles the scan hands over ~440k frames of ~5 KB, and a futex
-    // wake and a context switch per frame kept the scan thread 40 % idle. When no buffer is
-    // free, every worker with work is woken before the scan waits.
+    // not per frame: the scan hands over many small frames, and a futex wake and a context switch
+    // per frame would leave the scan's thread idle much of the time. When no buffer is free,
+    // every worker with work is woken before the scan waits.
     if (jobs_[w].size() >= wake_batch_) wake_worker_[w].notify_one();
     if (free_.empty()) {
       for (std::size_t v = 0; v < jobs_.size(); ++v)
@@ -196,8 +193,8 @@ Status PartitionRun::write_chunks() {
   cache_->limit(memory / 2 + memory / 8 - writer_budget);
   // Frames of at least 64 records when one scan holds every chunk. When it cannot, of at least
   // 256: later scans pass over the frames of faces they do not need (frame_chunks below), so
-  // more, smaller groups cost little, and frames of 64 records (1.3 KB) made the 100M run under
-  // 16M compress and write 1.8M frames.
+  // more, smaller groups cost little, while frames of 64 records would make a small budget
+  // compress and write millions of tiny frames.
   std::size_t min_frame = 0, spare = 0, per_scan = 0;
   auto fit = [&](std::size_t records) {
     min_frame = records * kChunkFaceRecordBytes;
@@ -233,11 +230,10 @@ Status PartitionRun::write_chunks() {
 
   std::vector<std::unique_ptr<format::RecordWriter>> writers;
   std::vector<std::uint32_t> set;
-  // With several scans (more chunks than the staged frames allow: 100M under 16M, 8,103 chunks,
-  // six scans), the first records each face frame's lowest and highest chunk, and a later scan
-  // skips the frames that send nothing to its group: faces are in input order, chunks in Morton
-  // order, so on spatially ordered input a group's faces lie in a few runs of frames. 8 bytes a
-  // frame of ~87k faces.
+  // With several scans (more chunks than the staged frames allow), the first records each face
+  // frame's lowest and highest chunk, and a later scan skips the frames that send nothing to its
+  // group: faces are in input order, chunks in Morton order, so on spatially ordered input a
+  // group's faces lie in a few runs of frames. 8 bytes a face frame.
   std::vector<std::pair<std::uint32_t, std::uint32_t>> frame_chunks;
   const bool several_scans = per_scan < chunks;
   if (options_.rings > 1) cache_->flush(has_extras_->file());  // the tags read it through a window

@@ -42,9 +42,8 @@ Status PartitionRun::scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of,
   // 256 faces; past that, the rest of the frame goes untagged (the scan's thread looks through the
   // cache, which may still hold the file) and so do the next 1, 2, 4 ... 64 frames, doubling while
   // frames keep missing. Disorder is often local (a stretch of the input that jumps about the
-  // ids: at 100M one frame in 42 did), and a switch that stayed off for the rest of the scan
-  // left the scan's thread every lookup of the round; on ids shuffled throughout, the windows
-  // are read for one frame in 64.
+  // ids), so tagging resumes once frames stop missing rather than staying off for the rest of
+  // the scan; on ids shuffled throughout, the windows are read for one frame in 64.
   constexpr std::uint64_t kWindowMissFaces = 256, kTagSlice = 1024, kMaxBackOff = 64;
   std::uint64_t untagged = 0, back_off = 0, pass_over = 0;  // the tagger's; read once its thread is joined
   struct CountUntagged {  // destroyed after the read-ahead below

@@ -25,9 +25,8 @@ using format::Triangle;
 
 // The face spill: faces in input order as a record file (kFaceSpillRecordKind) with column frames,
 // the three vertex ids as differences from the previous face's. Neighbouring faces share
-// vertices, so the ids compress to a few percent (1.2 GB at 100M triangles as plain triangles,
-// ~21 MB as a spill); on this VM writing temporary files runs at 0.3-0.6 GB/s, and the scans
-// read it k times.
+// vertices, so the ids compress to a few percent of plain triangles: temporary files are slow to
+// write, and the scans read the spill once per ring round and once more for the chunks.
 constexpr std::uint32_t kFaceSpillRecordKind = 0x53464D47u;  // "GMFS"
 constexpr std::size_t kFaceSpillFrameBytes = std::size_t{1} << 20;
 
@@ -36,8 +35,8 @@ class FaceSpill {
   Status open(const std::string& path) {
     format::RecordWriterOptions options;
     options.frame_bytes = kFaceSpillFrameBytes;
-    // -1: on the refined cow's 1 MB frames 2.2x faster to compress and 1.5x to decompress than
-    // level 1, for 19.3x instead of 21.6x (docs/partition.md, "zstd level on column frames").
+    // -1: on these frames markedly faster than level 1 both ways, for a spill a little larger
+    // (docs/partition.md, "zstd level on column frames").
     options.level = -1;
     options.columns = {{4, true}, {4, true}, {4, true}};
     auto writer = format::RecordWriter::create(path, kFaceSpillRecordKind, sizeof(Triangle), options);

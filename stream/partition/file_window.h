@@ -16,11 +16,11 @@ namespace gaussmesh::stream::detail {
 // A read-only window on one of the cache's files (owners.bin, or a bitmap the cache has
 // flushed), for one thread: 4 KiB blocks in two-way sets (the least recently used way goes), a
 // pread per miss, zeros past the end of the file (blocks never written read as zeros, as in the
-// cache). The ring rounds' tags read through these on the read-ahead thread, beside the
-// single-threaded cache. Direct-mapped, two hot blocks on one slot (at 100M, a base face's
-// interior ids and one of its edges' ids) missed on every other face: round 1 found 177 of
-// 1,140 frames missing more than once per 256 faces. A failed read reads as zeros and keeps its
-// error (error()), which the tagger returns after the frame.
+// cache). The scans' tags read through these on the read-ahead thread, beside the
+// single-threaded cache. Two ways, not one: a face's corners often lie in two hot blocks (a
+// refined face's interior ids and one of its edges' ids) that a direct-mapped window would put
+// on one slot, missing on every other face. A failed read reads as zeros and keeps its error
+// (error()), which the tagger returns after the frame.
 class FileWindow {
  public:
   static constexpr std::size_t kBlockBytes = 4096;

@@ -1,5 +1,8 @@
-// The partition run: the state one partition_mesh call carries through ingest, plan, ring rounds
-// and chunk output (each step in a file of its own).
+// The partition run: the state one partition_mesh call carries through its steps, each in a file
+// of its own — ingest.cpp (pass 0), chunk_plan.cpp (cells and owners), ring_expansion.cpp (the
+// chunk sets), chunk_writer.cpp (the chunk files) — run in order by partition_run.cpp.
+// Vertex-indexed data lives in spill files behind one bounded block cache; faces are only ever
+// read sequentially, from the face spill.
 #pragma once
 
 #include <cstddef>

@@ -28,9 +28,9 @@ using format::Vec3f;
 // One batch of a position scan: `want` records of `stride` bytes from byte `offset` of fd, read
 // piece by piece on the pieces' threads (pieces(n, fn) calls fn(begin, end) over [0, n)), each
 // piece's records into `records` (or, bare x, y, z records, straight into `out`) and converted
-// there, then piece(begin, end) runs on them. Until session 16 the batch was read whole before its
-// pieces ran: the kernel's copy out of the page cache was each scan's serial part (the plan's
-// scans at ~1.6 cores). A failed or short read is the first failing piece's `fail(offset, got)`.
+// there, then piece(begin, end) runs on them. Each piece reads its own records so that the
+// kernel's copy out of the page cache runs on every thread instead of being the scan's serial
+// part. A failed or short read is the first failing piece's `fail(offset, got)`.
 template <class Pieces, class Piece, class Fail>
 Status read_position_batch(int fd, std::uint64_t offset, std::size_t want, std::size_t stride, const VertexFiles::InputPositions* in,
                            std::byte* records, Vec3f* out, Pieces&& pieces, Piece&& piece, Fail&& fail) {
@@ -89,9 +89,9 @@ Status scan_input_positions(const VertexFiles::InputPositions& in, std::uint64_t
 // Reads the positions of vertices 0 .. expected - 1 in order, a stripe (768 KiB) at a time
 // from the two position files, or from the input's records (VertexFiles::input). Each batch is
 // read and handled in pieces (pieces(n, fn), fn(begin, end)): piece(first_index, batch, begin,
-// end) once its piece is read, then batch(first_index, batch) once all are. (A larger buffer,
-// once freed, raises glibc's mmap threshold, and later buffers of that size come from the heap
-// and stay resident: 4 MiB here raised the 10M run's peak by 2.6 MB.)
+// end) once its piece is read, then batch(first_index, batch) once all are. The buffer stays
+// small: a larger one, once freed, raises glibc's mmap threshold, and later buffers of that size
+// come from the heap and stay resident, raising the run's peak.
 template <class Pieces, class Piece, class Batch>
 Status scan_positions(const VertexFiles& files, std::uint64_t expected, Pieces&& pieces, Piece&& piece, Batch&& batch) {
   if (files.input) return scan_input_positions(*files.input, expected, pieces, piece, batch);

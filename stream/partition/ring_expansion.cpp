@@ -26,7 +26,7 @@ Status PartitionRun::expand_rings() {
       if (keep_frontier) next.set(v);
       ++added;
     };
-    // Tag 1: a face the round must look at. Round 1: its corners' owners differ (at 100M, 4 %
+    // Tag 1: a face the round must look at. Round 1: its corners' owners differ (a few percent
     // of the faces); later rounds: a corner is in the frontier, read from the file the cache
     // has just flushed.
     if (round > 1) cache_->flush(previous.file());

@@ -22,9 +22,9 @@ using format::Triangle;
 using format::Vec3f;
 
 // Writes the ingest's two spills, on a thread of its own when `background` (the run has
-// --threads > 1): the kernel's copy of positions.bin into the page cache (600 MB at 100M
-// triangles, half the ingest's time on one thread) and the face spill's compression then run
-// beside the reader's parsing. Each batch is copied into one of at most kInFlight buffers (the
+// --threads > 1): the kernel's copy of the positions into the page cache (on one thread, about
+// half the ingest's time) and the face spill's compression then run beside the reader's
+// parsing. Each batch is copied into one of at most kInFlight buffers (the
 // reader's batch is only valid during its call); one consumer keeps each file in order.
 class SpillThread {
  public:
