@@ -73,7 +73,7 @@ Status PartitionRun::plan() {
   // chunk from the input's vertex/face ratio.
   const std::uint64_t chunk_faces = options_.max_chunk_faces > 0
                                         ? options_.max_chunk_faces
-                                        : std::max<std::uint64_t>(options_.memory_bytes / options_.threads / kChunkBytesPerFace, 1);
+                                        : std::max<std::uint64_t>(shares_.per_chunk / kChunkBytesPerFace, 1);
   const double owned_faces = std::max(0.75 * static_cast<double>(chunk_faces), 1.0);
   const double ratio = out_.faces > 0 ? static_cast<double>(out_.vertices) / static_cast<double>(out_.faces) : 1.0;
   const std::uint64_t target = std::max<std::uint64_t>(static_cast<std::uint64_t>(std::ceil(owned_faces * ratio)), 1);
@@ -93,7 +93,7 @@ Status PartitionRun::plan() {
     while (k < cap && (vertices >> (2 * k)) > target / 8) ++k;
     return k;
   };
-  const std::uint64_t max_entries = options_.memory_bytes / 8 / sizeof(std::uint32_t);
+  const std::uint64_t max_entries = shares_.sub_cells / sizeof(std::uint32_t);
   std::uint32_t cap = kMaxSplitBits;
   for (;; --cap) {
     std::uint64_t entries = 0;

@@ -178,19 +178,16 @@ Status PartitionRun::write_chunks() {
     info.vertex_files = vertex_files_;
   }
   if (chunks == 0) return {};
-  // Staged frames share memory_bytes / 8, and what the block cache left of its half, up to
-  // another eighth: the cache then grows no further than the rest, so the two stay within 5/8 of
-  // the budget as before. Frames of at least 64 records; more chunks than fit are written in
-  // several scans. With threads > 1, `threads` threads compress (ChunkOutput). Spatially ordered
-  // input leaves the cache small (100M under 64M: 3.75 MiB of 32), and twice the staged bytes
-  // (frames of ~19 KB instead of ~9.7 KB at 768 chunks) made the final scan 0.4-1.0 s faster
-  // there and the chunk files 15 % smaller (session 16).
+  // The staged frames take their share and what the block cache left of its own, up to
+  // frames_at_most: the cache then grows no further than the rest, so the two stay within their
+  // two shares. Spatially ordered input leaves the cache small, and larger frames make the final
+  // scan faster and the chunk files smaller. Frames of at least 64 records; more chunks than fit
+  // are written in several scans. With threads > 1, `threads` threads compress (ChunkOutput).
   const bool background = options_.threads > 1;
   const std::size_t workers = background ? options_.threads : 0;
-  const std::uint64_t memory = options_.memory_bytes;
-  const std::size_t writer_budget = static_cast<std::size_t>(
-      std::min<std::uint64_t>(memory / 4, memory / 2 + memory / 8 - std::min<std::uint64_t>(cache_->bytes(), memory / 2)));
-  cache_->limit(memory / 2 + memory / 8 - writer_budget);
+  const std::uint64_t cache_left = shares_.cache - std::min<std::uint64_t>(cache_->bytes(), shares_.cache);
+  const std::size_t writer_budget = static_cast<std::size_t>(std::min<std::uint64_t>(shares_.frames_at_most, shares_.frames + cache_left));
+  cache_->limit(shares_.cache + shares_.frames - writer_budget);
   // Frames of at least 64 records when one scan holds every chunk. When it cannot, of at least
   // 256: later scans pass over the frames of faces they do not need (frame_chunks below), so
   // more, smaller groups cost little, while frames of 64 records would make a small budget

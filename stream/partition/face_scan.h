@@ -32,8 +32,8 @@ Status PartitionRun::scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of,
   constexpr bool kTags = !std::is_same_v<std::decay_t<Tag>, std::nullptr_t>;
   std::optional<FaceWindows> tag_windows;
   if constexpr (kTags) {
-    tag_windows.emplace(FaceWindows{FileWindow(cache_->fd(owners_file_), window_bytes()), std::nullopt});
-    if (bitmap >= 0) tag_windows->bitmap.emplace(cache_->fd(bitmap), window_bytes());
+    tag_windows.emplace(FaceWindows{FileWindow(cache_->fd(owners_file_), shares_.window), std::nullopt});
+    if (bitmap >= 0) tag_windows->bitmap.emplace(cache_->fd(bitmap), shares_.window);
   }
   const std::string bitmap_path = bitmap >= 0 ? cache_->path(bitmap) : std::string();
   // Frames are read, decompressed and tagged one ahead on another thread: the scan's thread is

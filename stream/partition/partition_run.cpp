@@ -14,12 +14,6 @@
 
 namespace gaussmesh::stream::detail {
 
-// The scans' two windows (owners, a bitmap), taken from the cache's half of the budget: 1 MiB
-// each at 64M.
-std::size_t PartitionRun::window_bytes() const {
-  return std::clamp<std::size_t>(options_.memory_bytes / 64, std::size_t{16} << 10, std::size_t{1} << 20);
-}
-
 Status PartitionRun::run(const std::string& input_path, const format::ReadOptions& read) {
   auto start = std::chrono::steady_clock::now();
   GM_RETURN_IF_ERROR(ingest(input_path, read));
@@ -28,10 +22,8 @@ Status PartitionRun::run(const std::string& input_path, const format::ReadOption
   GM_RETURN_IF_ERROR(plan());
   out_.steps.plan = seconds_since(start);
   auto step = std::chrono::steady_clock::now();
-  // Half the budget caches vertex-indexed data; an eighth holds chunk writers' frames; the
-  // rest is the scan buffer, the cell tables and the zstd context.
-  // The scans' two windows come out of the cache's half.
-  cache_ = std::make_unique<BlockCache>(options_.memory_bytes / 2 - 2 * window_bytes());
+  // The cache's share, less the scans' two windows (PartitionShares).
+  cache_ = std::make_unique<BlockCache>(shares_.cache - 2 * shares_.window);
   auto owners = cache_->open_file(owners_path_);
   if (!owners) return owners.status();
   owners_ = std::make_unique<CachedArray<std::uint32_t>>(*cache_, *owners);

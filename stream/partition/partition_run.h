@@ -5,6 +5,7 @@
 // read sequentially, from the face spill.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -18,6 +19,7 @@
 #include "format/mesh_reader.h"
 #include "format/mesh_types.h"
 #include "format/status.h"
+#include "stream/core/memory_budget.h"
 #include "stream/partition/block_cache.h"
 #include "stream/partition/cell_grid.h"
 #include "stream/partition/chunk_partition.h"
@@ -43,11 +45,33 @@ struct Planner {
   std::uint32_t owner(const Vec3f& p) const { return owner_in(grid, cell_chunk, splits, p); }
 };
 
+// How the run divides its memory budget (PartitionOptions::memory_bytes), every share drawn here:
+//   cache      half: the block cache over the vertex-indexed files, the scans' two file windows
+//              (window each) taken out of it;
+//   frames     an eighth: the final scan's staged chunk frames, which may also take what the
+//              cache leaves of its half, up to frames_at_most (a quarter) in all;
+//   sub_cells  an eighth: the plan's counts of the split cells' sub-cells;
+//   per_chunk  the budget over the threads: pass 2 works on one chunk per thread, and this sets
+//              the chunk size (kChunkBytesPerFace);
+// the rest is the reader's window, the scan buffers, the cell tables and the zstd contexts.
+struct PartitionShares {
+  PartitionShares(const MemoryBudget& budget, std::uint32_t threads)
+      : cache(budget.fraction(1, 2)),
+        frames(budget.fraction(1, 8)),
+        frames_at_most(budget.fraction(1, 4)),
+        sub_cells(budget.fraction(1, 8)),
+        per_chunk(budget.per_part(threads)),
+        window(std::clamp<std::size_t>(budget.fraction(1, 64), std::size_t{16} << 10, std::size_t{1} << 20)) {}
+  std::uint64_t cache, frames, frames_at_most, sub_cells, per_chunk;
+  std::size_t window;  // one of the scans' two file windows (owners, a bitmap)
+};
+
 static_assert(sizeof(Vec3f) == kPositionRecordBytes && sizeof(std::uint32_t) == kOwnerRecordBytes);
 
 class PartitionRun {
  public:
-  PartitionRun(const PartitionOptions& options, Partition& out) : options_(options), out_(out) {}
+  PartitionRun(const PartitionOptions& options, Partition& out)
+      : options_(options), shares_(MemoryBudget(options.memory_bytes), options.threads), out_(out) {}
   Status run(const std::string& input_path, const format::ReadOptions& read);
 
  private:
@@ -72,7 +96,6 @@ class PartitionRun {
   Status scan_faces(int bitmap, std::uint32_t unknown, Tag&& tag_of, Fn&& fn, Stop&& stop,
                     FrameReadAhead::Skip skip = [](std::size_t) { return false; },
                     const std::function<void(std::size_t)>& begin = [](std::size_t) {});
-  std::size_t window_bytes() const;
   Status expand_rings();
   Status write_chunks();
   // Calls fn(begin, end) on pieces of [0, n), on the run's threads when there are several
@@ -85,6 +108,7 @@ class PartitionRun {
   Result<std::vector<std::uint32_t>> count_positions(std::size_t size, Count&& count);
 
   const PartitionOptions& options_;
+  const PartitionShares shares_;
   const char* scan_pass_ = "rings";  // what scan_faces reports to options_.progress
   Partition& out_;
   std::shared_ptr<VertexFiles> vertex_files_;  // positions (pass 0) and owners (the owner pass)
