@@ -1,4 +1,4 @@
-// Passes 0 and 1 of the out-of-core pipeline (DESIGN §2, docs/partition.md): ingest a mesh
+// Passes 0 and 1 of the out-of-core pipeline (docs/partition.md): ingest a mesh
 // stream into spill files, cut its bounds into Morton-ordered cells grouped into chunks that
 // each own about a target number of vertices, and write every chunk's faces — those within
 // `rings` vertex rings of the vertices it owns — to one record file per chunk, in memory
@@ -20,8 +20,7 @@
 
 namespace gaussmesh::stream {
 
-// Record kind of chunk face files (format/record_file.h): "GMCG" read as a little-endian u32
-// ("GMCF", the first layout, also carried the corners' positions: 57 bytes).
+// Record kind of chunk face files (format/record_file.h): "GMCG" read as a little-endian u32.
 inline constexpr std::uint32_t kChunkFaceRecordKind = 0x47434D47u;
 // Bytes of one chunk face record (layout in docs/partition.md):
 //   0  u64  global face id (the face's position in the reader's triangle stream)
@@ -68,9 +67,8 @@ struct PartitionOptions {
   // Chunk files written at once in the final scan (0 = as many as the memory allows). Tests set
   // it small to force the multi-round path.
   std::uint32_t max_open_chunks = 0;
-  // zstd level of the chunk files. -4, not 1: on their column frames (zstd 1.5.4, refined cow,
-  // torus and bunny) it is 2.5-4x faster both ways and no larger; -1 to -3 are 2-3x larger
-  // (docs/partition.md, "zstd level on column frames").
+  // zstd level of the chunk files. -4, not 1: on their column frames it is several times faster
+  // both ways for files no larger (docs/partition.md, "zstd level on column frames").
   int compression_level = -4;
   // Called now and then with (pass, done, total): "ingest" counts triangles read against the
   // count the header declares (0 when it declares none; untrusted, for display only); "rings"
@@ -80,10 +78,10 @@ struct PartitionOptions {
   std::string tmp_dir;
 };
 
-// Pass 0's position spill is two files, written at once by two threads (one file's buffered
-// writes take its inode's lock: at 100M triangles, 600 MB of positions into one file was the
-// ingest's bottleneck, the kernel's copy into new page-cache pages). Vertex v is in stripe
-// v / kPositionStripeVertices, the stripes alternating between the files.
+// Pass 0's position spill is two files, written at once by two threads: one file's buffered
+// writes take its inode's lock, and the kernel's copy into new page-cache pages of a single file
+// would bound the ingest. Vertex v is in stripe v / kPositionStripeVertices, the stripes
+// alternating between the files.
 inline constexpr std::uint32_t kPositionStripeVertices = 1u << 16;
 inline constexpr std::uint32_t kPositionFiles = 2;
 inline constexpr std::uint32_t position_file(std::uint32_t v) { return (v / kPositionStripeVertices) % kPositionFiles; }
@@ -96,9 +94,9 @@ inline constexpr std::uint64_t position_record(std::uint32_t v) {
 struct VertexFiles {
   std::array<std::string, kPositionFiles> positions;  // positions-0.bin, positions-1.bin
   std::string owners;                                 // owners.bin
-  // Positions read back from the input itself instead (session 11): a regular file whose
-  // vertices are fixed-size records of little-endian float32 (format::MeshHeader::raw_vertices),
-  // so that pass 0 writes no copy (600 MB at 100M triangles). Vertex v's coordinate `axis` is
+  // Positions read back from the input itself instead: a regular file whose vertices are
+  // fixed-size records of little-endian float32 (format::MeshHeader::raw_vertices), so that
+  // pass 0 writes no copy (12 bytes a vertex). Vertex v's coordinate `axis` is
   // the 4 bytes at first_byte + v * stride + xyz[axis]. The file's size and modification time
   // at ingest are checked at every open: an input changed during the run is kBadInput.
   struct InputPositions {
