@@ -1,5 +1,5 @@
 // Draco output: builds a draco::Mesh (float32 POSITION attribute + faces), encodes it with
-// edgebreaker and quantized positions, and writes the bytes through OutputFile. docs/formats-draco.md.
+// edgebreaker and quantized positions, and writes the bytes through OutputFile. docs/formats.md.
 #include <cstring>
 #include <exception>
 #include <new>

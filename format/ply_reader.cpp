@@ -1,6 +1,6 @@
 // Streaming PLY reader (ascii 1.0, binary_little_endian 1.0, binary_big_endian 1.0): parses the
 // header, then delivers vertex positions and fan-triangulated faces to a MeshSink in fixed-size
-// batches. Memory never depends on the counts a header declares. docs/formats-ply.md.
+// batches. Memory never depends on the counts a header declares. docs/formats.md.
 #include <algorithm>
 #include <bit>
 #include <charconv>

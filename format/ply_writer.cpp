@@ -1,6 +1,6 @@
 // PLY writer: binary_little_endian 1.0 (default) or ascii 1.0; triangles as
 // "property list uchar int vertex_indices"; extra per-vertex and per-face scalar properties.
-// Everything is validated before the first byte is written. docs/formats-ply.md.
+// Everything is validated before the first byte is written. docs/formats.md.
 #include <bit>
 #include <charconv>
 #include <cstdint>

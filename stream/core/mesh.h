@@ -1,6 +1,6 @@
 // The in-memory mesh the in-core algorithms work on: flat arrays at module boundaries.
 // OpenMesh is used inside stream/ .cpp files where half-edge navigation pays off; it never
-// appears in a public header (docs/architecture.md explains the choice).
+// appears in a public header (docs/design.md explains the choice).
 #pragma once
 
 #include <string>

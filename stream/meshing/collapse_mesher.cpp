@@ -502,7 +502,7 @@ class Mesher {
   void phase_two() {
     // A corner collapse may turn no remaining face by more than this: without a limit a single
     // collapse at a crease junction can move the surface by several percent of the diagonal
-    // (fandisk), while 45° keeps only a few more faces (docs/simplify.md).
+    // (fandisk), while 45° keeps only a few more faces (docs/meshing.md).
     static constexpr double kMaxTurnDegrees = 45;
     max_turn_cos_ = std::cos(kMaxTurnDegrees * 3.14159265358979323846 / 180);
     for (bool progress = true; progress;) {

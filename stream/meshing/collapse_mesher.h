@@ -8,7 +8,7 @@
 // Per-patch shape approximation (paper §5) by edge collapses on the input mesh itself: it builds
 // the patch graph (corners, chains, patches), turns every chain into straight edges between
 // kept vertices, triangulates every patch over its boundary, then removes non-sample corners by
-// collapses that keep the mesh manifold and flip no face. docs/simplify.md.
+// collapses that keep the mesh manifold and flip no face. docs/meshing.md.
 #pragma once
 
 #include <cstddef>

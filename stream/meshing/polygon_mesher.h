@@ -1,4 +1,4 @@
-// Shape approximation, polygon first (paper §5; docs/simplify.md, docs/out-of-core.md): the
+// Shape approximation, polygon first (paper §5; docs/meshing.md): the
 // per-patch mesher whose output is a pure function of the patch graph — kept vertices, patch
 // boundary loops, plane normals — so that the out-of-core stitch, which sees records and never
 // the input mesh, can reach the same triangles.

@@ -240,7 +240,7 @@ Status read_input_positions(const VertexFiles::InputPositions& in, const ChunkIn
                        "vertex " + std::to_string(ids[served]) + ": no record of it in " + in.path + " (" + std::to_string(count) + " vertices)");
 }
 
-// The chunk's positions from pass 0's two position files: each file's ids in order, translated
+// The chunk's positions from the ingest pass's two position files: each file's ids in order, translated
 // to its records.
 Status read_spilled_positions(const VertexFiles& files, const ChunkInfo& info, ChunkMesh& mesh) {
   const std::vector<std::uint32_t>& ids = mesh.global_vertex;

@@ -1,4 +1,4 @@
-// Passes 0 and 1 of the out-of-core pipeline (docs/partition.md): ingest a mesh
+// The ingest and partition passes of the out-of-core pipeline (docs/partition.md): ingest a mesh
 // stream into spill files, cut its bounds into Morton-ordered cells grouped into chunks that
 // each own about a target number of vertices, and write every chunk's faces — those within
 // `rings` vertex rings of the vertices it owns — to one record file per chunk, in memory
@@ -35,8 +35,8 @@ inline constexpr std::uint32_t kChunkFaceRecordBytes = 21;
 inline constexpr std::uint32_t kPositionRecordBytes = 12;
 inline constexpr std::uint32_t kOwnerRecordBytes = 4;
 inline constexpr std::uint8_t kOwnsFace = 8;
-// Loop chunk files ("GMLC"), written by simplify's pass A for pass C: the faces of a chunk near
-// its piece borders (stream/pipeline/out_of_core_simplify.h, write_loop_chunk). A chunk face record, then
+// Loop chunk files ("GMLC"), written by simplify's sample pass for the loops pass: the faces of a chunk near
+// its piece borders (stream/stitch/loop_chunks.h, write_loop_chunk). A chunk face record, then
 //   21 u32  the index of the face's piece in the chunk (owned faces), all ones otherwise
 // and flag bit 4 (kCoreFace): every edge of the face has all its faces in the file; bit 5 + j
 // (kLoopCornerVertex << j): corner j's vertex is one whose every face is a core face.
@@ -45,7 +45,7 @@ inline constexpr std::uint32_t kLoopChunkRecordBytes = 25;
 inline constexpr std::uint8_t kCoreFace = 16;
 inline constexpr std::uint8_t kLoopCornerVertex = 32;
 
-// Working memory of a chunk in pass 2, per face (adjacency, normals, labels, records):
+// Working memory of a chunk in the sample pass, per face (adjacency, normals, labels, records):
 // the chunk size follows from it when max_chunk_faces is 0.
 inline constexpr std::uint64_t kChunkBytesPerFace = 200;
 // Rings above this are refused (per-vertex chunk sets tag entries with their ring in 8 bits).
@@ -59,7 +59,7 @@ struct PartitionOptions {
   std::uint64_t memory_bytes = std::uint64_t{256} << 20;
   // Overlap rings k >= 1 (required_overlap_rings(smooth) in stream/sampling/sampler.h).
   std::uint32_t rings = 3;
-  // Chunks in flight in pass 2; only divides the chunk size here.
+  // Chunks in flight in the sample pass; only divides the chunk size here.
   std::uint32_t threads = 1;
   // Faces per chunk to aim for (0 = derive from memory_bytes). A chunk owns at most 3/4 of this
   // in faces; the overlap rings bring the rest. Tests set it small to force hundreds of chunks.
@@ -78,7 +78,7 @@ struct PartitionOptions {
   std::string tmp_dir;
 };
 
-// Pass 0's position spill is two files, written at once by two threads: one file's buffered
+// The ingest pass's position spill is two files, written at once by two threads: one file's buffered
 // writes take its inode's lock, and the kernel's copy into new page-cache pages of a single file
 // would bound the ingest. Vertex v is in stripe v / kPositionStripeVertices, the stripes
 // alternating between the files.
@@ -96,7 +96,7 @@ struct VertexFiles {
   std::string owners;                                 // owners.bin
   // Positions read back from the input itself instead: a regular file whose vertices are
   // fixed-size records of little-endian float32 (format::MeshHeader::raw_vertices), so that
-  // pass 0 writes no copy (12 bytes a vertex). Vertex v's coordinate `axis` is
+  // the ingest pass writes no copy (12 bytes a vertex). Vertex v's coordinate `axis` is
   // the 4 bytes at first_byte + v * stride + xyz[axis]. The file's size and modification time
   // at ingest are checked at every open: an input changed during the run is kBadInput.
   struct InputPositions {
@@ -127,7 +127,7 @@ struct PartitionSteps {
   double plan = 0, rings = 0, chunks = 0;
 };
 
-// The result of passes 0 and 1. Owns its temporary directory: the destructor (or
+// The result of the ingest and partition passes. Owns its temporary directory: the destructor (or
 // remove_temp()) deletes it with everything in it. Move-only.
 struct Partition {
   std::string dir;                  // the run's temp dir, registered for signal cleanup
@@ -151,10 +151,10 @@ struct Partition {
   // Deletes dir now (idempotent).
   void remove_temp();
 
-  // The chunk owning a vertex at p: the chunk of its grid cell, computed with pass 1's own
+  // The chunk owning a vertex at p: the chunk of its grid cell, computed with the partition pass's own
   // arithmetic (the same function on the same grid), so it agrees bit for bit with the ownership
   // flags of the chunk files. Any p is accepted (NaN and out-of-bounds coordinates clamp as in
-  // pass 1); 0 when there are no chunks.
+  // the partition pass); 0 when there are no chunks.
   std::uint32_t owner_of(const format::Vec3f& p) const;
   // The map behind owner_of: the cell grid (origin, cells per unit, cells per axis) and the
   // chunk of every cell (at most 2^18 cells: 1 MiB, whatever the input size). A cell holding
@@ -176,7 +176,7 @@ struct Partition {
   int temp_slot = -1;  // format::register_temp_path slot of dir
 };
 
-// Pass 0 + 1 from input_path (a file, or "-" for stdin) through format::read_mesh_file.
+// The ingest and partition passes from input_path (a file, or "-" for stdin) through format::read_mesh_file.
 // Ownership: a vertex is owned by the chunk of its grid cell (at most 2^18 cells, Morton order,
 // runs of cells per chunk); a face by the chunk owning its lowest-id vertex. Chunk C holds
 // F_k(C): V_0 = owned vertices, F_{i+1} = faces with a corner in V_i (degenerate faces too),

@@ -1,4 +1,4 @@
-// The face spill: pass 0 writes the faces in input order to one compressed record file; every
+// The face spill: the ingest pass writes the faces in input order to one compressed record file; every
 // later scan reads it back, a frame ahead on a thread of its own.
 #pragma once
 

@@ -19,7 +19,7 @@ namespace gaussmesh::stream {
 // (spatially ordered input: a few per chunk; scattered ids: one per id), `window` reused
 // between calls. Stops at the first id it cannot serve — at or beyond `count` records, not
 // above the one before, or in a short read — and returns how many it served (ids.size() when
-// all). The gap: a pread costs about what copying 8 KiB does here, and sparse id sets (pass C's
+// all). The gap: a pread costs about what copying 8 KiB does here, and sparse id sets (the loops pass's
 // loop chunks, a fifth of the faces scattered along patch borders) read mostly bytes between
 // their ids when a run could reach 4,096 records ahead.
 inline constexpr std::size_t kIdWindowRecords = 4096;

@@ -1,4 +1,4 @@
-// Pass 0, the ingest: the input mesh read once into the position files and the face spill, with
+// The ingest pass: the input mesh read once into the position files and the face spill, with
 // its counts and bounds.
 #include <sys/stat.h>
 

@@ -1,5 +1,5 @@
 // The partition run: the state one partition_mesh call carries through its steps, each in a file
-// of its own — ingest.cpp (pass 0), chunk_plan.cpp (cells and owners), ring_expansion.cpp (the
+// of its own — ingest.cpp (the ingest pass), chunk_plan.cpp (cells and owners), ring_expansion.cpp (the
 // chunk sets), chunk_writer.cpp (the chunk files) — run in order by partition_run.cpp.
 // Vertex-indexed data lives in spill files behind one bounded block cache; faces are only ever
 // read sequentially, from the face spill.
@@ -51,7 +51,7 @@ struct Planner {
 //   frames     an eighth: the final scan's staged chunk frames, which may also take what the
 //              cache leaves of its half, up to frames_at_most (a quarter) in all;
 //   sub_cells  an eighth: the plan's counts of the split cells' sub-cells;
-//   per_chunk  the budget over the threads: pass 2 works on one chunk per thread, and this sets
+//   per_chunk  the budget over the threads: the sample pass works on one chunk per thread, and this sets
 //              the chunk size (kChunkBytesPerFace);
 // the rest is the reader's window, the scan buffers, the cell tables and the zstd contexts.
 struct PartitionShares {
@@ -111,7 +111,7 @@ class PartitionRun {
   const PartitionShares shares_;
   const char* scan_pass_ = "rings";  // what scan_faces reports to options_.progress
   Partition& out_;
-  std::shared_ptr<VertexFiles> vertex_files_;  // positions (pass 0) and owners (the owner pass)
+  std::shared_ptr<VertexFiles> vertex_files_;  // positions (the ingest pass) and owners (the owner pass)
   std::string faces_path_, owners_path_;
   Planner planner_;
   std::unique_ptr<BlockCache> cache_;

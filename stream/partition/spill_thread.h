@@ -1,4 +1,4 @@
-// The background writer of the spills: pass 0's positions and faces (and the owner pass's
+// The background writer of the spills: the ingest pass's positions and faces (and the owner pass's
 // owners.bin) written on a thread of their own while the caller goes on.
 #pragma once
 

@@ -1,4 +1,4 @@
-// A sequential spill file: buffered writes of one temporary file, in order (pass 0's position
+// A sequential spill file: buffered writes of one temporary file, in order (the ingest pass's position
 // files, the owner pass's owners.bin).
 #pragma once
 

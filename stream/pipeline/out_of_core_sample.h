@@ -1,4 +1,4 @@
-// `gaussmesh sample --memory`: the out-of-core sampling pipeline (docs/out-of-core.md). The
+// `gaussmesh sample --memory`: the out-of-core sampling pipeline (docs/pipeline.md). The
 // ingest and partition passes write the input as chunks; the sample pass loads every chunk,
 // samples the vertices it owns (stream/sampling/chunk_sampler.h) and releases it, chunks in
 // parallel in bounded memory. The exact sample test is a per-vertex decision, so the samples

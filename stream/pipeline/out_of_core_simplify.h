@@ -1,4 +1,4 @@
-// `gaussmesh simplify --memory`: the out-of-core simplify pipeline (docs/out-of-core.md). Its
+// `gaussmesh simplify --memory`: the out-of-core simplify pipeline (docs/pipeline.md). Its
 // passes, in order:
 //   ingest, partition  the input written as chunks on disk (stream/partition/chunk_partition.h);
 //   sample             every chunk sampled for every orientation (stream/sampling/chunk_sampler.h),

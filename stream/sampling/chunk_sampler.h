@@ -1,4 +1,4 @@
-// The sample pass's work on one chunk (docs/out-of-core.md): the sampler's local functions
+// The sample pass's work on one chunk (docs/pipeline.md): the sampler's local functions
 // (stream/sampling/sampler.h, steps 1-2) on a chunk loaded from disk, for the vertices it owns.
 // The exact sample test is a per-vertex decision, so a chunk's samples are the whole mesh's at
 // the vertices it owns, for any chunking (tests/stream/locality_test.cpp). The pipelines that

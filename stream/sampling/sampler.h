@@ -115,7 +115,7 @@ void evaluate_vertex_list(format::MeshView mesh, const MeshAdjacency& adjacency,
                           std::vector<VertexRecord>& out);
 
 // How many vertex rings around an owned vertex a chunk must hold for every decision of steps
-// 1 and 2 about that vertex to equal the whole mesh's (docs/out-of-core.md): its star, one ring
+// 1 and 2 about that vertex to equal the whole mesh's (docs/pipeline.md): its star, one ring
 // for the edge neighbours of its faces (degenerate faces inherit across edges), one per
 // smoothing iteration, one so that those faces' edges are classified with all their faces
 // present.

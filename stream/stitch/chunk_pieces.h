@@ -1,4 +1,4 @@
-// The pieces and merge steps of the out-of-core stitch (docs/out-of-core.md): patch pieces per
+// The pieces and merge steps of the out-of-core stitch (docs/stitch.md): patch pieces per
 // chunk and their joining across chunks into the sampler's patches (before the
 // untriangulatable merge), with the patch adjacency and its shared feature-edge counts — from
 // per-chunk records only, never the mesh.

@@ -1,4 +1,4 @@
-// The loops pass's records (docs/out-of-core.md): each chunk's feature half-edges under the
+// The loops pass's records (docs/stitch.md): each chunk's feature half-edges under the
 // merged patches, chained into runs with the roles of the vertices the mesher keeps
 // (find_chunk_loops); the loop chunk the sample pass writes so that the loops pass reads only the
 // faces near feature edges (write_loop_chunk); and a chunk's runs spilled to a record file for the

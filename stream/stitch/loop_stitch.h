@@ -1,4 +1,4 @@
-// The loop stitch, the stitch's last step before the mesher (docs/out-of-core.md): every
+// The loop stitch, the stitch's last step before the mesher (docs/stitch.md): every
 // chunk's runs (stream/stitch/loop_chunks.h) joined into patch loops by half-edge ids alone, the
 // loops and the vertex positions written to files that the polygon mesher reads on demand.
 #pragma once

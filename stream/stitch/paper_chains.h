@@ -1,4 +1,4 @@
-// The paper sample test out of core (docs/out-of-core.md, "The paper test"): what sample_mesh
+// The paper sample test out of core (docs/stitch.md, "Chains"): what sample_mesh
 // does after the untriangulatable merge — the candidates' records under the merged labels, the
 // candidate adjacency along feature chains (find_candidate_adjacency) and the noisy-sample filter
 // (paper §4 "Noisy Sample Filtering", Figs. 9-10) — from per-chunk records joined across chunks.
@@ -48,7 +48,7 @@ inline constexpr std::uint32_t kStarGeometryRecordBytes = 29;
 inline constexpr std::uint32_t kChainFragmentRecordKind = 0x46434D47u;
 inline constexpr std::uint32_t kChainFragmentRecordBytes = 17;
 
-// Where a per-chunk record file lies (a segment of a pass-b file) and how many records it holds.
+// Where a per-chunk record file lies (a segment of a segments-N.rec file) and how many records it holds.
 struct ChunkRecordSegment {
   std::string path;  // empty: none
   format::RecordSegment segment;

@@ -1,4 +1,4 @@
-// The on-disk joins of the stitch's pieces step (docs/out-of-core.md): the
+// The on-disk joins of the stitch's pieces step (docs/stitch.md): the
 // border-edge records of every chunk, bucketed by face pair into temporary record files and
 // joined one bucket at a time, and every chunk's face answers (face -> piece) in a record file
 // of its own (a segment, below), read on demand by whoever needs the piece of a face that chunk
@@ -143,11 +143,11 @@ class PieceJoinFiles {
   std::uint64_t answer_records() const { return answer_records_; }
   std::uint64_t bytes_written() const { return bytes_written_; }  // compressed, every file
   std::size_t buckets() const { return bucket_paths_.size(); }
-  // Where a chunk's part lies (file == all ones: not written) and the path of a pass-b file: for
+  // Where a chunk's part lies (file == all ones: not written) and the path of a segment file: for
   // tests that damage them.
   Placed placed(Part part, std::uint32_t chunk) const;
   std::string segment_path(std::uint32_t file) const { return segments_->path(file); }
-  // The pass-b files, for other per-chunk record files of the same passes (loop chunks, loops).
+  // The segment files (segments-N.rec), for other per-chunk record files of the same passes (loop chunks, loops).
   format::RecordSegmentPool& segments() { return *segments_; }
   // Points a chunk's part at another segment of the same file (tests append forged record files).
   void replace_segment_for_test(Part part, std::uint32_t chunk, format::RecordSegment segment);
@@ -175,7 +175,7 @@ class PieceJoinFiles {
     std::uint32_t file = 0xFFFFFFFFu;
   };
   std::vector<Stored> placed_;
-  std::unique_ptr<format::RecordSegmentPool> segments_;  // the pass-b files
+  std::unique_ptr<format::RecordSegmentPool> segments_;  // the segment files (segments-N.rec)
   std::vector<std::uint64_t> star_entries_;  // per chunk: entries in its star file
   std::vector<std::uint64_t> candidate_entries_;  // per chunk: records in its candidate file
   std::vector<std::uint64_t> piece_entries_, adjacency_entries_;  // per chunk: spilled pieces, adjacency

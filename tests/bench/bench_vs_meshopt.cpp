@@ -1,4 +1,4 @@
-// Benchmark table for docs/simplify.md: gaussmesh's in-core simplify against meshoptimizer's
+// Benchmark table for docs/meshing.md: gaussmesh's in-core simplify against meshoptimizer's
 // meshopt_simplify and meshopt_simplifySloppy at the same output face count, on the real
 // fixtures (or the files given): output faces, Hausdorff and RMS (% of the input's bounding-box
 // diagonal, gaussmesh compare's measure) and time. meshoptimizer is a benchmark-only dependency.

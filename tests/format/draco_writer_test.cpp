@@ -247,7 +247,7 @@ TEST(DracoWriter, GooglesDecoderReadsTheOutput) {
   EXPECT_EQ(faces, 5804);
 }
 
-// The figures in docs/formats-draco.md: how many of the cow's distinct positions survive
+// The figures in docs/formats.md: how many of the cow's distinct positions survive
 // quantization at 8, 11 (Draco's default) and 14 bits (ours). Draco never merges points: the
 // point count stays 2,904 even where positions coincide after quantization.
 TEST(DracoWriter, CowVertexCollapseByQuantization) {
@@ -272,7 +272,7 @@ TEST(DracoWriter, CowVertexCollapseByQuantization) {
   EXPECT_EQ(distinct_out[2], distinct_in) << "qp 14 should keep every distinct cow position";
 }
 
-// What Draco 1.5 keeps of unusual input (docs/formats-draco.md). A simplifier's output has
+// What Draco 1.5 keeps of unusual input (docs/formats.md). A simplifier's output has
 // none of these, so its decoded counts equal what it wrote (every .drc we write decodes with
 // Google's own decoder to the same counts).
 PlainMesh tetrahedron() {
@@ -352,7 +352,7 @@ TEST(DracoWriter, RejectsBadOptionsAndInput) {
     EXPECT_EQ(s.code(), c.code) << c.options.quantization_bits << " " << c.options.compression_level;
   }
   // qp 30 is valid but Draco's encoder then takes ~20 s and GBs whatever the mesh size
-  // (docs/formats-draco.md), so the upper end is exercised at 22.
+  // (docs/formats.md), so the upper end is exercised at 22.
   for (int bits : {1, 22}) {
     Status s = write_file_draco(path, mesh.view(), {bits, 7});
     EXPECT_TRUE(s.is_ok()) << "qp " << bits << ": " << s.to_string();

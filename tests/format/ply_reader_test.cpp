@@ -637,7 +637,7 @@ TEST(PlyReaderErrors, AsciiNumbersAndLines) {
   EXPECT_EQ(ok.sink.positions, (std::vector<Vec3f>{{1, 2, 3}, {4, -5, 60}}));
 }
 
-// Decision (docs/formats-ply.md): whitespace after the last element is ignored, anything else
+// Decision (docs/formats.md): whitespace after the last element is ignored, anything else
 // is an error, in all encodings.
 TEST(PlyReaderErrors, TrailingWhitespaceIsIgnoredTrailingDataIsAnError) {
   std::vector<Vec3f> positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};

@@ -1,4 +1,4 @@
-// Tests of passes 0 and 1 (stream/partition/chunk_partition.h): every chunk holds exactly the faces within
+// Tests of the ingest and partition passes (stream/partition/chunk_partition.h): every chunk holds exactly the faces within
 // k vertex rings of the vertices it owns (against an in-memory BFS), ownership is a partition,
 // ids and positions round-trip bit-exactly, badly ordered input gives the same chunks, high
 // valence overflows no set, and temporary files disappear on success, bad input and full disks.
@@ -222,7 +222,7 @@ TEST(ChunkPartition, ChunksHoldExactlyTheirRingsOnTheCow) {
   for (std::uint32_t rings : {1u, 3u, 5u}) check_exact(*cow, "cow", 30, rings, 100);
 }
 
-// owner_of (the cell map kept after pass 1) names the chunk whose file flags a vertex as owned,
+// owner_of (the cell map kept after the partition pass) names the chunk whose file flags a vertex as owned,
 // for every vertex of every chunk, on real meshes cut into hundreds of chunks and with 1 chunk.
 TEST(ChunkPartition, OwnerOfAgreesWithTheChunkFiles) {
   for (const char* name : {"cow.off", "fandisk.off", "homer.off", "knot1.off", "mech-holes-shark.off", "bunny-lowres.ply"}) {
@@ -252,7 +252,7 @@ TEST(ChunkPartition, OwnerOfAgreesWithTheChunkFiles) {
       }
       EXPECT_GT(vertices, 0u);
       EXPECT_EQ(wrong, 0u);
-      // Positions outside the bounds and NaN clamp to a chunk, as in pass 1.
+      // Positions outside the bounds and NaN clamp to a chunk, as in the partition pass.
       const float nan = std::nanf("");
       for (const format::Vec3f& p : {format::Vec3f{nan, nan, nan}, format::Vec3f{-1e30f, 1e30f, 0.f}})
         EXPECT_LT(partition->owner_of(p), partition->chunks.size());

@@ -1,4 +1,4 @@
-// Locality contract of the sampler (docs/out-of-core.md): every per-face and per-vertex decision
+// Locality contract of the sampler (docs/pipeline.md): every per-face and per-vertex decision
 // is a function of a bounded neighbourhood, so a chunk holding required_overlap_rings() rings
 // around the vertices it owns decides exactly as the whole mesh does. Cuts meshes into slabs
 // with that overlap and compares every owned vertex's record and every star face's label.
