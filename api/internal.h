@@ -12,6 +12,7 @@
 #include "format/mesh_writer.h"
 #include "gaussmesh/gaussmesh.h"
 #include "stream/core/gauss_sphere.h"
+#include "stream/core/memory_budget.h"
 #include "stream/core/mesh.h"
 #include "stream/sampling/sampler.h"
 
@@ -42,6 +43,31 @@ Result<std::uint64_t> write_mesh(const Sink& sink, MeshView mesh, const DracoOpt
 
 // Threads to use: the option, or the machine's cores when 0.
 std::uint32_t thread_count(std::uint32_t threads);
+
+// The fields every out-of-core engine's options share: the budget, the temporary directory, the
+// threads, the spheres and the sampler, and the partition's progress.
+template <class StreamingOptions>
+void set_streaming_options(StreamingOptions& options, const ResourceOptions& resources, std::uint64_t memory,
+                           const std::vector<stream::GaussSphereOptions>& spheres, const stream::SamplerOptions& sampler) {
+  options.memory = stream::MemoryBudget(memory);
+  options.partition.tmp_dir = resources.tmp_dir;
+  options.threads = thread_count(resources.threads);
+  options.spheres = spheres;
+  options.sampler = sampler;
+  if (resources.progress) {
+    const ProgressFn& progress = resources.progress;  // outlives the run: the caller's options hold it
+    options.partition.progress = [&progress](const char* pass, std::uint64_t done, std::uint64_t total) {
+      progress(pass, done, total, total);
+    };
+  }
+}
+
+// A well-spread colour for an id (patch or segment), each channel in 64..255.
+inline void spread_colour(std::uint32_t id, std::uint8_t rgb[3]) {
+  std::uint32_t h = id * 2654435761u;
+  h ^= h >> 15;
+  for (int i = 0; i < 3; ++i) rgb[i] = static_cast<std::uint8_t>(64 + (h >> (8 * i) & 0xFF) * 3 / 4);
+}
 
 // kUsage when a standard-input source is a terminal.
 Status check_not_a_terminal(const Source& source, const char* job);

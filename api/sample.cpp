@@ -12,13 +12,6 @@ using api::Json;
 using stream::Clock;
 using stream::seconds_since;
 
-// A well-spread colour per patch id.
-void patch_colour(std::uint32_t id, std::uint8_t rgb[3]) {
-  std::uint32_t h = id * 2654435761u;
-  h ^= h >> 15;
-  for (int i = 0; i < 3; ++i) rgb[i] = static_cast<std::uint8_t>(64 + (h >> (8 * i) & 0xFF) * 3 / 4);
-}
-
 Sample public_sample(const stream::GlobalSample& s) {
   Sample out;
   out.vertex = s.vertex;
@@ -60,7 +53,7 @@ Status write_patches(const std::string& path, MeshView mesh, const stream::Sampl
   std::vector<std::uint32_t> patch(r.face_patch), label(r.face_label);
   for (std::size_t f = 0; f < nf; ++f) {
     std::uint8_t rgb[3];
-    patch_colour(r.face_patch[f], rgb);
+    api::spread_colour(r.face_patch[f], rgb);
     fr[f] = rgb[0];
     fg[f] = rgb[1];
     fb[f] = rgb[2];
@@ -95,6 +88,22 @@ Json orientations_json(const std::vector<stream::GaussSphereOptions>& spheres, c
   return orientations;
 }
 
+// The fields both engines' records start with.
+Json report_head(const Source& source, std::uint64_t vertices, std::uint64_t faces, const stream::GaussSphere& g,
+                 const SampleOptions& o, const stream::SamplerOptions& sampler) {
+  Json j;
+  j["input"] = source.name();
+  j["input_vertices"] = vertices;
+  j["input_faces"] = faces;
+  j["base"] = stream::gauss_base_name(g.options().base);
+  j["frequency"] = g.options().frequency;
+  j["smooth"] = o.sampling.smooth;
+  j["sample_test"] = stream::sample_test_name(sampler.sample_test);
+  j["gauss_vertices"] = g.vertex_count();
+  j["gauss_triangles"] = g.triangle_count();
+  return j;
+}
+
 Status deliver(const std::string& path, std::vector<Sample>& found, std::vector<Sample>* samples) {
   if (!path.empty()) GM_RETURN_IF_ERROR(write_samples(path, found));
   if (samples != nullptr) *samples = std::move(found);
@@ -110,18 +119,11 @@ Result<SampleStats> sample_out_of_core(const Source& source, const std::string& 
   }
   const auto t0 = Clock::now();
   stream::OutOfCoreSamplingOptions options;
-  options.memory = stream::MemoryBudget(memory);
-  options.partition.tmp_dir = o.resources.tmp_dir;
-  options.threads = api::thread_count(o.resources.threads);
-  options.spheres = spheres;
-  options.sampler = sampler;
+  api::set_streaming_options(options, o.resources, memory, spheres, sampler);
   if (o.resources.progress) {
     const ProgressFn& progress = o.resources.progress;
     options.progress = [&progress](std::size_t done, std::size_t total, std::uint64_t faces) {
       progress("sample", done, total, faces);
-    };
-    options.partition.progress = [&progress](const char* pass, std::uint64_t done, std::uint64_t total) {
-      progress(pass, done, total, total);
     };
   }
   auto sampled = stream::sample_out_of_core(api::stream_path(source), api::read_options(source), options);
@@ -145,16 +147,7 @@ Result<SampleStats> sample_out_of_core(const Source& source, const std::string& 
   stats.seconds = seconds_since(t0);
 
   const stream::ChunkSamplingStats& st = sampled->stats;
-  Json j;
-  j["input"] = source.name();
-  j["input_vertices"] = sampled->vertices;
-  j["input_faces"] = sampled->faces;
-  j["base"] = stream::gauss_base_name(g.options().base);
-  j["frequency"] = g.options().frequency;
-  j["smooth"] = o.sampling.smooth;
-  j["sample_test"] = stream::sample_test_name(sampler.sample_test);
-  j["gauss_vertices"] = g.vertex_count();
-  j["gauss_triangles"] = g.triangle_count();
+  Json j = report_head(source, sampled->vertices, sampled->faces, g, o, sampler);
   j["samples"] = sampled->samples.size();
   j["orientations"] = orientations_json(spheres, sampled->samples_per_orientation);
   j["chosen_orientation"] = sampled->chosen;
@@ -211,16 +204,7 @@ Result<SampleStats> sample_in_core(const Source& source, const std::string& path
   stats.seconds = seconds_since(t0);
 
   auto secs = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
-  Json j;
-  j["input"] = source.name();
-  j["input_vertices"] = input.positions.size();
-  j["input_faces"] = input.triangles.size();
-  j["base"] = stream::gauss_base_name(g.options().base);
-  j["frequency"] = g.options().frequency;
-  j["smooth"] = o.sampling.smooth;
-  j["sample_test"] = stream::sample_test_name(sampler.sample_test);
-  j["gauss_vertices"] = g.vertex_count();
-  j["gauss_triangles"] = g.triangle_count();
+  Json j = report_head(source, input.positions.size(), input.triangles.size(), g, o, sampler);
   j["patches"] = r.patch_count;
   j["candidates"] = r.candidates.size();
   j["samples"] = r.samples.size();

@@ -10,7 +10,7 @@ namespace {
 using api::Json;
 using stream::Clock;
 
-// A distinct colour per segment: a fixed palette for the first eight, then a hash.
+// A distinct colour per segment: a fixed palette for the first eight, then spread ones.
 void segment_colour(std::uint32_t id, std::uint8_t rgb[3]) {
   static const std::uint8_t kPalette[][3] = {{220, 50, 47},  {60, 170, 60},  {38, 110, 210}, {230, 190, 30},
                                              {160, 80, 200}, {30, 180, 190}, {240, 120, 40}, {140, 140, 140}};
@@ -18,9 +18,7 @@ void segment_colour(std::uint32_t id, std::uint8_t rgb[3]) {
     for (int i = 0; i < 3; ++i) rgb[i] = kPalette[id][i];
     return;
   }
-  std::uint32_t h = id * 2654435761u;
-  h ^= h >> 15;
-  for (int i = 0; i < 3; ++i) rgb[i] = static_cast<std::uint8_t>(64 + (h >> (8 * i) & 0xFF) * 3 / 4);
+  api::spread_colour(id, rgb);
 }
 
 bool ends_with_ply(const std::string& s) {

@@ -63,18 +63,11 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
     return Status::error(Code::kUsage, "simplify", "the streaming engine runs the per-patch mesher only (--mesher voronoi runs in core)");
   }
   stream::OutOfCoreSimplifyOptions options;
-  options.memory = stream::MemoryBudget(memory);
-  options.partition.tmp_dir = o.resources.tmp_dir;
-  options.threads = api::thread_count(o.resources.threads);
-  options.spheres = spheres;
-  options.sampler = sampler;
+  api::set_streaming_options(options, o.resources, memory, spheres, sampler);
   if (o.resources.progress) {
     const ProgressFn& progress = o.resources.progress;
     options.progress = [&progress](const char* pass, std::size_t done, std::size_t total, std::uint64_t faces) {
       progress(pass, done, total, faces);
-    };
-    options.partition.progress = [&progress](const char* pass, std::uint64_t done, std::uint64_t total) {
-      progress(pass, done, total, total);
     };
   }
   auto result = stream::simplify_out_of_core(api::stream_path(source), api::read_options(source), options);

@@ -9,12 +9,11 @@ namespace gaussmesh::cli {
 namespace {
 
 struct CompareArgs {
-  std::string a, b, report;
+  std::string a, b;
   std::uint64_t samples = CompareOptions{}.samples;
   std::uint64_t seed = CompareOptions{}.seed;
   std::uint32_t threads = 0;
-  bool quiet = false;
-  bool verbose = false;
+  CommonFlags common;
 };
 
 void print_summary(const CompareArgs& args, const Distance& d) {
@@ -32,8 +31,7 @@ void print_summary(const CompareArgs& args, const Distance& d) {
 }
 
 int run_compare(const CompareArgs& args) {
-  if (args.quiet) set_verbosity(0);
-  if (args.verbose) set_verbosity(2);
+  apply_verbosity(args.common);
   CompareOptions options;
   options.samples = args.samples;
   options.seed = args.seed;
@@ -41,15 +39,12 @@ int run_compare(const CompareArgs& args) {
   auto distance = compare(input_source(args.a), input_source(args.b), options);
   if (!distance) return report_error(distance.status());
   // With --report -, standard output carries the JSON only.
-  if (args.report != "-") print_summary(args, *distance);
+  if (args.common.report != "-") print_summary(args, *distance);
   if (verbosity() >= 2) {
     std::fprintf(stderr, "gaussmesh: compare: %.3f s, peak RSS %llu bytes\n", distance->seconds,
                  static_cast<unsigned long long>(peak_rss_bytes()));
   }
-  if (!args.report.empty()) {
-    if (Status s = write_report(args.report, distance->report_json); !s) return report_error(s);
-  }
-  return 0;
+  return finish(args.common, distance->report_json);
 }
 
 }  // namespace
@@ -60,14 +55,12 @@ void register_compare(CLI::App& app, Runner& run) {
       "compare", "Hausdorff and RMS distance between two meshes, in % of A's bounding-box diagonal");
   sub->add_option("A", args->a, "First mesh (the reference for %), '-' for stdin")->required();
   sub->add_option("B", args->b, "Second mesh, '-' for stdin")->required();
-  sub->add_option("--report", args->report, "Write the figures as JSON to FILE ('-': stdout)");
   sub->add_option("--samples", args->samples,
                   "Area samples on A; B gets the same density (vertices and edge midpoints are sampled too)")
       ->capture_default_str();
   sub->add_option("--seed", args->seed, "Seed of the sample positions")->capture_default_str();
   sub->add_option("--threads", args->threads, "Worker threads (0: all cores)")->capture_default_str();
-  sub->add_flag("-q,--quiet", args->quiet, "Print nothing on stderr but errors");
-  sub->add_flag("-v,--verbose", args->verbose, "Print timings on stderr");
+  add_common_flags(*sub, args->common, "Print timings on stderr");
   sub->callback([&run, args] { run = [args] { return run_compare(*args); }; });
 }
 

@@ -10,10 +10,8 @@ namespace {
 
 struct InfoOptions {
   std::string input = "-";
-  std::string report;
   std::string input_format;
-  bool quiet = false;
-  bool verbose = false;
+  CommonFlags common;
 };
 
 // 1234567 -> "1,234,567".
@@ -57,8 +55,7 @@ void print_summary(const MeshInfo& t) {
 }
 
 int run_info(const InfoOptions& options) {
-  if (options.quiet) set_verbosity(0);
-  if (options.verbose) set_verbosity(2);
+  apply_verbosity(options.common);
   MeshFormat format = MeshFormat::kUnknown;
   if (!options.input_format.empty()) {
     format = parse_mesh_format(options.input_format);
@@ -70,15 +67,12 @@ int run_info(const InfoOptions& options) {
   auto mesh_info = info(input_source(options.input, format));
   if (!mesh_info) return report_error(mesh_info.status());
   // With --report -, standard output carries the JSON only.
-  if (options.report != "-") print_summary(*mesh_info);
+  if (options.common.report != "-") print_summary(*mesh_info);
   if (verbosity() >= 2) {
     std::fprintf(stderr, "gaussmesh: info: read %.3f s, analyse %.3f s, peak RSS %s bytes\n",
                  mesh_info->seconds_read, mesh_info->seconds_analyse, grouped(mesh_info->peak_rss_bytes).c_str());
   }
-  if (!options.report.empty()) {
-    if (Status written = write_report(options.report, mesh_info->report_json); !written) return report_error(written);
-  }
-  return 0;
+  return finish(options.common, mesh_info->report_json);
 }
 
 }  // namespace
@@ -89,11 +83,9 @@ void register_info(CLI::App& app, Runner& run) {
       "info", "Counts, bounds, boundary loops, manifoldness and genus of a mesh");
   sub->add_option("input", options->input, "Input mesh (PLY, OFF, OBJ, STL), '-' for stdin")
       ->capture_default_str();
-  sub->add_option("--report", options->report, "Write the figures as JSON to FILE ('-': stdout)");
   sub->add_option("--input-format", options->input_format,
                   "Force the input format (ply|off|obj|stl) instead of detecting it");
-  sub->add_flag("-q,--quiet", options->quiet, "Print nothing on stderr but errors");
-  sub->add_flag("-v,--verbose", options->verbose, "Print timings on stderr");
+  add_common_flags(*sub, options->common, "Print timings on stderr");
   sub->callback([&run, options] { run = [options] { return run_info(*options); }; });
 }
 

@@ -14,16 +14,13 @@ struct SampleCommandOptions {
   std::string input = "-";
   std::string output;
   std::string patches;
-  std::string report;
-  bool quiet = false;
-  bool verbose = false;
+  CommonFlags common;
   SamplingFlags sampling;
   ResourceFlags resources;
 };
 
 int run_sample(const SampleCommandOptions& o) {
-  if (o.quiet) set_verbosity(0);
-  if (o.verbose) set_verbosity(2);
+  apply_verbosity(o.common);
   SampleOptions options;
   auto sampling = sampling_options(o.sampling);
   if (!sampling) return report_error(sampling.status());
@@ -41,10 +38,7 @@ int run_sample(const SampleCommandOptions& o) {
                  static_cast<unsigned long long>(stats->samples), stats->out_of_core ? "out of core" : "in core",
                  static_cast<unsigned long long>(stats->chunks));
   }
-  if (!o.report.empty()) {
-    if (Status s = write_report(o.report, stats->report_json); !s) return report_error(s);
-  }
-  return 0;
+  return finish(o.common, stats->report_json);
 }
 
 }  // namespace
@@ -55,9 +49,7 @@ void register_sample(CLI::App& app, Runner& run) {
   sub->add_option("input", o->input, "Input mesh (PLY, OFF, OBJ, STL), '-' for stdin")->capture_default_str();
   sub->add_option("-o,--output", o->output, "Samples as a binary point PLY ('-': stdout)")->required();
   sub->add_option("--patches", o->patches, "Also write the input mesh coloured per patch, samples in red (PLY; in core)");
-  sub->add_option("--report", o->report, "Write the figures as JSON to FILE ('-': stdout)");
-  sub->add_flag("-q,--quiet", o->quiet, "Print nothing on stderr but errors");
-  sub->add_flag("-v,--verbose", o->verbose, "Print counts on stderr");
+  add_common_flags(*sub, o->common, "Print counts on stderr");
   add_sampling_options(*sub, o->sampling);
   add_resource_options(*sub, o->resources);
   sub->callback([&run, o] { run = [o] { return run_sample(*o); }; });

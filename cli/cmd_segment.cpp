@@ -12,16 +12,13 @@ namespace {
 struct SegmentCommandOptions {
   std::string input = "-";
   std::string output;
-  std::string report;
   std::uint32_t max_smooth = SegmentOptions{}.max_smooth;
-  bool quiet = false;
-  bool verbose = false;
+  CommonFlags common;
   SamplingFlags sampling;
 };
 
 int run_segment(const SegmentCommandOptions& o) {
-  if (o.quiet) set_verbosity(0);
-  if (o.verbose) set_verbosity(2);
+  apply_verbosity(o.common);
   SegmentOptions options;
   auto sampling = sampling_options(o.sampling, options.sampling);
   if (!sampling) return report_error(sampling.status());
@@ -31,10 +28,7 @@ int run_segment(const SegmentCommandOptions& o) {
   if (!stats) return report_error(stats.status());
   if (verbosity() >= 1 && !stats->note.empty()) std::fprintf(stderr, "gaussmesh: segment: note: %s\n", stats->note.c_str());
   if (verbosity() >= 2) std::fprintf(stderr, "gaussmesh: segment: %s\n", stats->summary.c_str());
-  if (!o.report.empty()) {
-    if (Status s = write_report(o.report, stats->report_json); !s) return report_error(s);
-  }
-  return 0;
+  return finish(o.common, stats->report_json);
 }
 
 }  // namespace
@@ -45,10 +39,8 @@ void register_segment(CLI::App& app, Runner& run) {
       "segment", "Spherical segmentation (paper §6): g+1 segments of a closed genus-g mesh, as a per-face coloured PLY");
   sub->add_option("input", o->input, "Input mesh (PLY, OFF, OBJ, STL), '-' for stdin")->capture_default_str();
   sub->add_option("-o,--output", o->output, "Segmented mesh as a binary PLY ('-': stdout)")->required();
-  sub->add_option("--report", o->report, "Write the figures as JSON to FILE ('-': stdout)");
   sub->add_option("--max-smooth", o->max_smooth, "Cap on the normal smoothing iterations")->capture_default_str();
-  sub->add_flag("-q,--quiet", o->quiet, "Print nothing on stderr but errors");
-  sub->add_flag("-v,--verbose", o->verbose, "Print counts on stderr");
+  add_common_flags(*sub, o->common, "Print counts on stderr");
   // --frequency defaults to 1 here; --smooth is where the smoothing search starts.
   add_sampling_options(*sub, o->sampling);
   sub->callback([&run, o] { run = [o] { return run_segment(*o); }; });

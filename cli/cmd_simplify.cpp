@@ -16,18 +16,15 @@ struct SimplifyArgs {
   std::string input_format;
   std::string output_format;
   std::string mesher = "patch";
-  std::string report;
   int qp = 14;
   int cl = 7;
-  bool quiet = false;
-  bool verbose = false;
+  CommonFlags common;
   SamplingFlags sampling;
   ResourceFlags resources;
 };
 
 int run_simplify(const SimplifyArgs& args) {
-  if (args.quiet) set_verbosity(0);
-  if (args.verbose) set_verbosity(2);
+  apply_verbosity(args.common);
   auto output_format = parse_output_format(args.output_format);
   if (!output_format) {
     return report_error(Status::error(Code::kUsage, "--format",
@@ -68,10 +65,7 @@ int run_simplify(const SimplifyArgs& args) {
     std::fprintf(stderr, "gaussmesh: %s, %.3f s, peak RSS %llu bytes\n", stats->out_of_core ? "out of core" : "in core",
                  stats->seconds, static_cast<unsigned long long>(stats->peak_rss_bytes));
   }
-  if (!args.report.empty()) {
-    if (Status s = write_report(args.report, stats->report_json); !s) return report_error(s);
-  }
-  return 0;
+  return finish(args.common, stats->report_json);
 }
 
 }  // namespace
@@ -86,9 +80,7 @@ void register_simplify(CLI::App& app, Runner& run) {
   sub->add_option("--mesher", args->mesher, "patch (default, topology-preserving) or voronoi");
   sub->add_option("--qp", args->qp, "Draco position quantization bits 1-24 (default 14; encoder cost doubles per bit)")->check(CLI::Range(1, 24));
   sub->add_option("--cl", args->cl, "Draco compression level 0-10 (default 7)")->check(CLI::Range(0, 10));
-  sub->add_option("--report", args->report, "write a JSON report to this file (- for stdout)");
-  sub->add_flag("-q,--quiet", args->quiet, "print nothing on stderr but errors");
-  sub->add_flag("-v,--verbose", args->verbose, "print timings on stderr");
+  add_common_flags(*sub, args->common, "print timings on stderr");
   add_sampling_options(*sub, args->sampling);
   add_resource_options(*sub, args->resources);
   sub->callback([&run, args] { run = [args] { return run_simplify(*args); }; });

@@ -25,6 +25,18 @@ int report_error(const Status& status);
 int verbosity();
 void set_verbosity(int level);
 
+// The flags every subcommand takes: --report FILE|-, -q, -v.
+struct CommonFlags {
+  std::string report;
+  bool quiet = false;
+  bool verbose = false;
+};
+void add_common_flags(CLI::App& sub, CommonFlags& flags, const char* verbose_help);
+// Sets the verbosity from -q / -v.
+void apply_verbosity(const CommonFlags& flags);
+// Writes report_json to --report when given; the exit code (0, or the write's error).
+int finish(const CommonFlags& flags, const std::string& report_json);
+
 // "-" for standard input or output, else the path.
 Source input_source(const std::string& path, MeshFormat format = MeshFormat::kUnknown);
 

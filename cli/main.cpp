@@ -28,6 +28,23 @@ int report_error(const Status& status) {
 
 Source input_source(const std::string& path, MeshFormat format) { return Source::file(path, format); }
 
+void add_common_flags(CLI::App& sub, CommonFlags& flags, const char* verbose_help) {
+  sub.add_option("--report", flags.report, "Write the figures as JSON to FILE ('-': stdout)");
+  sub.add_flag("-q,--quiet", flags.quiet, "Print nothing on stderr but errors");
+  sub.add_flag("-v,--verbose", flags.verbose, verbose_help);
+}
+
+void apply_verbosity(const CommonFlags& flags) {
+  if (flags.quiet) set_verbosity(0);
+  if (flags.verbose) set_verbosity(2);
+}
+
+int finish(const CommonFlags& flags, const std::string& report_json) {
+  if (flags.report.empty()) return 0;
+  if (Status s = write_report(flags.report, report_json); !s) return report_error(s);
+  return 0;
+}
+
 }  // namespace gaussmesh::cli
 
 int main(int argc, char** argv) {
