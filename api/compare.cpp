@@ -58,7 +58,7 @@ Result<Distance> compare(const Source& a, const Source& b, const CompareOptions&
   out.b_to_a = public_side(d->b_to_a);
   out.hausdorff = d->hausdorff;
   out.rms = d->rms;
-  const double read_s = std::chrono::duration<double>(t1 - t0).count();
+  const double read_s = stream::seconds_between(t0, t1);
   const double measure_s = stream::seconds_since(t1);
   out.seconds = read_s + measure_s;
 

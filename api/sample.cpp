@@ -164,7 +164,7 @@ Result<SampleStats> sample_out_of_core(const Source& source, const std::string& 
                   {"partition", sampled->seconds_partition},
                   {"sample", sampled->seconds_sample},
                   {"cleanup", sampled->seconds_cleanup},
-                  {"write", std::chrono::duration<double>(t2 - t1).count()},
+                  {"write", stream::seconds_between(t1, t2)},
                   {"total", stats.seconds}};
   j["partition_seconds"] = {{"plan", sampled->partition_steps.plan},
                             {"rings", sampled->partition_steps.rings},
@@ -203,7 +203,6 @@ Result<SampleStats> sample_in_core(const Source& source, const std::string& path
   stats.peak_rss_bytes = peak_rss_bytes();
   stats.seconds = seconds_since(t0);
 
-  auto secs = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
   Json j = report_head(source, input.positions.size(), input.triangles.size(), g, o, sampler);
   j["patches"] = r.patch_count;
   j["candidates"] = r.candidates.size();
@@ -221,7 +220,7 @@ Result<SampleStats> sample_in_core(const Source& source, const std::string& path
                        {"unlabelled_faces", r.stats.unlabelled_faces},
                        {"break_edges", r.stats.break_edges}};
   j["peak_rss_bytes"] = stats.peak_rss_bytes;
-  j["seconds"] = {{"read", secs(t0, t1)}, {"sample", secs(t1, t2)}, {"write", secs(t2, t3)}};
+  j["seconds"] = {{"read", stream::seconds_between(t0, t1)}, {"sample", stream::seconds_between(t1, t2)}, {"write", stream::seconds_between(t2, t3)}};
   stats.report_json = j.dump(2);
   return stats;
 }

@@ -95,7 +95,7 @@ Result<SegmentStats> segment(const Source& source, const std::string& path, cons
   stats.input_faces = input.triangles.size();
   stats.segments = r.segment_count;
   stats.face_segment = r.face_segment;
-  stats.seconds = std::chrono::duration<double>(t3 - t0).count();
+  stats.seconds = stream::seconds_between(t0, t3);
   if (r.smooth_cap_hit || r.merges > 0) {
     stats.note = std::string(r.smooth_cap_hit ? "smoothing stopped at the cap " : "") +
                  (r.smooth_cap_hit ? std::to_string(r.smooth_iterations) + " with some Gaussian triangle over g+1 pre-images; " : "") +
@@ -107,7 +107,6 @@ Result<SegmentStats> segment(const Source& source, const std::string& path, cons
                   std::to_string(r.smooth_iterations) + " smoothing iterations, " + std::to_string(r.poles) + " poles, " +
                   std::to_string(r.patch_count) + " patches";
 
-  auto secs = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
   const stream::GaussSphere& g = *gauss;
   Json j;
   j["input"] = source.name();
@@ -135,7 +134,7 @@ Result<SegmentStats> segment(const Source& source, const std::string& path, cons
   j["segment_faces"] = r.segment_faces;
   j["duplicate_labels"] = r.duplicate_labels;
   j["peak_rss_bytes"] = peak_rss_bytes();
-  j["seconds"] = {{"read", secs(t0, t1)}, {"segment", secs(t1, t2)}, {"write", secs(t2, t3)}};
+  j["seconds"] = {{"read", stream::seconds_between(t0, t1)}, {"segment", stream::seconds_between(t1, t2)}, {"write", stream::seconds_between(t2, t3)}};
   stats.report_json = j.dump(2);
   return stats;
 }

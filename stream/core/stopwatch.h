@@ -1,4 +1,4 @@
-// Wall-clock seconds since a point in time: the one timer behind every pass's figures.
+// Wall-clock seconds between two points in time: the one timer behind every pass's figures.
 #pragma once
 
 #include <chrono>
@@ -7,8 +7,10 @@ namespace gaussmesh::stream {
 
 using Clock = std::chrono::steady_clock;
 
-inline double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
+inline double seconds_between(Clock::time_point start, Clock::time_point end) {
+  return std::chrono::duration<double>(end - start).count();
 }
+
+inline double seconds_since(Clock::time_point start) { return seconds_between(start, Clock::now()); }
 
 }  // namespace gaussmesh::stream
