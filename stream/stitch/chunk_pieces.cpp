@@ -516,11 +516,4 @@ PatchMergeResult merge_stitched_patches(const CandidateEdges& edges, PatchGraphI
   return result;
 }
 
-PatchMergeResult merge_stitched_patches(const StitchedPatches& stitched) {
-  CandidateEdges edges;
-  StitchedPatches taken = stitched;
-  PatchGraphInput input = take_merge_input(taken, edges);
-  return merge_stitched_patches(edges, std::move(input));
-}
-
 }  // namespace gaussmesh::stream

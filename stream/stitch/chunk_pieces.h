@@ -205,14 +205,6 @@ struct StitchedPatches {
 format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, const PieceJoinFiles& joins,
                                               const MemoryBudget& budget, std::uint32_t threads = 1);
 
-// The merge: the untriangulatable-patch merge (stream/sampling/patch_filters.h, the patch-graph merge that
-// sample_mesh runs in core) on the stitched patches, for the exact sample test: a touched
-// candidate keeps its candidacy when its star, with the patches' current labels, still counts
-// >= 3 feature edges. Returns the merged patches in find_patches' numbering (lowest face), as
-// the in-core run's final face_patch numbers them; is_candidate is parallel to
-// stitched.candidates.
-PatchMergeResult merge_stitched_patches(const StitchedPatches& stitched);
-
 // The candidates' stars as the merge's re-evaluation reads them: a candidate stays one while
 // at least 3 of its star's edges are feature edges. Per candidate, the edges no merge changes
 // — break edges (an entering break, or no face across the leaving edge), at most 3 counted —
@@ -249,8 +241,12 @@ struct CandidateEdges {
   }
 };
 
-// The same in two steps, so that a caller can free what the merge no longer reads in between:
-// the merge's input (patches, adjacency, candidates' patch lists) and the candidates' edges are
+// The merge: the untriangulatable-patch merge (stream/sampling/patch_filters.h, the patch-graph
+// merge that sample_mesh runs in core) on the stitched patches, for the exact sample test: a
+// touched candidate keeps its candidacy when its star, with the patches' current labels, still
+// counts >= 3 feature edges; the merged patches come in find_patches' numbering (lowest face),
+// as the in-core run's final face_patch numbers them. In two steps, so that a caller can free
+// what the merge no longer reads in between: the merge's input (patches, adjacency, candidates' patch lists) and the candidates' edges are
 // built from stitched's patches, adjacency, collapsed faces, candidates and star, and the first
 // three are freed as they are read; the merge itself reads only the input and the edges.
 // is_candidate is parallel to stitched.candidates.

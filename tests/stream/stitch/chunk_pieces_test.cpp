@@ -15,6 +15,7 @@
 #include "stream/core/mesh.h"
 #include "stream/sampling/patch_filters.h"
 #include "stream/stitch/piece_joins.h"
+#include "tests/support/stitch_merge.h"
 #include "tests/support/test_util.h"
 
 namespace gaussmesh::stream {
@@ -193,7 +194,7 @@ void expect_stitch_equals_in_core(const std::string& path, std::uint32_t smooth,
   EXPECT_GE(answered, mesh->triangles.size());
 
   // Step 3: the merge on the stitched graph ends where the in-core sampler's merge ends.
-  const PatchMergeResult merged = merge_stitched_patches(*stitched);
+  const PatchMergeResult merged = testing::merge_stitched_copy(*stitched);
   auto sampled = sample_mesh(mesh->view(), *gauss, options);
   ASSERT_TRUE(sampled.is_ok());
   EXPECT_EQ(merged.merged_patches, sampled->stats.merged_patches);
