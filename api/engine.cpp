@@ -4,11 +4,11 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <fstream>
 
 #include "api/internal.h"
 #include "format/output_file.h"
 #include "format/temp_registry.h"
+#include "stream/core/process_memory.h"
 
 namespace gaussmesh {
 namespace {
@@ -81,13 +81,6 @@ Status write_report(const std::string& path, const std::string& report_json) {
   return (*out)->commit();
 }
 
-std::uint64_t peak_rss_bytes() {
-  std::ifstream status("/proc/self/status");
-  std::string line;
-  while (std::getline(status, line)) {
-    if (line.rfind("VmHWM:", 0) == 0) return std::stoull(line.substr(6)) * 1024;
-  }
-  return 0;
-}
+std::uint64_t peak_rss_bytes() { return stream::peak_rss(); }
 
 }  // namespace gaussmesh

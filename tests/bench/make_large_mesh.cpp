@@ -36,6 +36,7 @@
 #include "format/output_file.h"
 #include "stream/core/exact_predicates.h"
 #include "stream/core/mesh.h"
+#include "stream/core/process_memory.h"
 #include "tests/support/test_util.h"
 
 namespace gaussmesh::bench {
@@ -49,16 +50,6 @@ using stream::Vec3d;
 Vec3d normalized(Vec3d a) {
   double n = std::sqrt(dot(a, a));
   return n > 0 ? (1.0 / n) * a : Vec3d{0, 0, 1};
-}
-
-// Peak resident set size of this process (VmHWM), in bytes.
-std::uint64_t peak_rss_bytes() {
-  std::ifstream in("/proc/self/status");
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind("VmHWM:", 0) == 0) return std::strtoull(line.c_str() + 6, nullptr, 10) * 1024;
-  }
-  return 0;
 }
 
 // Smooth scalar field in [-1, 1]: the mean of three sinusoids along seeded random directions.
@@ -390,6 +381,6 @@ int main(int argc, char** argv) {
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   std::fprintf(stderr, "make_large_mesh: %s: %llu vertices, %llu triangles, %.1f MB in %.1f s; peak RSS %.1f MB\n",
                (*file)->name().c_str(), (unsigned long long)vertices, (unsigned long long)faces,
-               double((*file)->bytes_written()) / 1e6, seconds, double(peak_rss_bytes()) / 1e6);
+               double((*file)->bytes_written()) / 1e6, seconds, double(stream::peak_rss()) / 1e6);
   return 0;
 }

@@ -21,6 +21,7 @@
 #include "format/mesh_writer.h"
 #include "format/output_file.h"
 #include "stream/core/mesh.h"
+#include "stream/core/process_memory.h"
 #include "stream/core/stopwatch.h"
 
 namespace gaussmesh::bench {
@@ -33,15 +34,6 @@ using stream::seconds_since;
 
 // The triangle array is handed to meshoptimizer as its flat index buffer, without a copy.
 static_assert(sizeof(Triangle) == 3 * sizeof(unsigned int) && alignof(Triangle) == alignof(unsigned int));
-
-std::uint64_t peak_rss_bytes() {
-  std::ifstream in("/proc/self/status");
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind("VmHWM:", 0) == 0) return std::strtoull(line.c_str() + 6, nullptr, 10) * 1024;
-  }
-  return 0;
-}
 
 int usage() {
   std::fprintf(stderr,
@@ -157,6 +149,6 @@ int main(int argc, char** argv) {
   std::printf("read_s=%.3f simplify_s=%.3f write_s=%.3f input_faces=%zu output_faces=%zu output_vertices=%zu "
               "result_error=%.6g peak_rss_mb=%.1f\n",
               read_s, simplify_s, write_s, input_faces, out_faces.size(), kept.size(), double(result_error),
-              double(peak_rss_bytes()) / 1e6);
+              double(stream::peak_rss()) / 1e6);
   return 0;
 }
