@@ -23,21 +23,12 @@
 #include "format/byte_source.h"
 #include "format/mesh_reader.h"
 #include "format/output_file.h"
+#include "stream/core/process_memory.h"
 
 namespace gaussmesh::bench {
 namespace {
 
 using format::Status;
-
-// Peak resident set size of this process (VmHWM), in bytes.
-uint64_t peak_rss_bytes() {
-  std::ifstream in("/proc/self/status");
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind("VmHWM:", 0) == 0) return std::strtoull(line.c_str() + 6, nullptr, 10) * 1024;
-  }
-  return 0;
-}
 
 class ChecksumSink final : public format::MeshSink {
  public:
@@ -121,7 +112,7 @@ int read_mode(const std::string& path, int repeat) {
   }
   std::printf("best %.3f s = %.0f MB/s, %.1f M triangles/s; peak RSS of the read process %.1f MB "
               "(checksum %.6g / %llx)\n",
-              best, double(size) / 1e6 / best, double(last.triangles) / best / 1e6, double(peak_rss_bytes()) / 1e6,
+              best, double(size) / 1e6 / best, double(last.triangles) / best / 1e6, double(stream::peak_rss()) / 1e6,
               last.coordinate_sum, (unsigned long long)last.index_hash);
   return 0;
 }
