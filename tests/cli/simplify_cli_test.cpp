@@ -299,6 +299,36 @@ TEST(SimplifyCli, OutOfCorePaperTestGivesTheInCoreBytesFromFilesAndPipes) {
   }
 }
 
+TEST(SimplifyCli, WithoutMemoryASmallFileRunsInCoreAndAPipeStreams) {
+  // The automatic engine (docs/cli.md, "Memory budget"): a fixture file is small enough for in
+  // core; standard input has no known size and streams within the automatic budget; a budget
+  // smaller than the in-core working set streams a file too. The bytes are the same each way.
+  ScratchDir dir, tmp;
+  const std::string input = q(fixture("real/fandisk.off"));
+  const std::string tmp_flag = " --tmp " + q(tmp.path().string());
+  auto file = run_command(binary() + " simplify " + input + " -o " + q(dir.file("a.drc")) + " -q --report " +
+                          q(dir.file("a.json")) + tmp_flag);
+  ASSERT_EQ(file.exit_code, 0) << file.err;
+  auto pipe = run_command("cat " + input + " | " + binary() + " simplify - -o " + q(dir.file("b.drc")) +
+                          " -q --report " + q(dir.file("b.json")) + tmp_flag);
+  ASSERT_EQ(pipe.exit_code, 0) << pipe.err;
+  auto tight = run_command(binary() + " simplify " + input + " -o " + q(dir.file("c.drc")) + " -q --memory 16M --report " +
+                           q(dir.file("c.json")) + tmp_flag);
+  ASSERT_EQ(tight.exit_code, 0) << tight.err;
+  const auto a = nlohmann::json::parse(read_file(dir.file("a.json")));
+  const auto b = nlohmann::json::parse(read_file(dir.file("b.json")));
+  const auto c = nlohmann::json::parse(read_file(dir.file("c.json")));
+  EXPECT_FALSE(a["out_of_core"].get<bool>());
+  EXPECT_TRUE(b["out_of_core"].get<bool>());
+  EXPECT_GE(b["memory_bytes"].get<std::uint64_t>(), std::uint64_t{16} << 20);
+  EXPECT_LE(b["memory_bytes"].get<std::uint64_t>(), std::uint64_t{64} << 20);
+  EXPECT_TRUE(c["out_of_core"].get<bool>());
+  EXPECT_EQ(c["memory_bytes"].get<std::uint64_t>(), std::uint64_t{16} << 20);
+  EXPECT_EQ(read_file(dir.file("a.drc")), read_file(dir.file("b.drc")));
+  EXPECT_EQ(read_file(dir.file("a.drc")), read_file(dir.file("c.drc")));
+  EXPECT_EQ(files_in(tmp.path().string()), 0u);
+}
+
 TEST(SimplifyCli, OutOfCoreBadInputAndRefusedOptions) {
   ScratchDir dir, tmp;
   const std::string mem = " --memory 16M --tmp " + q(tmp.path().string());
@@ -309,7 +339,7 @@ TEST(SimplifyCli, OutOfCoreBadInputAndRefusedOptions) {
     EXPECT_EQ(files_in(dir.path().string()), 0u) << bad;
     EXPECT_EQ(files_in(tmp.path().string()), 0u) << bad;
   }
-  for (const std::string bad : {"--mesher voronoi", "--memory 1M"}) {
+  for (const std::string bad : {"--mesher voronoi", "--memory 1M", "--engine sideways", "--memory auto --engine out-of-core --mesher voronoi"}) {
     auto run = run_command(binary() + " simplify " + q(fixture("real/cow.off")) + " -o " + q(dir.file("out.drc")) + mem +
                            " " + bad);
     EXPECT_EQ(run.exit_code, 1) << bad << ": " << run.err;
