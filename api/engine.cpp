@@ -45,8 +45,9 @@ Result<EngineChoice> choose_engine(const Source& source, const ResourceOptions& 
   }
   EngineChoice choice;
   choice.memory_bytes = resources.memory_bytes != 0 ? resources.memory_bytes : auto_memory_budget();
-  if (source.kind == Source::Kind::kMemory) {
-    choice.estimated_faces = source.mesh.triangles.size();
+  if (source.kind == Source::Kind::kMemory || source.kind == Source::Kind::kBytes) {
+    choice.estimated_faces = source.kind == Source::Kind::kMemory ? source.mesh.triangles.size()
+                                                                   : source.bytes.size() / kMinBytesPerFace;
     choice.engine = Engine::kInCore;  // already in memory; the streaming engines read files
     if (resources.engine == Engine::kOutOfCore) {
       return Status::error(Code::kUsage, "engine", "a mesh in memory runs in core (the streaming engine reads a file or stdin)");

@@ -49,7 +49,12 @@ Result<MeshInfo> info(const Source& source) {
   MeshView view = source.mesh;
   if (source.kind != Source::Kind::kMemory) {
     stream::MeshBuilder builder;
-    GM_RETURN_IF_ERROR(format::read_mesh_file(api::stream_path(source), api::read_options(source), builder));
+    if (source.kind == Source::Kind::kBytes) {
+      auto bytes = format::ByteSource::from_memory(source.bytes, source.path);
+      GM_RETURN_IF_ERROR(format::read_mesh(*bytes, api::read_options(source), builder));
+    } else {
+      GM_RETURN_IF_ERROR(format::read_mesh_file(api::stream_path(source), api::read_options(source), builder));
+    }
     format = builder.header().format;
     owned = builder.take();
     view = owned.view();

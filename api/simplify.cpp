@@ -18,7 +18,7 @@ Json common_report(const Source& source, const Sink& sink, const SimplifyOptions
                    const stream::SamplerOptions& sampler, const auto& result, std::size_t chosen, std::uint64_t bytes) {
   Json report;
   report["command"] = "simplify";
-  report["input"] = source.kind == Source::Kind::kFile ? source.path : source.kind == Source::Kind::kMemory ? "<memory>" : "-";
+  report["input"] = source.kind == Source::Kind::kStandardInput ? std::string("-") : source.name();
   report["output"] = sink.kind == Sink::Kind::kFile ? sink.path : sink.kind == Sink::Kind::kMemory ? "<memory>" : "-";
   report["output_format"] = sink.kind == Sink::Kind::kMemory ? "memory" : output_format_name(sink.resolved_format());
   report["input_vertices"] = input_vertices;

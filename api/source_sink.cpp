@@ -48,11 +48,21 @@ Source Source::memory(MeshView mesh) {
   return s;
 }
 
+Source Source::file_bytes(std::string_view bytes, std::string name, MeshFormat format) {
+  Source s;
+  s.kind = Kind::kBytes;
+  s.bytes = bytes;
+  s.path = std::move(name);
+  s.format = format;
+  return s;
+}
+
 std::string Source::name() const {
   switch (kind) {
     case Kind::kFile: return path;
     case Kind::kStandardInput: return "<stdin>";
     case Kind::kMemory: return "<memory>";
+    case Kind::kBytes: return path;
   }
   return path;
 }
@@ -133,6 +143,14 @@ Result<LoadedMesh> load(const Source& source) {
       }
     }
     loaded.view = source.mesh;
+    return loaded;
+  }
+  if (source.kind == Source::Kind::kBytes) {
+    auto bytes = format::ByteSource::from_memory(source.bytes, source.path);
+    stream::MeshBuilder builder;
+    GM_RETURN_IF_ERROR(format::read_mesh(*bytes, read_options(source), builder));
+    loaded.owned = builder.take();
+    loaded.view = loaded.owned.view();
     return loaded;
   }
   auto mesh = stream::load_mesh(stream_path(source), read_options(source));

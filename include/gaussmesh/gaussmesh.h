@@ -15,6 +15,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "gaussmesh/mesh.h"
@@ -29,16 +30,21 @@ inline constexpr const char* kVersion = "0.1.0";
 // Where an input mesh comes from. The format is detected from the content (so standard input
 // needs no flag) unless `format` forces one.
 struct Source {
-  enum class Kind { kFile, kStandardInput, kMemory };
+  enum class Kind { kFile, kStandardInput, kMemory, kBytes };
   Kind kind = Kind::kStandardInput;
-  std::string path;        // kFile
+  std::string path;        // kFile; kBytes: the name messages give it
   MeshView mesh;           // kMemory: must stay valid during the call
+  std::string_view bytes;  // kBytes: a file's contents in memory, valid during the call
   MeshFormat format = MeshFormat::kUnknown;
 
   static Source file(std::string path, MeshFormat format = MeshFormat::kUnknown);  // "-": standard input
   static Source standard_input(MeshFormat format = MeshFormat::kUnknown);
   static Source memory(MeshView mesh);
-  // How messages name it: the path, "<stdin>" or "<memory>".
+  // A mesh file's bytes already in memory (received over a network, unpacked from an archive):
+  // read by the same readers as a file, in core.
+  static Source file_bytes(std::string_view bytes, std::string name = "<bytes>",
+                           MeshFormat format = MeshFormat::kUnknown);
+  // How messages name it: the path, "<stdin>", "<memory>" or the bytes' name.
   std::string name() const;
 };
 

@@ -80,6 +80,26 @@ TEST(GaussmeshApi, BothEnginesGiveTheSameMesh) {
   }
 }
 
+TEST(GaussmeshApi, AFilesBytesInMemoryReadAsTheFile) {
+  const std::string bytes = testing::read_file(fixture("real/cow.off"));
+  Mesh from_bytes, from_file;
+  auto a = simplify(Source::file_bytes(bytes, "cow.off"), Sink::memory(&from_bytes));
+  ASSERT_TRUE(a) << a.status().to_string();
+  auto b = simplify(Source::file(fixture("real/cow.off")), Sink::memory(&from_file));
+  ASSERT_TRUE(b) << b.status().to_string();
+  EXPECT_EQ(from_bytes.triangles, from_file.triangles);
+  EXPECT_EQ(from_bytes.positions, from_file.positions);
+  auto measured = info(Source::file_bytes(bytes, "cow.off"));
+  ASSERT_TRUE(measured) << measured.status().to_string();
+  EXPECT_EQ(measured->format, MeshFormat::kOff);
+  EXPECT_EQ(measured->faces, a->input_faces);
+  // A truncated copy is bad input named by the bytes' name.
+  auto truncated = info(Source::file_bytes(std::string_view(bytes).substr(0, bytes.size() / 2), "half.off"));
+  ASSERT_FALSE(truncated);
+  EXPECT_EQ(truncated.status().code(), Code::kBadInput);
+  EXPECT_NE(truncated.status().to_string().find("half.off"), std::string::npos);
+}
+
 TEST(GaussmeshApi, EngineFollowsTheBudgetAndTheInputSize) {
   const Source small = Source::file(fixture("real/cow.off"));
   ResourceOptions automatic;
