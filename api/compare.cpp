@@ -26,7 +26,9 @@ api::Json side_json(const OneSidedDistance& d, const Distance& all) {
 
 }  // namespace
 
-Result<Distance> compare(const Source& a, const Source& b, const CompareOptions& options) {
+namespace {
+
+Result<Distance> compare_job(const Source& a, const Source& b, const CompareOptions& options) {
   if (a.kind == Source::Kind::kStandardInput && b.kind == Source::Kind::kStandardInput) {
     return Status::error(Code::kUsage, "compare", "only one of A and B can be '-'");
   }
@@ -88,6 +90,12 @@ Result<Distance> compare(const Source& a, const Source& b, const CompareOptions&
   j["seconds"] = {{"read", read_s}, {"measure", measure_s}};
   out.report_json = j.dump(2);
   return out;
+}
+
+}  // namespace
+
+Result<Distance> compare(const Source& a, const Source& b, const CompareOptions& options) {
+  return api::guarded("compare", [&] { return compare_job(a, b, options); });
 }
 
 }  // namespace gaussmesh

@@ -38,7 +38,9 @@ api::Json report_json(const MeshInfo& i) {
 
 }  // namespace
 
-Result<MeshInfo> info(const Source& source) {
+namespace {
+
+Result<MeshInfo> info_job(const Source& source) {
   if (source.format == MeshFormat::kDraco) {
     return Status::error(Code::kUsage, "--input-format", "info reads ply, off, obj or stl when a format is forced");
   }
@@ -93,6 +95,12 @@ Result<MeshInfo> info(const Source& source) {
   i.peak_rss_bytes = peak_rss_bytes();
   i.report_json = report_json(i).dump(2);
   return i;
+}
+
+}  // namespace
+
+Result<MeshInfo> info(const Source& source) {
+  return api::guarded("info", [&] { return info_job(source); });
 }
 
 }  // namespace gaussmesh

@@ -3,6 +3,8 @@
 #pragma once
 
 #include <cstdint>
+#include <exception>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -67,6 +69,19 @@ inline void spread_colour(std::uint32_t id, std::uint8_t rgb[3]) {
   std::uint32_t h = id * 2654435761u;
   h ^= h >> 15;
   for (int i = 0; i < 3; ++i) rgb[i] = static_cast<std::uint8_t>(64 + (h >> (8 * i) & 0xFF) * 3 / 4);
+}
+
+// Runs a job and turns what it throws (an allocation that failed, a library's exception) into a
+// Status, so that nothing throws across the API.
+template <class Job>
+auto guarded(const char* job, Job&& run) -> decltype(run()) {
+  try {
+    return run();
+  } catch (const std::bad_alloc&) {
+    return Status::error(Code::kResources, job, "out of memory");
+  } catch (const std::exception& e) {
+    return Status::error(Code::kProcessing, job, std::string("internal error: ") + e.what());
+  }
 }
 
 // kUsage when a standard-input source is a terminal.

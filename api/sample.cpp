@@ -227,8 +227,10 @@ Result<SampleStats> sample_in_core(const Source& source, const std::string& path
 
 }  // namespace
 
-Result<SampleStats> sample(const Source& source, const std::string& path, const SampleOptions& options,
-                           std::vector<Sample>* samples) {
+namespace {
+
+Result<SampleStats> sample_job(const Source& source, const std::string& path, const SampleOptions& options,
+                               std::vector<Sample>* samples) {
   auto spheres = api::gauss_spheres(options.sampling);
   if (!spheres) return spheres.status();
   const stream::SamplerOptions sampler = api::sampler_options(options.sampling);
@@ -244,6 +246,13 @@ Result<SampleStats> sample(const Source& source, const std::string& path, const 
     return sample_out_of_core(source, path, options, *spheres, sampler, engine->memory_bytes, samples);
   }
   return sample_in_core(source, path, options, *spheres, sampler, samples);
+}
+
+}  // namespace
+
+Result<SampleStats> sample(const Source& source, const std::string& path, const SampleOptions& options,
+                           std::vector<Sample>* samples) {
+  return api::guarded("sample", [&] { return sample_job(source, path, options, samples); });
 }
 
 }  // namespace gaussmesh

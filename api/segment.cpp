@@ -55,7 +55,9 @@ Status write_segments(const std::string& path, MeshView mesh, const stream::Segm
 
 }  // namespace
 
-Result<SegmentStats> segment(const Source& source, const std::string& path, const SegmentOptions& o) {
+namespace {
+
+Result<SegmentStats> segment_job(const Source& source, const std::string& path, const SegmentOptions& o) {
   if (!path.empty() && path != "-" && !ends_with_ply(path)) {
     return Status::error(Code::kUsage, "-o", "segment writes PLY (per-face segment and colour): give a .ply name or '-'");
   }
@@ -137,6 +139,12 @@ Result<SegmentStats> segment(const Source& source, const std::string& path, cons
   j["seconds"] = {{"read", stream::seconds_between(t0, t1)}, {"segment", stream::seconds_between(t1, t2)}, {"write", stream::seconds_between(t2, t3)}};
   stats.report_json = j.dump(2);
   return stats;
+}
+
+}  // namespace
+
+Result<SegmentStats> segment(const Source& source, const std::string& path, const SegmentOptions& o) {
+  return api::guarded("segment", [&] { return segment_job(source, path, o); });
 }
 
 }  // namespace gaussmesh

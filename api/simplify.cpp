@@ -208,7 +208,9 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
 
 }  // namespace
 
-Result<SimplifyStats> simplify(const Source& source, const Sink& sink, const SimplifyOptions& options) {
+namespace {
+
+Result<SimplifyStats> simplify_job(const Source& source, const Sink& sink, const SimplifyOptions& options) {
   const auto started = Clock::now();
   if (options.draco.quantization_bits < 1 || options.draco.quantization_bits > 24) {
     return Status::error(Code::kUsage, "--qp", "Draco quantization bits must be between 1 and 24");
@@ -234,6 +236,12 @@ Result<SimplifyStats> simplify(const Source& source, const Sink& sink, const Sim
     return simplify_out_of_core(source, sink, options, *spheres, sampler, engine->memory_bytes, started);
   }
   return simplify_in_core(source, sink, options, *spheres, sampler, started);
+}
+
+}  // namespace
+
+Result<SimplifyStats> simplify(const Source& source, const Sink& sink, const SimplifyOptions& options) {
+  return api::guarded("simplify", [&] { return simplify_job(source, sink, options); });
 }
 
 }  // namespace gaussmesh
