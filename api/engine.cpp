@@ -4,11 +4,13 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <thread>
 
 #include "api/internal.h"
 #include "format/output_file.h"
 #include "format/temp_registry.h"
 #include "stream/core/process_memory.h"
+#include "stream/partition/chunk_partition.h"
 
 namespace gaussmesh {
 namespace {
@@ -27,6 +29,9 @@ constexpr std::uint64_t kMinBytesPerFace = 16;
 // the mesher's, with a margin over what docs/benchmarks.md measures ("Engine choice").
 constexpr std::uint64_t kInCoreBytesPerFace = 96;
 constexpr std::uint64_t kProcessBytes = std::uint64_t{16} << 20;
+
+// The partition refuses smaller budgets; the API checks before choosing an engine.
+static_assert(kMinMemory == stream::kMinPartitionMemory);
 
 }  // namespace
 
@@ -72,6 +77,30 @@ Result<EngineChoice> choose_engine(const Source& source, const ResourceOptions& 
                       : Engine::kOutOfCore;
   return choice;
 }
+
+namespace api {
+
+Result<EngineChoice> choose_in_core_only(const Source& source, const ResourceOptions& resources, const char* flag,
+                                         const std::string& job) {
+  if (resources.engine == Engine::kOutOfCore) return Status::error(Code::kUsage, flag, job + " runs in core only");
+  auto choice = choose_engine(source, resources);
+  if (!choice) return choice.status();
+  const std::uint64_t needs = in_core_bytes(choice->estimated_faces);
+  if (resources.engine == Engine::kAuto && resources.memory_bytes != 0 && needs > resources.memory_bytes) {
+    return Status::error(Code::kUsage, flag,
+                         job + " runs in core, and the input needs more than --memory (~" + std::to_string(needs >> 20) + " MiB)");
+  }
+  choice->engine = Engine::kInCore;
+  return choice;
+}
+
+std::uint32_t thread_count(std::uint32_t threads) {
+  if (threads > 0) return threads;
+  const unsigned cores = std::thread::hardware_concurrency();
+  return cores > 0 ? cores : 1;
+}
+
+}  // namespace api
 
 void install_signal_cleanup() { format::install_signal_cleanup(); }
 

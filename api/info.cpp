@@ -46,21 +46,9 @@ Result<MeshInfo> info_job(const Source& source) {
   }
   GM_RETURN_IF_ERROR(api::check_not_a_terminal(source, "info"));
   const auto t0 = stream::Clock::now();
-  MeshFormat format = MeshFormat::kUnknown;
-  stream::Mesh owned;
-  MeshView view = source.mesh;
-  if (source.kind != Source::Kind::kMemory) {
-    stream::MeshBuilder builder;
-    if (source.kind == Source::Kind::kBytes) {
-      auto bytes = format::ByteSource::from_memory(source.bytes, source.path);
-      GM_RETURN_IF_ERROR(format::read_mesh(*bytes, api::read_options(source), builder));
-    } else {
-      GM_RETURN_IF_ERROR(format::read_mesh_file(api::stream_path(source), api::read_options(source), builder));
-    }
-    format = builder.header().format;
-    owned = builder.take();
-    view = owned.view();
-  }
+  auto mesh = api::load(source);
+  if (!mesh) return mesh.status();
+  const MeshView view = mesh->view;
   const double read_s = stream::seconds_since(t0);
   const auto t1 = stream::Clock::now();
   auto topology = stream::compute_topology(view);
@@ -68,7 +56,7 @@ Result<MeshInfo> info_job(const Source& source) {
   const stream::MeshTopology& t = *topology;
   MeshInfo i;
   i.input = source.name();
-  i.format = format;
+  i.format = mesh->format;
   i.vertices = t.vertices;
   i.unreferenced_vertices = t.unreferenced_vertices;
   i.faces = t.faces;

@@ -34,14 +34,24 @@ format::ReadOptions read_options(const Source& source);
 struct LoadedMesh {
   stream::Mesh owned;
   MeshView view;
+  MeshFormat format = MeshFormat::kUnknown;  // as read (kUnknown for a mesh in memory)
 };
 Result<LoadedMesh> load(const Source& source);
 
 // The out-of-core engines read a path ("-": standard input).
 std::string stream_path(const Source& source);
 
+// Whether path ends with `extension` (".ply"), in any case.
+bool has_extension(const std::string& path, const std::string& extension);
+
 // Writes `mesh` to `sink`; returns the bytes written (0 for a memory sink).
 Result<std::uint64_t> write_mesh(const Sink& sink, MeshView mesh, const DracoOptions& draco);
+
+// The engine for a job that has no streaming form (the Voronoi mesher, the patch mesh): in core,
+// unless it is forced out of core, or an explicit budget under the automatic engine is smaller
+// than the in-core working set; then kUsage naming `flag`.
+Result<EngineChoice> choose_in_core_only(const Source& source, const ResourceOptions& resources, const char* flag,
+                                         const std::string& job);
 
 // Threads to use: the option, or the machine's cores when 0.
 std::uint32_t thread_count(std::uint32_t threads);

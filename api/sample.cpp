@@ -114,9 +114,6 @@ Result<SampleStats> sample_out_of_core(const Source& source, const std::string& 
                                        const std::vector<stream::GaussSphereOptions>& spheres,
                                        const stream::SamplerOptions& sampler, std::uint64_t memory,
                                        std::vector<Sample>* samples) {
-  if (!o.patches_path.empty()) {
-    return Status::error(Code::kUsage, "sample", "--patches writes the whole input mesh and runs in core only");
-  }
   const auto t0 = Clock::now();
   stream::OutOfCoreSamplingOptions options;
   api::set_streaming_options(options, o.resources, memory, spheres, sampler);
@@ -235,12 +232,10 @@ Result<SampleStats> sample_job(const Source& source, const std::string& path, co
   if (!spheres) return spheres.status();
   const stream::SamplerOptions sampler = api::sampler_options(options.sampling);
   GM_RETURN_IF_ERROR(api::check_not_a_terminal(source, "sample"));
-  ResourceOptions resources = options.resources;
-  // The patch mesh is the whole input: in core unless the budget forbids it.
-  if (!options.patches_path.empty() && resources.engine == Engine::kAuto && resources.memory_bytes == 0) {
-    resources.engine = Engine::kInCore;
-  }
-  auto engine = choose_engine(source, resources);
+  // The patch mesh is the whole input.
+  auto engine = options.patches_path.empty()
+                    ? choose_engine(source, options.resources)
+                    : api::choose_in_core_only(source, options.resources, "--patches", "the patch mesh");
   if (!engine) return engine.status();
   if (engine->engine == Engine::kOutOfCore) {
     return sample_out_of_core(source, path, options, *spheres, sampler, engine->memory_bytes, samples);

@@ -21,13 +21,6 @@ void segment_colour(std::uint32_t id, std::uint8_t rgb[3]) {
   api::spread_colour(id, rgb);
 }
 
-bool ends_with_ply(const std::string& s) {
-  if (s.size() < 4) return false;
-  std::string tail = s.substr(s.size() - 4);
-  for (char& c : tail) c = (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' + 'a') : c;
-  return tail == ".ply";
-}
-
 Status write_segments(const std::string& path, MeshView mesh, const stream::SegmentationResult& r) {
   auto out = format::OutputFile::create(path, true);
   if (!out) return out.status();
@@ -58,7 +51,7 @@ Status write_segments(const std::string& path, MeshView mesh, const stream::Segm
 namespace {
 
 Result<SegmentStats> segment_job(const Source& source, const std::string& path, const SegmentOptions& o) {
-  if (!path.empty() && path != "-" && !ends_with_ply(path)) {
+  if (!path.empty() && path != "-" && !api::has_extension(path, ".ply")) {
     return Status::error(Code::kUsage, "-o", "segment writes PLY (per-face segment and colour): give a .ply name or '-'");
   }
   if (o.sampling.orientations != 1) {

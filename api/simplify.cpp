@@ -59,9 +59,6 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
                                            const std::vector<stream::GaussSphereOptions>& spheres,
                                            const stream::SamplerOptions& sampler, std::uint64_t memory,
                                            Clock::time_point started) {
-  if (o.mesher != Mesher::kPatch) {
-    return Status::error(Code::kUsage, "simplify", "the streaming engine runs the per-patch mesher only (--mesher voronoi runs in core)");
-  }
   stream::OutOfCoreSimplifyOptions options;
   api::set_streaming_options(options, o.resources, memory, spheres, sampler);
   if (o.resources.progress) {
@@ -222,16 +219,10 @@ Result<SimplifyStats> simplify_job(const Source& source, const Sink& sink, const
   if (!spheres) return spheres.status();
   const stream::SamplerOptions sampler = api::sampler_options(options.sampling);
   GM_RETURN_IF_ERROR(api::check_not_a_terminal(source, "simplify"));
-  ResourceOptions resources = options.resources;
-  // The Voronoi mesher has no streaming engine: in core unless the budget forbids it.
-  if (options.mesher == Mesher::kVoronoi && resources.engine == Engine::kAuto) resources.engine = Engine::kInCore;
-  auto engine = choose_engine(source, resources);
+  auto engine = options.mesher == Mesher::kVoronoi
+                    ? api::choose_in_core_only(source, options.resources, "--mesher", "the Voronoi mesher")
+                    : choose_engine(source, options.resources);
   if (!engine) return engine.status();
-  if (options.mesher == Mesher::kVoronoi && engine->engine == Engine::kInCore && options.resources.memory_bytes != 0 &&
-      options.resources.engine == Engine::kAuto && in_core_bytes(engine->estimated_faces) > options.resources.memory_bytes) {
-    return Status::error(Code::kUsage, "--mesher", "voronoi runs in core, and the input needs more than --memory (~" +
-                                                       std::to_string(in_core_bytes(engine->estimated_faces) >> 20) + " MiB)");
-  }
   if (engine->engine == Engine::kOutOfCore) {
     return simplify_out_of_core(source, sink, options, *spheres, sampler, engine->memory_bytes, started);
   }

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cctype>
-#include <thread>
 
 #include "api/internal.h"
 #include "format/output_file.h"
@@ -15,10 +14,6 @@ namespace {
 std::string lower(std::string text) {
   std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return std::tolower(c); });
   return text;
-}
-
-bool ends_with(const std::string& text, const std::string& suffix) {
-  return text.size() >= suffix.size() && text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 }  // namespace
@@ -114,14 +109,18 @@ Sink Sink::memory(Mesh* mesh) {
 OutputFormat Sink::resolved_format() const {
   if (format != OutputFormat::kAuto) return format;
   if (kind == Kind::kFile) {
-    const std::string name = lower(path);
-    if (ends_with(name, ".ply")) return OutputFormat::kPlyBinary;
-    if (ends_with(name, ".obj")) return OutputFormat::kObj;
+    if (api::has_extension(path, ".ply")) return OutputFormat::kPlyBinary;
+    if (api::has_extension(path, ".obj")) return OutputFormat::kObj;
   }
   return OutputFormat::kDraco;
 }
 
 namespace api {
+
+bool has_extension(const std::string& path, const std::string& extension) {
+  const std::string name = lower(path);
+  return name.size() >= extension.size() && name.compare(name.size() - extension.size(), extension.size(), extension) == 0;
+}
 
 format::ReadOptions read_options(const Source& source) {
   format::ReadOptions options;
@@ -145,17 +144,15 @@ Result<LoadedMesh> load(const Source& source) {
     loaded.view = source.mesh;
     return loaded;
   }
+  stream::MeshBuilder builder;
   if (source.kind == Source::Kind::kBytes) {
     auto bytes = format::ByteSource::from_memory(source.bytes, source.path);
-    stream::MeshBuilder builder;
     GM_RETURN_IF_ERROR(format::read_mesh(*bytes, read_options(source), builder));
-    loaded.owned = builder.take();
-    loaded.view = loaded.owned.view();
-    return loaded;
+  } else {
+    GM_RETURN_IF_ERROR(format::read_mesh_file(stream_path(source), read_options(source), builder));
   }
-  auto mesh = stream::load_mesh(stream_path(source), read_options(source));
-  if (!mesh) return mesh.status();
-  loaded.owned = std::move(*mesh);
+  loaded.format = builder.header().format;
+  loaded.owned = builder.take();
   loaded.view = loaded.owned.view();
   return loaded;
 }
@@ -194,12 +191,6 @@ Result<std::uint64_t> write_mesh(const Sink& sink, MeshView mesh, const DracoOpt
   GM_RETURN_IF_ERROR(status);
   GM_RETURN_IF_ERROR((*out)->commit());
   return (*out)->bytes_written();
-}
-
-std::uint32_t thread_count(std::uint32_t threads) {
-  if (threads > 0) return threads;
-  const unsigned cores = std::thread::hardware_concurrency();
-  return cores > 0 ? cores : 1;
 }
 
 Status check_not_a_terminal(const Source& source, const char* job) {

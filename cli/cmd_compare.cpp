@@ -17,9 +17,8 @@ struct CompareArgs {
 };
 
 void print_summary(const CompareArgs& args, const Distance& d) {
-  const auto name = [](const std::string& path) { return path == "-" ? std::string("<stdin>") : path; };
-  std::printf("A          %s\n", name(args.a).c_str());
-  std::printf("B          %s\n", name(args.b).c_str());
+  std::printf("A          %s\n", Source::file(args.a).name().c_str());
+  std::printf("B          %s\n", Source::file(args.b).name().c_str());
   std::printf("hausdorff  %.6g %% of A's diagonal (%.6g)\n", d.pct(d.hausdorff), d.hausdorff);
   std::printf("rms        %.6g %% (%.6g)\n", d.pct(d.rms), d.rms);
   const std::pair<const char*, const OneSidedDistance*> sides[] = {{"A -> B", &d.a_to_b}, {"B -> A", &d.b_to_a}};
@@ -36,7 +35,7 @@ int run_compare(const CompareArgs& args) {
   options.samples = args.samples;
   options.seed = args.seed;
   options.threads = args.threads;
-  auto distance = compare(input_source(args.a), input_source(args.b), options);
+  auto distance = compare(Source::file(args.a), Source::file(args.b), options);
   if (!distance) return report_error(distance.status());
   // With --report -, standard output carries the JSON only.
   if (args.common.report != "-") print_summary(args, *distance);

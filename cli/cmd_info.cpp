@@ -64,7 +64,7 @@ int run_info(const InfoOptions& options) {
                                         "expected ply, off, obj or stl, got '" + options.input_format + "'"));
     }
   }
-  auto mesh_info = info(input_source(options.input, format));
+  auto mesh_info = info(Source::file(options.input, format));
   if (!mesh_info) return report_error(mesh_info.status());
   // With --report -, standard output carries the JSON only.
   if (options.common.report != "-") print_summary(*mesh_info);

@@ -31,7 +31,7 @@ int run_sample(const SampleCommandOptions& o) {
   options.patches_path = o.patches;
   Progress progress;
   options.resources.progress = progress.callback();
-  auto stats = sample(input_source(o.input), o.output, options);
+  auto stats = sample(Source::file(o.input), o.output, options);
   if (!stats) return report_error(stats.status());
   if (verbosity() >= 2) {
     std::fprintf(stderr, "gaussmesh: sample: %llu samples (%s, %llu chunks)\n",

@@ -24,7 +24,7 @@ int run_segment(const SegmentCommandOptions& o) {
   if (!sampling) return report_error(sampling.status());
   options.sampling = *sampling;
   options.max_smooth = o.max_smooth;
-  auto stats = segment(input_source(o.input), o.output, options);
+  auto stats = segment(Source::file(o.input), o.output, options);
   if (!stats) return report_error(stats.status());
   if (verbosity() >= 1 && !stats->note.empty()) std::fprintf(stderr, "gaussmesh: segment: note: %s\n", stats->note.c_str());
   if (verbosity() >= 2) std::fprintf(stderr, "gaussmesh: segment: %s\n", stats->summary.c_str());

@@ -52,7 +52,7 @@ int run_simplify(const SimplifyArgs& args) {
   Progress progress;
   options.resources.progress = progress.callback();
   const Sink sink = Sink::file(args.output, *output_format);
-  auto stats = simplify(input_source(args.input, input_format), sink, options);
+  auto stats = simplify(Source::file(args.input, input_format), sink, options);
   if (!stats) return report_error(stats.status());
   if (verbosity() >= 1) {
     std::string where = stats->out_of_core ? ", " + std::to_string(stats->chunks) + " chunks" : "";

@@ -37,7 +37,4 @@ void apply_verbosity(const CommonFlags& flags);
 // Writes report_json to --report when given; the exit code (0, or the write's error).
 int finish(const CommonFlags& flags, const std::string& report_json);
 
-// "-" for standard input or output, else the path.
-Source input_source(const std::string& path, MeshFormat format = MeshFormat::kUnknown);
-
 }  // namespace gaussmesh::cli

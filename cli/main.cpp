@@ -26,8 +26,6 @@ int report_error(const Status& status) {
   return static_cast<int>(status.code());
 }
 
-Source input_source(const std::string& path, MeshFormat format) { return Source::file(path, format); }
-
 void add_common_flags(CLI::App& sub, CommonFlags& flags, const char* verbose_help) {
   sub.add_option("--report", flags.report, "Write the figures as JSON to FILE ('-': stdout)");
   sub.add_flag("-q,--quiet", flags.quiet, "Print nothing on stderr but errors");
