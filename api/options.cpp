@@ -12,10 +12,10 @@ Result<std::vector<stream::GaussSphereOptions>> gauss_spheres(const SamplingOpti
     case GaussBase::kOctahedron: base.base = stream::GaussBase::kOctahedron; break;
     case GaussBase::kTetrahedron: base.base = stream::GaussBase::kTetrahedron; break;
   }
-  if (o.frequency == 0 || o.frequency > stream::kMaxGaussFrequency) {
+  if (o.frequency > stream::kMaxGaussFrequency) {
     return Status::error(Code::kUsage, "--frequency", "must be between 1 and " + std::to_string(stream::kMaxGaussFrequency));
   }
-  base.frequency = o.frequency;
+  base.frequency = o.frequency == kAutoFrequency ? kDefaultFrequency : o.frequency;
   if (o.orientations == 0) return Status::error(Code::kUsage, "--orientations", "must be at least 1");
   std::vector<stream::GaussSphereOptions> spheres;
   for (std::uint32_t k = 0; k < o.orientations; ++k) {
@@ -32,6 +32,23 @@ Result<std::vector<stream::GaussSphereOptions>> gauss_spheres(const SamplingOpti
     spheres.push_back(s);
   }
   return spheres;
+}
+
+Result<std::vector<stream::GaussSphereOptions>> frequency_ladder(const SamplingOptions& o) {
+  if (o.orientations != 1) {
+    return Status::error(Code::kUsage, "--orientations", "--frequency auto tries frequencies, not orientations: give one");
+  }
+  SamplingOptions one = o;
+  one.frequency = 1;
+  auto base = gauss_spheres(one);
+  if (!base) return base.status();
+  std::vector<stream::GaussSphereOptions> ladder;
+  for (std::uint32_t f = 1; f <= stream::kMaxGaussFrequency; f *= 2) {
+    stream::GaussSphereOptions s = (*base)[0];
+    s.frequency = f;
+    ladder.push_back(s);
+  }
+  return ladder;
 }
 
 stream::SamplerOptions sampler_options(const SamplingOptions& o) {

@@ -1,6 +1,11 @@
 // gaussmesh::simplify: the main job, in core or streaming, into a sink, with the run's record.
+#include <cmath>
+#include <optional>
+
 #include "api/internal.h"
+#include "stream/analysis/mesh_distance.h"
 #include "stream/core/stopwatch.h"
+#include "stream/finish/quadric_finish.h"
 #include "stream/pipeline/in_core_simplify.h"
 #include "stream/pipeline/out_of_core_simplify.h"
 
@@ -47,6 +52,35 @@ Json common_report(const Source& source, const Sink& sink, const SimplifyOptions
   return report;
 }
 
+stream::FinishTarget finish_target(const TargetOptions& t) {
+  return {.faces = t.faces, .ratio = t.ratio, .max_error = t.max_error, .max_error_relative = t.max_error_relative};
+}
+
+Status check_target(const TargetOptions& t) {
+  if (!(t.ratio >= 0) || t.ratio > 1) return Status::error(Code::kUsage, "--ratio", "must be above 0 and at most 1");
+  if (!(t.max_error >= 0) || !std::isfinite(t.max_error)) {
+    return Status::error(Code::kUsage, "--max-error", "must be a positive distance");
+  }
+  return Status();
+}
+
+// The finish's fields of the record (docs/cli.md, "Reports").
+void finish_report(Json& report, const stream::FinishOptions& o, const std::optional<stream::FinishResult>& f,
+                   SimplifyStats& stats) {
+  stats.target_faces = o.target_faces;
+  report["target_faces"] = o.target_faces;
+  report["max_error"] = std::isfinite(o.max_error) ? Json(o.max_error) : Json(nullptr);
+  if (!f) return;
+  stats.approximation_faces = f->approximation_faces;
+  stats.estimated_error = f->estimated_error;
+  report["approximation_faces"] = f->approximation_faces;
+  report["reached_target"] = f->reached_target;
+  report["estimated_error"] = f->estimated_error;
+  report["collapses"] = f->collapses;
+  report["refused_collapses"] = f->refused;
+  report["finish_seconds"] = {{"quadrics", f->seconds_quadrics}, {"collapses", f->seconds_decimate}};
+}
+
 Status no_faces(const Source& source, std::uint64_t vertices) {
   return Status::error(Code::kBadInput, source.name(), "no faces to simplify (" + std::to_string(vertices) + " vertices)");
 }
@@ -61,6 +95,8 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
                                            Clock::time_point started) {
   stream::OutOfCoreSimplifyOptions options;
   api::set_streaming_options(options, o.resources, memory, spheres, sampler);
+  options.finish = finish_target(o.target);
+  options.auto_frequency = o.sampling.frequency == kAutoFrequency;
   if (o.resources.progress) {
     const ProgressFn& progress = o.resources.progress;
     options.progress = [&progress](const char* pass, std::size_t done, std::size_t total, std::uint64_t faces) {
@@ -89,8 +125,9 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   stats.peak_rss_bytes = peak_rss_bytes();
   stats.seconds = seconds_since(started);
 
-  Json report = common_report(source, sink, o, result->vertices, result->faces, spheres[0], sampler, *result,
-                              result->chosen, *bytes);
+  Json report = common_report(source, sink, o, result->vertices, result->faces, spheres[result->chosen], sampler,
+                              *result, result->chosen, *bytes);
+  finish_report(report, result->finish_options, result->finish, stats);
   report["merged_patches"] = result->merged_patches;
   report["merge_rounds"] = result->merge_rounds;
   report["mesher"] = "patch";
@@ -152,10 +189,40 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   stream::SimplifyOptions options;
   options.spheres = spheres;
   options.sampler = sampler;
+  // The finish's target, resolved against the input (the bounds of its finite positions, as the
+  // out-of-core partition takes them).
+  format::Vec3f lo{0, 0, 0}, hi{0, 0, 0};
+  bool first = true;
+  for (const auto& p : input.positions) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
+    if (first) lo = hi = p, first = false;
+    lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+    hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+  }
+  const stream::FinishOptions finish =
+      stream::resolve_finish(finish_target(o.target), input.triangles.size(), stream::diagonal_of(lo, hi));
+  GM_RETURN_IF_ERROR(stream::check_finish_target(finish, input.triangles.size(), source.name()));
+  if (o.target.any() && o.sampling.frequency == kAutoFrequency)
+    options.min_samples = stream::finish_min_samples(finish, input.triangles.size());
   options.mesher = o.mesher == Mesher::kVoronoi ? stream::MesherKind::kVoronoi : stream::MesherKind::kPatch;
   auto result = stream::simplify_mesh(input, options);
   if (!result) return result.status();
   if (result->mesh.triangles.empty()) return empty_approximation(source);
+
+  std::optional<stream::FinishResult> finished;
+  if (finish.enabled()) {
+    auto f = stream::finish_in_core(input, result->mesh.view(), finish);
+    if (!f) return f.status();
+    result->mesh = std::move(f->mesh);
+    result->birth.clear();  // moved vertices are no longer input vertices
+    finished = std::move(f).value();
+  }
+  std::optional<stream::MeshDistance> measured;
+  if (o.target.measure) {
+    auto d = stream::mesh_distance(input, result->mesh.view(), {});
+    if (!d) return d.status();
+    measured = *d;
+  }
 
   t = Clock::now();
   auto bytes = api::write_mesh(sink, result->mesh.view(), o.draco);
@@ -173,8 +240,21 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   stats.peak_rss_bytes = peak_rss_bytes();
   stats.seconds = seconds_since(started);
 
-  Json report = common_report(source, sink, o, input.positions.size(), input.triangles.size(), options.spheres[0],
-                              options.sampler, *result, result->orientation_index, *bytes);
+  Json report = common_report(source, sink, o, input.positions.size(), input.triangles.size(),
+                              options.spheres[result->orientation_index], options.sampler, *result,
+                              result->orientation_index, *bytes);
+  finish_report(report, finish, finished, stats);
+  if (measured) {
+    stats.measured = true;
+    stats.hausdorff = measured->hausdorff;
+    stats.rms = measured->rms;
+    stats.diagonal = measured->diagonal;
+    report["measured"] = {{"hausdorff", measured->hausdorff},
+                          {"rms", measured->rms},
+                          {"diagonal", measured->diagonal},
+                          {"hausdorff_pct", measured->hausdorff_pct()},
+                          {"rms_pct", measured->rms_pct()}};
+  }
   report["mesher"] = stream::mesher_name(options.mesher);
   report["out_of_core"] = false;
   report["chains"] = result->graph.chains;
@@ -215,7 +295,10 @@ Result<SimplifyStats> simplify_job(const Source& source, const Sink& sink, const
   if (options.draco.compression_level < 0 || options.draco.compression_level > 10) {
     return Status::error(Code::kUsage, "--cl", "Draco compression level must be between 0 and 10");
   }
-  auto spheres = api::gauss_spheres(options.sampling);
+  GM_RETURN_IF_ERROR(check_target(options.target));
+  auto spheres = options.target.any() && options.sampling.frequency == kAutoFrequency
+                     ? api::frequency_ladder(options.sampling)
+                     : api::gauss_spheres(options.sampling);
   if (!spheres) return spheres.status();
   const stream::SamplerOptions sampler = api::sampler_options(options.sampling);
   GM_RETURN_IF_ERROR(api::check_not_a_terminal(source, "simplify"));
@@ -224,6 +307,10 @@ Result<SimplifyStats> simplify_job(const Source& source, const Sink& sink, const
                     : choose_engine(source, options.resources);
   if (!engine) return engine.status();
   if (engine->engine == Engine::kOutOfCore) {
+    if (options.target.measure) {
+      return Status::error(Code::kUsage, "--measure",
+                           "measures in core only: this input streams (run `gaussmesh compare` on the output)");
+    }
     return simplify_out_of_core(source, sink, options, *spheres, sampler, engine->memory_bytes, started);
   }
   return simplify_in_core(source, sink, options, *spheres, sampler, started);

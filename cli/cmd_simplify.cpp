@@ -1,5 +1,8 @@
 // gaussmesh simplify: the main job — mesh in (file or stdin), approximation out (Draco by
 // default, PLY or OBJ; file or stdout), with an optional JSON report (docs/cli.md).
+#include <cmath>
+#include <cstdlib>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -16,6 +19,10 @@ struct SimplifyArgs {
   std::string input_format;
   std::string output_format;
   std::string mesher = "patch";
+  std::uint64_t target_faces = 0;
+  double ratio = 0;
+  std::string max_error;  // a distance, or a percentage of the diagonal ("0.1%")
+  bool measure = false;
   int qp = 14;
   int cl = 7;
   CommonFlags common;
@@ -23,7 +30,40 @@ struct SimplifyArgs {
   ResourceFlags resources;
 };
 
-int run_simplify(const SimplifyArgs& args) {
+// Given flags are checked here (a target of 0 is an error, not "no target"); the API checks the
+// rest once the input is known (a target above its faces).
+Result<TargetOptions> target_options(const SimplifyArgs& args, const std::function<bool(const char*)>& given) {
+  TargetOptions t;
+  if (given("--target-faces")) {
+    if (args.target_faces == 0) return Status::error(Code::kUsage, "--target-faces", "must be at least 1");
+    t.faces = args.target_faces;
+  }
+  if (given("--ratio")) {
+    if (!(args.ratio > 0) || args.ratio > 1) {
+      return Status::error(Code::kUsage, "--ratio", "must be above 0 and at most 1, got " + std::to_string(args.ratio));
+    }
+    t.ratio = args.ratio;
+  }
+  if (given("--max-error")) {
+    std::string text = args.max_error;
+    if (!text.empty() && text.back() == '%') {
+      t.max_error_relative = true;
+      text.pop_back();
+    }
+    char* end = nullptr;
+    const double e = std::strtod(text.c_str(), &end);
+    if (text.empty() || *end != '\0' || !(e > 0) || !std::isfinite(e)) {
+      return Status::error(Code::kUsage, "--max-error",
+                           "expected a positive distance, or a percentage of the diagonal such as 0.1%, got '" +
+                               args.max_error + "'");
+    }
+    t.max_error = e;
+  }
+  t.measure = args.measure;
+  return t;
+}
+
+int run_simplify(const SimplifyArgs& args, const std::function<bool(const char*)>& sub_given) {
   apply_verbosity(args.common);
   auto output_format = parse_output_format(args.output_format);
   if (!output_format) {
@@ -42,6 +82,9 @@ int run_simplify(const SimplifyArgs& args) {
   options.resources = *resources;
   options.draco.quantization_bits = args.qp;
   options.draco.compression_level = args.cl;
+  auto target = target_options(args, sub_given);
+  if (!target) return report_error(target.status());
+  options.target = *target;
   MeshFormat input_format = MeshFormat::kUnknown;
   if (!args.input_format.empty()) {
     input_format = parse_mesh_format(args.input_format);
@@ -77,13 +120,21 @@ void register_simplify(CLI::App& app, Runner& run) {
   sub->add_option("-o,--output", args->output, "output file, or - for stdout")->required();
   sub->add_option("--format", args->output_format, "output format: draco (default), ply, ply-ascii, obj");
   sub->add_option("--input-format", args->input_format, "force the input format: ply, off, obj, stl");
+  sub->add_option("--target-faces", args->target_faces, "at most N faces: the Gauss approximation collapsed with the input's quadrics");
+  sub->add_option("--ratio", args->ratio, "at most this fraction of the input's faces, 0 < R <= 1");
+  sub->add_option("--max-error", args->max_error,
+                  "no collapse whose estimated error passes E (input units), or E% of the bounding-box diagonal");
+  sub->add_flag("--measure", args->measure, "add the output's Hausdorff and RMS distance to the input to the report (in core)");
   sub->add_option("--mesher", args->mesher, "patch (default, topology-preserving) or voronoi");
   sub->add_option("--qp", args->qp, "Draco position quantization bits 1-24 (default 14; encoder cost doubles per bit)")->check(CLI::Range(1, 24));
   sub->add_option("--cl", args->cl, "Draco compression level 0-10 (default 7)")->check(CLI::Range(0, 10));
   add_common_flags(*sub, args->common, "print timings on stderr");
   add_sampling_options(*sub, args->sampling);
   add_resource_options(*sub, args->resources);
-  sub->callback([&run, args] { run = [args] { return run_simplify(*args); }; });
+  sub->callback([&run, args, sub] {
+    auto given = [sub](const char* flag) { return sub->count(flag) > 0; };
+    run = [args, given] { return run_simplify(*args, given); };
+  });
 }
 
 }  // namespace gaussmesh::cli

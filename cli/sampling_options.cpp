@@ -2,14 +2,18 @@
 #include "cli/sampling_options.h"
 
 #include <array>
+#include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <sstream>
 
 namespace gaussmesh::cli {
 
 void add_sampling_options(CLI::App& sub, SamplingFlags& o) {
   sub.add_option("--base", o.base, "Base polyhedron of the Gaussian sphere: icosa|octa|tetra")->capture_default_str();
-  sub.add_option("--frequency", o.frequency, "Sub-triangles per base edge f (f² per base face; default 4)");
+  sub.add_option("--frequency", o.frequency,
+                 "Sub-triangles per base edge f (f² per base face), or auto: chosen from the target (the default; "
+                 "4 without a target)");
   sub.add_option("--level", o.level, "Subdivision level K: frequency 2^K");
   sub.add_option("--seed", o.seed, "Seed of the Gaussian sphere's pseudo-random rotation")->capture_default_str();
   sub.add_option("--rotation", o.rotation, "Rotation of the Gaussian sphere as a quaternion w,x,y,z");
@@ -25,15 +29,23 @@ Result<SamplingOptions> sampling_options(const SamplingFlags& o, SamplingOptions
   else if (o.base == "octa") s.base = GaussBase::kOctahedron;
   else if (o.base == "tetra") s.base = GaussBase::kTetrahedron;
   else return Status::error(Code::kUsage, "--base", "expected icosa, octa or tetra, got '" + o.base + "'");
-  if (o.frequency >= 0 && o.level >= 0) {
+  if (!o.frequency.empty() && o.level >= 0) {
     return Status::error(Code::kUsage, "--level", "give --frequency or --level, not both");
   }
   if (o.level > 9) return Status::error(Code::kUsage, "--level", "at most 9 (frequency 512)");
-  if (o.frequency == 0 || o.frequency > static_cast<long long>(kMaxFrequency) || o.frequency < -1) {
-    return Status::error(Code::kUsage, "--frequency", "must be between 1 and " + std::to_string(kMaxFrequency));
-  }
   if (o.level >= 0) s.frequency = 1u << o.level;
-  else if (o.frequency > 0) s.frequency = static_cast<std::uint32_t>(o.frequency);
+  if (o.frequency == "auto") {
+    s.frequency = kAutoFrequency;
+  } else if (!o.frequency.empty()) {
+    char* end = nullptr;
+    errno = 0;
+    const long long f = std::strtoll(o.frequency.c_str(), &end, 10);
+    if (errno != 0 || end == o.frequency.c_str() || *end != '\0' || f < 1 || f > static_cast<long long>(kMaxFrequency)) {
+      return Status::error(Code::kUsage, "--frequency",
+                           "must be auto or between 1 and " + std::to_string(kMaxFrequency) + ", got '" + o.frequency + "'");
+    }
+    s.frequency = static_cast<std::uint32_t>(f);
+  }
   if (o.orientations == 0) return Status::error(Code::kUsage, "--orientations", "must be at least 1");
   s.orientations = o.orientations;
   s.seed = o.seed;

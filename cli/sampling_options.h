@@ -13,7 +13,7 @@ namespace gaussmesh::cli {
 
 struct SamplingFlags {
   std::string base = "icosa";
-  long long frequency = -1;  // -1: not given
+  std::string frequency;     // a number, "auto", or empty: not given
   int level = -1;            // -1: not given; else frequency = 2^level
   std::uint64_t seed = kDefaultSeed;
   std::string rotation;      // "w,x,y,z" or empty

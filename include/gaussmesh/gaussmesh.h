@@ -78,13 +78,16 @@ enum class GaussBase { kIcosahedron, kOctahedron, kTetrahedron };
 enum class SampleTest { kExact, kPaper };  // exact winding (default) or the paper's filters
 
 inline constexpr std::uint32_t kDefaultFrequency = 4;
+// SamplingOptions::frequency: chosen from the target (docs/finish.md); kDefaultFrequency when the
+// job has no target.
+inline constexpr std::uint32_t kAutoFrequency = 0;
 inline constexpr std::uint32_t kMaxFrequency = 512;
 inline constexpr std::uint64_t kDefaultSeed = 1;
 
 // The tessellated Gaussian sphere G and how the mesh is sampled on it (docs/sampling.md).
 struct SamplingOptions {
   GaussBase base = GaussBase::kIcosahedron;
-  std::uint32_t frequency = kDefaultFrequency;  // 1..kMaxFrequency sub-triangles per base edge
+  std::uint32_t frequency = kAutoFrequency;  // 1..kMaxFrequency sub-triangles per base edge, or auto
   std::uint64_t seed = kDefaultSeed;            // G's pseudo-random rotation
   std::optional<std::array<double, 4>> rotation;  // a quaternion w,x,y,z instead of the seed's
   std::uint32_t orientations = 1;  // try K rotations (seed, seed+1, …), keep the fewest samples
@@ -139,7 +142,22 @@ struct DracoOptions {
   int compression_level = 7;   // 0..10
 };
 
+// What the output should be (docs/finish.md). Any of the three turns on the quadric finish,
+// which collapses the Gauss approximation with the input's plane quadrics until the first one
+// is reached; without any, the output is the plain Gauss approximation.
+struct TargetOptions {
+  std::uint64_t faces = 0;  // --target-faces: at most this many faces (0: none)
+  double ratio = 0;         // --ratio: at most this fraction of the input's faces, 0 < ratio <= 1 (0: none)
+  // --max-error: no collapse whose estimated error passes this (0: none) — in the input's units,
+  // or, when max_error_relative, in percent of the input's bounding-box diagonal.
+  double max_error = 0;
+  bool max_error_relative = false;
+  bool measure = false;  // --measure: the output's Hausdorff and RMS distance to the input in the report (in core)
+  bool any() const { return faces > 0 || ratio > 0 || max_error > 0; }
+};
+
 struct SimplifyOptions {
+  TargetOptions target;
   SamplingOptions sampling;
   Mesher mesher = Mesher::kPatch;  // kVoronoi runs in core only
   ResourceOptions resources;
@@ -150,6 +168,13 @@ struct SimplifyOptions {
 // docs/cli.md, "Reports"): what `gaussmesh … --report` writes.
 struct SimplifyStats {
   std::uint64_t input_vertices = 0, input_faces = 0;
+  std::uint64_t target_faces = 0;  // the face target the run resolved (0: none)
+  std::uint64_t approximation_faces = 0;  // the Gauss approximation's faces, before the finish
+  double estimated_error = 0;      // the finish's largest estimated collapse error, input units
+  // With TargetOptions::measure: the symmetric Hausdorff and RMS distance between input and
+  // output (compare()'s defaults), in input units, and the input's diagonal they are relative to.
+  bool measured = false;
+  double hausdorff = 0, rms = 0, diagonal = 0;
   std::uint64_t output_vertices = 0, output_faces = 0, output_bytes = 0;
   std::uint64_t samples = 0;
   bool out_of_core = false;

@@ -10,6 +10,19 @@
 namespace gaussmesh::stream {
 const char* mesher_name(MesherKind mesher) { return mesher == MesherKind::kPatch ? "patch" : "voronoi"; }
 
+std::size_t choose_sphere(const std::vector<std::size_t>& samples, std::uint64_t min_samples) {
+  std::size_t chosen = 0;
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    if (min_samples > 0) {
+      chosen = k;
+      if (samples[k] >= min_samples) break;
+    } else if (samples[k] < samples[chosen]) {
+      chosen = k;
+    }
+  }
+  return chosen;
+}
+
 format::Result<SimplifyResult> simplify_mesh(MeshView mesh, const SimplifyOptions& options) {
   SimplifyResult result;
   auto start = Clock::now();
@@ -22,12 +35,15 @@ format::Result<SimplifyResult> simplify_mesh(MeshView mesh, const SimplifyOption
     if (!gauss) return gauss.status();
     auto sampled = sample_mesh(mesh, *gauss, options.sampler);
     if (!sampled) return sampled.status();
-    result.samples_per_orientation.push_back(sampled->samples.size());
-    if (!best || sampled->samples.size() < best->samples.size()) {
+    const std::size_t n = sampled->samples.size();
+    result.samples_per_orientation.push_back(n);
+    const bool take = options.min_samples > 0 ? true : !best || n < best->samples.size();
+    if (take) {
       best = std::move(sampled.value());
       best_gauss = std::move(gauss.value());
       result.orientation_index = k;
     }
+    if (options.min_samples > 0 && n >= options.min_samples) break;
   }
   result.seconds_sample = seconds_since(start);
   const SamplingResult& sampling = *best;

@@ -24,6 +24,10 @@ struct SimplifyOptions {
   // The Gaussian spheres to try (base, frequency, rotation); the one giving the fewest samples
   // is kept (ties: the earliest). At least one; an empty list means the default sphere.
   std::vector<GaussSphereOptions> spheres = {GaussSphereOptions{}};
+  // When not 0, the choice is instead the first sphere in list order with at least this many
+  // samples (the last when none has): a ladder of frequencies for a face target
+  // (--frequency auto); the spheres after the chosen one are not sampled.
+  std::uint64_t min_samples = 0;
   SamplerOptions sampler;  // smoothing, sample test
   MesherKind mesher = MesherKind::kPatch;
 };
@@ -48,6 +52,10 @@ struct SimplifyResult {
   std::string mesher_fallback_reason;
   double seconds_sample = 0, seconds_mesh = 0;
 };
+
+// The sphere SimplifyOptions::min_samples picks from every sphere's sample count: the fewest
+// (ties: the first) when min_samples is 0, else the first with at least min_samples (else the last).
+std::size_t choose_sphere(const std::vector<std::size_t>& samples, std::uint64_t min_samples);
 
 // Errors: kUsage for invalid G options; kProcessing from the sampler or mesher.
 format::Result<SimplifyResult> simplify_mesh(MeshView mesh, const SimplifyOptions& options);

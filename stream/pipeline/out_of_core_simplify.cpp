@@ -2,6 +2,8 @@
 // that runs them in order. See out_of_core_simplify.h.
 #include "stream/pipeline/out_of_core_simplify.h"
 
+#include "stream/pipeline/in_core_simplify.h"
+
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -16,10 +18,13 @@
 #include <optional>
 #include <span>
 
+#include <tbb/enumerable_thread_specific.h>
+
 #include "format/file_io.h"
 #include "format/record_file.h"
 #include "stream/core/process_memory.h"
 #include "stream/core/stopwatch.h"
+#include "stream/finish/quadric_finish.h"
 #include "stream/partition/id_indexed_file.h"
 #include "stream/pipeline/chunk_scheduler.h"
 #include "stream/pipeline/out_of_core_setup.h"
@@ -131,6 +136,9 @@ class SimplifyRun {
   // mesh: the polygon mesher on the stitched loops. Patches that need their input faces are
   // fetched (fetch pass) and the mesher runs again from the start, until none asks.
   format::Status mesh();
+  // The quadric finish: every owned face's plane quadric into the approximation's vertices, on
+  // the chunks' threads, then the collapses (stream/finish/quadric_finish.h).
+  format::Status finish();
 
  private:
   // for_each_chunk over the partition's chunks, or over the `count` chunks info_of gives,
@@ -276,8 +284,8 @@ format::Status SimplifyRun::sample() {
     std::size_t n = 0;
     for (std::size_t c = 0; c < nc_; ++c) n += samples[c * no + k].size();
     out_.samples_per_orientation.push_back(n);
-    if (n < out_.samples_per_orientation[out_.chosen]) out_.chosen = k;
   }
+  out_.chosen = choose_sphere(out_.samples_per_orientation, options_.min_samples);
   gauss_ = &spheres_[out_.chosen];
   chosen_.resize(nc_);
   for (std::size_t c = 0; c < nc_; ++c) {
@@ -643,6 +651,33 @@ format::Status SimplifyRun::mesh() {
   return format::Status();
 }
 
+format::Status SimplifyRun::finish() {
+  const auto start = Clock::now();
+  const FaceQuadrics quadrics(out_.mesh.view());
+  // Fixed-point sums: which thread adds which chunk does not change the result.
+  tbb::enumerable_thread_specific<std::vector<FixedQuadric>> partial([&] { return quadrics.new_sums(); });
+  GM_RETURN_IF_ERROR(for_each_chunk("quadrics", [&](std::size_t, const ChunkMesh& chunk, ChunkSamplerWorkspace&) {
+    auto& sums = partial.local();
+    for (std::size_t f = 0; f < chunk.triangles.size(); ++f) {
+      if (!chunk.owned_face[f]) continue;
+      const auto& t = chunk.triangles[f];
+      quadrics.add_face(chunk.positions[t.v[0]], chunk.positions[t.v[1]], chunk.positions[t.v[2]], sums);
+    }
+    return format::Status();
+  }));
+  std::vector<FixedQuadric> sums = quadrics.new_sums();
+  for (const auto& part : partial) add_sums(sums, part);
+  partial.clear();
+  const double seconds_quadrics = seconds_since(start);
+  auto finished = finish_from_sums(out_.mesh.view(), quadrics, sums, out_.finish_options);
+  if (!finished) return finished.status();
+  finished->seconds_quadrics = seconds_quadrics;
+  out_.mesh = std::move(finished->mesh);
+  out_.birth.clear();  // the finish moves vertices: they are no longer input vertices
+  out_.finish = std::move(finished).value();
+  return format::Status();
+}
+
 // The passes after the partition, for `spheres` (the exact test: every orientation in the sample
 // pass; the paper test: one), in order: sample, pieces, merge, chains (the paper test), loops,
 // the loop stitch, mesh (with its fetch rounds). `out` comes with the partition's figures. The
@@ -688,10 +723,16 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition& partition, std::
 
   stats.begin_pass();
   GM_RETURN_IF_ERROR(run.mesh());
+  if (out.finish_options.enabled()) GM_RETURN_IF_ERROR(run.finish());
   out.seconds_mesh = stats.end_pass();
   cleanup();
   return out;
 }
+
+// The passes after the partition (its options resolved against the input's faces and bounds):
+// sample to mesh for the chosen sphere, the finish.
+format::Result<OutOfCoreSimplify> simplify_sampled(Partition& partition_ref, const std::vector<GaussSphere>& spheres,
+                                                   const OutOfCoreSimplifyOptions& options, OutOfCoreSimplify base);
 
 }  // namespace
 
@@ -705,6 +746,22 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   if (!partition) return partition.status();
   OutOfCoreSimplify base;
   record_partition(*partition, base);
+  base.finish_options = resolve_finish(options.finish, partition->faces, diagonal_of(partition->lo, partition->hi));
+  GM_RETURN_IF_ERROR(check_finish_target(base.finish_options, partition->faces, input_path));
+  if (options.auto_frequency && options.finish.any()) {
+    OutOfCoreSimplifyOptions resolved = options;
+    resolved.min_samples = finish_min_samples(base.finish_options, partition->faces);
+    resolved.auto_frequency = false;
+    return simplify_sampled(*partition, spheres, resolved, std::move(base));
+  }
+  return simplify_sampled(*partition, spheres, options, std::move(base));
+}
+
+namespace {
+
+format::Result<OutOfCoreSimplify> simplify_sampled(Partition& partition_ref, const std::vector<GaussSphere>& spheres,
+                                                   const OutOfCoreSimplifyOptions& options, OutOfCoreSimplify base) {
+  Partition* partition = &partition_ref;
   const std::size_t no = spheres.size();
   if (options.sampler.sample_test != SampleTest::kPaper || no == 1)
     return simplify_partition(*partition, spheres, options, std::move(base), true);
@@ -727,7 +784,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     seconds_sample += run->seconds_sample;
     seconds_stitch += run->seconds_stitch;
     seconds_cleanup += run->seconds_cleanup;
-    if (k == 0 || run->samples < counts[chosen]) {
+    if (choose_sphere(counts, options.min_samples) == k) {
       chosen = k;
       if (options.samples_only) best = std::move(run).value();
     }
@@ -749,5 +806,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   best->samples_per_orientation = counts;
   return std::move(best).value();
 }
+
+}  // namespace
 
 }  // namespace gaussmesh::stream

@@ -23,6 +23,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,7 @@
 #include "stream/core/gauss_sphere.h"
 #include "stream/core/memory_budget.h"
 #include "stream/core/mesh.h"
+#include "stream/finish/quadric_finish.h"
 #include "stream/meshing/polygon_mesher.h"
 #include "stream/partition/chunk_partition.h"
 #include "stream/sampling/chunk_sampler.h"
@@ -43,6 +45,12 @@ struct OutOfCoreSimplifyOptions {
   MemoryBudget memory{PartitionOptions{}.memory_bytes};  // --memory: the working set every pass shares
   std::uint32_t threads = 1;   // chunks in flight (--threads)
   std::vector<GaussSphereOptions> spheres = {GaussSphereOptions{}};
+  std::uint64_t min_samples = 0;  // the sphere choice, as SimplifyOptions::min_samples
+  // The quadric finish (stream/finish/): resolved against the input once the partition knows
+  // its faces and bounds; when it asks for something, min_samples follows from it too (set
+  // auto_frequency for that) and a quadrics pass over the chunks runs after the mesh pass.
+  FinishTarget finish;
+  bool auto_frequency = false;
   SamplerOptions sampler;
   // (pass name, chunks done, chunks, input faces) after each chunk.
   std::function<void(const char*, std::size_t, std::size_t, std::uint64_t)> progress;
@@ -53,7 +61,9 @@ struct OutOfCoreSimplifyOptions {
 };
 
 struct OutOfCoreSimplify {
-  Mesh mesh;
+  Mesh mesh;  // after the finish, when there is one
+  FinishOptions finish_options;        // the resolved target
+  std::optional<FinishResult> finish;  // its figures (its mesh moved into `mesh`)
   std::vector<std::uint32_t> birth;
   std::array<double, 4> rotation{};
   std::size_t chosen = 0;

@@ -1,0 +1,95 @@
+// Quadric error metrics (Garland & Heckbert 1997) for the quadric finish: the squared distance
+// to a set of planes, weighted by area, as a symmetric 4×4 form. `Quadric` is the double form
+// the decimation works with; `FixedQuadric` is its 64-bit fixed-point form, whose sums do not
+// depend on their order, so that the in-core run and the out-of-core one (which adds the same
+// faces chunk by chunk, on several threads) reach the same bits.
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+
+namespace gaussmesh::stream {
+
+struct Vec3dq {
+  double x = 0, y = 0, z = 0;
+};
+
+// E(p) = pᵀ A p + 2 bᵀ p + c, with A = Σ w n nᵀ, b = Σ w d n, c = Σ w d², for planes n·p + d = 0
+// of weight w (area); `weight` = Σ w, so E / weight is a mean squared distance.
+struct Quadric {
+  // a00 a01 a02 a11 a12 a22 b0 b1 b2 c
+  std::array<double, 10> q{};
+  double weight = 0;
+
+  static Quadric plane(const Vec3dq& n, double d, double w) {
+    Quadric r;
+    r.q = {w * n.x * n.x, w * n.x * n.y, w * n.x * n.z, w * n.y * n.y, w * n.y * n.z, w * n.z * n.z,
+           w * d * n.x,   w * d * n.y,   w * d * n.z,   w * d * d};
+    r.weight = w;
+    return r;
+  }
+  Quadric& operator+=(const Quadric& o) {
+    for (int i = 0; i < 10; ++i) q[i] += o.q[i];
+    weight += o.weight;
+    return *this;
+  }
+  double error(const Vec3dq& p) const {
+    const double e = q[0] * p.x * p.x + 2 * q[1] * p.x * p.y + 2 * q[2] * p.x * p.z + q[3] * p.y * p.y +
+                     2 * q[4] * p.y * p.z + q[5] * p.z * p.z + 2 * (q[6] * p.x + q[7] * p.y + q[8] * p.z) + q[9];
+    return e > 0 ? e : 0;
+  }
+  // The minimiser of E, when A is well conditioned (its determinant is not tiny against the cube
+  // of its trace, i.e. the planes span three directions); false otherwise.
+  bool minimiser(Vec3dq& out) const {
+    const double a00 = q[0], a01 = q[1], a02 = q[2], a11 = q[3], a12 = q[4], a22 = q[5];
+    const double c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
+    const double det = a00 * c00 + a01 * c01 + a02 * c02;
+    const double trace = a00 + a11 + a22;
+    if (!(trace > 0) || !(std::abs(det) > 1e-9 * trace * trace * trace)) return false;
+    const double c11 = a00 * a22 - a02 * a02, c12 = a01 * a02 - a00 * a12, c22 = a00 * a11 - a01 * a01;
+    const double b0 = -q[6], b1 = -q[7], b2 = -q[8];
+    out = {(c00 * b0 + c01 * b1 + c02 * b2) / det, (c01 * b0 + c11 * b1 + c12 * b2) / det,
+           (c02 * b0 + c12 * b1 + c22 * b2) / det};
+    return std::isfinite(out.x) && std::isfinite(out.y) && std::isfinite(out.z);
+  }
+};
+
+// Fixed point: coefficients and weight times 2^kFixedQuadricBits, rounded. Coordinates are
+// normalised first (QuadricFrame), so a plane's coefficients are at most ~3 × its area and a
+// vertex's sum stays far below 2^63 for any surface area a mesh in a unit box can have.
+inline constexpr int kFixedQuadricBits = 40;
+
+struct FixedQuadric {
+  std::array<std::int64_t, 11> q{};  // the 10 coefficients, then the weight
+
+  static FixedQuadric from(const Quadric& d) {
+    FixedQuadric r;
+    const double scale = std::ldexp(1.0, kFixedQuadricBits);
+    for (int i = 0; i < 10; ++i) r.q[i] = std::llround(d.q[i] * scale);
+    r.q[10] = std::llround(d.weight * scale);
+    return r;
+  }
+  FixedQuadric& operator+=(const FixedQuadric& o) {
+    for (int i = 0; i < 11; ++i) q[i] += o.q[i];
+    return *this;
+  }
+  Quadric to_double() const {
+    Quadric r;
+    const double scale = std::ldexp(1.0, -kFixedQuadricBits);
+    for (int i = 0; i < 10; ++i) r.q[i] = double(q[i]) * scale;
+    r.weight = double(q[10]) * scale;
+    return r;
+  }
+};
+
+// Maps positions into the unit-diagonal frame the quadrics live in: (p - origin) / scale.
+struct QuadricFrame {
+  Vec3dq origin;
+  double scale = 1;
+  Vec3dq to_frame(float x, float y, float z) const {
+    return {(double(x) - origin.x) / scale, (double(y) - origin.y) / scale, (double(z) - origin.z) / scale};
+  }
+};
+
+}  // namespace gaussmesh::stream

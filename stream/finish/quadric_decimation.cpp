@@ -1,0 +1,232 @@
+#include "stream/finish/quadric_decimation.h"
+
+// OpenMesh's property asserts cost much and check nothing of ours; see collapse_mesher.cpp.
+#ifndef NDEBUG
+#define GAUSSMESH_RESTORE_ASSERT
+#define NDEBUG
+#endif
+#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+#ifdef GAUSSMESH_RESTORE_ASSERT
+#undef NDEBUG
+#undef GAUSSMESH_RESTORE_ASSERT
+#include <cassert>
+#endif
+
+#include <algorithm>
+#include <cmath>
+#include <queue>
+
+namespace gaussmesh::stream {
+namespace {
+
+struct Traits : public OpenMesh::DefaultTraits {
+  typedef OpenMesh::Vec3d Point;
+  VertexAttributes(OpenMesh::Attributes::Status);
+  EdgeAttributes(OpenMesh::Attributes::Status);
+  HalfedgeAttributes(OpenMesh::Attributes::Status | OpenMesh::Attributes::PrevHalfedge);
+  FaceAttributes(OpenMesh::Attributes::Status);
+};
+using QMesh = OpenMesh::TriMesh_ArrayKernelT<Traits>;
+using OpenMesh::Vec3d;
+
+Vec3dq to_q(const Vec3d& p) { return {p[0], p[1], p[2]}; }
+Vec3d to_om(const Vec3dq& p) { return Vec3d(p.x, p.y, p.z); }
+
+// Constraint planes along boundary edges weigh this much per squared edge length: enough to hold
+// a rim against the area-weighted planes of the faces beside it.
+constexpr double kBoundaryWeight = 1;
+
+struct Candidate {
+  double cost;
+  std::uint32_t edge;
+  std::uint32_t stamp;
+  bool operator<(const Candidate& o) const {  // std::priority_queue pops the largest
+    return cost != o.cost ? cost > o.cost : edge > o.edge;
+  }
+};
+
+class Decimator {
+ public:
+  Decimator(QMesh& mesh, std::vector<Quadric> quadrics) : m_(mesh), q_(std::move(quadrics)) {
+    stamp_.assign(m_.n_edges(), 0);
+    target_.resize(m_.n_edges());
+  }
+
+  // The placement and cost of collapsing edge e.
+  bool evaluate(QMesh::EdgeHandle e, Vec3d& x, double& cost) const {
+    const auto h = m_.halfedge_handle(e, 0);
+    const auto v0 = m_.from_vertex_handle(h), v1 = m_.to_vertex_handle(h);
+    Quadric q = q_[v0.idx()];
+    q += q_[v1.idx()];
+    const Vec3d p0 = m_.point(v0), p1 = m_.point(v1), mid = (p0 + p1) * 0.5;
+    Vec3dq best;
+    const double length = (p1 - p0).norm();
+    // The minimiser, unless it lies far from the edge (an ill-conditioned quadric).
+    if (!q.minimiser(best) || (to_om(best) - mid).norm() > 2 * length) {
+      best = to_q(mid);
+      double e_best = q.error(best);
+      for (const Vec3d& c : {p0, p1}) {
+        const double ec = q.error(to_q(c));
+        if (ec < e_best) e_best = ec, best = to_q(c);
+      }
+    }
+    x = to_om(best);
+    cost = q.error(best);
+    return std::isfinite(cost);
+  }
+
+  // Whether moving the faces around v0 and v1 (not those on edge h) to x keeps them facing the
+  // same way and non-degenerate.
+  bool geometry_ok(QMesh::HalfedgeHandle h, const Vec3d& x) const {
+    const auto v0 = m_.from_vertex_handle(h), v1 = m_.to_vertex_handle(h);
+    const double cos_limit = std::cos(kMaxTurnDegrees * M_PI / 180.0);
+    for (auto v : {v0, v1}) {
+      for (auto f : m_.vf_range(v)) {
+        Vec3d p[3];
+        bool has_both = false, moved = false;
+        int k = 0;
+        QMesh::VertexHandle vs[3];
+        for (auto fv : m_.fv_range(f)) vs[k++] = fv;
+        int count = 0;
+        for (int i = 0; i < 3; ++i) count += (vs[i] == v0 || vs[i] == v1);
+        has_both = count == 2;
+        if (has_both) continue;
+        for (int i = 0; i < 3; ++i) {
+          p[i] = m_.point(vs[i]);
+          if (vs[i] == v0 || vs[i] == v1) p[i] = x, moved = true;
+        }
+        if (!moved) continue;
+        const Vec3d old_n = (m_.point(vs[1]) - m_.point(vs[0])) % (m_.point(vs[2]) - m_.point(vs[0]));
+        const Vec3d new_n = (p[1] - p[0]) % (p[2] - p[0]);
+        const double old_len = old_n.norm(), new_len = new_n.norm();
+        const double e2 = (p[1] - p[0]).sqrnorm() + (p[2] - p[1]).sqrnorm() + (p[0] - p[2]).sqrnorm();
+        if (!(new_len > 1e-8 * e2)) return false;  // degenerate (aspect ratio over ~10^8)
+        if (old_len > 0 && (old_n | new_n) < cos_limit * old_len * new_len) return false;
+      }
+    }
+    return true;
+  }
+
+  void push(QMesh::EdgeHandle e) {
+    if (m_.status(e).deleted()) return;
+    Vec3d x;
+    double cost;
+    if (!evaluate(e, x, cost)) return;
+    target_[e.idx()] = x;
+    heap_.push({cost, std::uint32_t(e.idx()), ++stamp_[e.idx()]});
+  }
+
+  DecimationResult run(const DecimationOptions& options, std::uint64_t faces) {
+    DecimationResult r;
+    for (auto e : m_.edges()) push(e);
+    while (!heap_.empty() && (options.target_faces == 0 || faces > options.target_faces)) {
+      const Candidate c = heap_.top();
+      heap_.pop();
+      const QMesh::EdgeHandle e(int(c.edge));
+      if (m_.status(e).deleted() || c.stamp != stamp_[c.edge]) continue;
+      const Vec3d x = target_[c.edge];
+      auto h = m_.halfedge_handle(e, 0);
+      Quadric q = q_[m_.from_vertex_handle(h).idx()];
+      q += q_[m_.to_vertex_handle(h).idx()];
+      const double error = decimation_error(q, to_q(x));
+      if (error > options.max_error) continue;  // it stays until a neighbour's collapse re-queues it
+      if (!m_.is_collapse_ok(h)) {
+        h = m_.halfedge_handle(e, 1);
+        if (!m_.is_collapse_ok(h)) {
+          ++r.refused;
+          continue;
+        }
+      }
+      if (!geometry_ok(h, x)) {
+        ++r.refused;
+        continue;
+      }
+      const bool boundary = m_.is_boundary(e);
+      const auto kept = m_.to_vertex_handle(h);
+      m_.collapse(h);
+      m_.set_point(kept, x);
+      q_[kept.idx()] = q;
+      faces -= boundary ? 1 : 2;
+      ++r.collapses;
+      r.estimated_error = std::max(r.estimated_error, error);
+      for (auto ve : m_.ve_range(kept)) push(ve);
+    }
+    r.reached_target = options.target_faces == 0 || faces <= options.target_faces;
+    return r;
+  }
+
+ private:
+  QMesh& m_;
+  std::vector<Quadric> q_;
+  std::vector<std::uint32_t> stamp_;
+  std::vector<Vec3d> target_;
+  std::priority_queue<Candidate> heap_;
+};
+
+}  // namespace
+
+double decimation_error(const Quadric& q, const Vec3dq& p) {
+  return q.weight > 0 ? std::sqrt(q.error(p) / q.weight) : 0;
+}
+
+format::Result<DecimationResult> decimate(MeshView approximation, const std::vector<FixedQuadric>& sums,
+                                          const QuadricFrame& frame, const DecimationOptions& options) {
+  if (sums.size() != approximation.positions.size()) {
+    return format::Status::error(format::Code::kProcessing, "finish", "one quadric per vertex expected");
+  }
+  QMesh mesh;
+  mesh.reserve(approximation.positions.size(), 3 * approximation.triangles.size() / 2,
+               approximation.triangles.size());
+  for (const auto& p : approximation.positions) mesh.add_vertex(to_om(frame.to_frame(p.x, p.y, p.z)));
+  for (const auto& t : approximation.triangles) {
+    const auto f = mesh.add_face(QMesh::VertexHandle(int(t.v[0])), QMesh::VertexHandle(int(t.v[1])),
+                                 QMesh::VertexHandle(int(t.v[2])));
+    if (!f.is_valid()) {
+      return format::Status::error(format::Code::kProcessing, "finish",
+                                   "the approximation is not an oriented manifold (face " +
+                                       std::to_string(&t - approximation.triangles.data()) + ")");
+    }
+  }
+  std::vector<Quadric> quadrics(sums.size());
+  for (std::size_t v = 0; v < sums.size(); ++v) quadrics[v] = sums[v].to_double();
+  // Boundary constraints: a plane through each boundary edge, at right angles to its face.
+  for (auto e : mesh.edges()) {
+    if (!mesh.is_boundary(e)) continue;
+    auto h = mesh.halfedge_handle(e, 0);
+    if (mesh.is_boundary(h)) h = mesh.opposite_halfedge_handle(h);
+    const auto f = mesh.face_handle(h);
+    const Vec3d a = mesh.point(mesh.from_vertex_handle(h)), b = mesh.point(mesh.to_vertex_handle(h));
+    Vec3d fv[3];
+    int k = 0;
+    for (auto v : mesh.fv_range(f)) fv[k++] = mesh.point(v);
+    const Vec3d n = (fv[1] - fv[0]) % (fv[2] - fv[0]);
+    Vec3d m = (b - a) % n;
+    const double length = m.norm();
+    if (!(length > 0)) continue;
+    m /= length;
+    Quadric c = Quadric::plane(to_q(m), -(m | a), kBoundaryWeight * (b - a).sqrnorm());
+    c.weight = 0;  // a constraint, not surface: it does not dilute the mean distance
+    quadrics[mesh.from_vertex_handle(h).idx()] += c;
+    quadrics[mesh.to_vertex_handle(h).idx()] += c;
+  }
+
+  Decimator decimator(mesh, std::move(quadrics));
+  DecimationResult result = decimator.run(options, approximation.triangles.size());
+  mesh.garbage_collection();
+  result.mesh.positions.reserve(mesh.n_vertices());
+  for (auto v : mesh.vertices()) {
+    const Vec3d& p = mesh.point(v);
+    result.mesh.positions.push_back({float(frame.origin.x + p[0] * frame.scale), float(frame.origin.y + p[1] * frame.scale),
+                                     float(frame.origin.z + p[2] * frame.scale)});
+  }
+  result.mesh.triangles.reserve(mesh.n_faces());
+  for (auto f : mesh.faces()) {
+    format::Triangle t;
+    int k = 0;
+    for (auto v : mesh.fv_range(f)) t.v[k++] = std::uint32_t(v.idx());
+    result.mesh.triangles.push_back(t);
+  }
+  return result;
+}
+
+}  // namespace gaussmesh::stream

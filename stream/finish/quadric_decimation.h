@@ -1,0 +1,52 @@
+// The second half of the quadric finish: QEM edge collapses on the Gauss approximation, each
+// vertex carrying the plane quadrics of the input faces it absorbed (face_quadrics.h), until the
+// face target or the error bound is reached.
+//
+// Every collapse keeps the topology guarantee of the approximation: it passes the link
+// condition (OpenMesh's is_collapse_ok), so a closed manifold of genus g stays one; it flips no
+// remaining face (a face may turn by at most kMaxTurnDegrees) and makes none degenerate. The kept
+// vertex moves to the point that minimises the summed quadric (the samples are then no longer
+// input vertices), or to the better endpoint or the midpoint when the quadric cannot place it.
+// Boundary edges carry constraint planes at right angles to the surface, so rims stay in place.
+// Deterministic: collapses go in (cost, edge id) order on data that is the same bits in and out
+// of core.
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include "format/status.h"
+#include "stream/core/mesh.h"
+#include "stream/finish/quadric.h"
+
+namespace gaussmesh::stream {
+
+struct DecimationOptions {
+  std::uint64_t target_faces = 0;  // stop at this many faces or fewer; 0: no face target
+  // No collapse whose estimated error (decimation_error) passes this, in the frame's units (a
+  // fraction of the approximation's bounding-box diagonal); infinity: no bound.
+  double max_error = std::numeric_limits<double>::infinity();
+};
+
+struct DecimationResult {
+  Mesh mesh;
+  std::uint64_t collapses = 0;
+  std::uint64_t refused = 0;     // collapses refused by the link condition or the geometry tests
+  double estimated_error = 0;    // largest decimation_error of a collapse made (frame units)
+  bool reached_target = false;   // the face target was met (or there was none)
+};
+
+// The estimated error of a vertex with quadric q at p: the root of the mean squared distance from
+// p to the planes of the input faces it absorbed, sqrt(E(p) / weight). An estimate, not a bound:
+// a Hausdorff distance can be larger (docs/finish.md).
+double decimation_error(const Quadric& q, const Vec3dq& p);
+
+inline constexpr double kMaxTurnDegrees = 60;
+
+// `sums` holds one fixed-point quadric per vertex of `approximation`, in `frame`.
+// Errors: kProcessing when the approximation is not an oriented manifold OpenMesh can hold.
+format::Result<DecimationResult> decimate(MeshView approximation, const std::vector<FixedQuadric>& sums,
+                                          const QuadricFrame& frame, const DecimationOptions& options);
+
+}  // namespace gaussmesh::stream

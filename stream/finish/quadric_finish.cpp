@@ -1,0 +1,86 @@
+#include "stream/finish/quadric_finish.h"
+
+#include <algorithm>
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include "stream/core/stopwatch.h"
+
+namespace gaussmesh::stream {
+
+FinishOptions resolve_finish(const FinishTarget& target, std::uint64_t input_faces, double diagonal) {
+  FinishOptions o;
+  if (target.faces > 0) o.target_faces = target.faces;
+  if (target.ratio > 0) {
+    const auto by_ratio = std::max<std::uint64_t>(1, std::uint64_t(std::llround(target.ratio * double(input_faces))));
+    o.target_faces = o.target_faces > 0 ? std::min(o.target_faces, by_ratio) : by_ratio;
+  }
+  if (target.max_error > 0) o.max_error = target.max_error_relative ? target.max_error / 100 * diagonal : target.max_error;
+  return o;
+}
+
+double diagonal_of(const Vec3f& lo, const Vec3f& hi) {
+  const double dx = double(hi.x) - double(lo.x), dy = double(hi.y) - double(lo.y), dz = double(hi.z) - double(lo.z);
+  return std::sqrt(dx * dx + dy * dy + dz * dz);
+}
+
+format::Status check_finish_target(const FinishOptions& options, std::uint64_t input_faces, const std::string& name) {
+  if (options.target_faces > input_faces) {
+    return format::Status::error(format::Code::kUsage, name,
+                                 "the target of " + std::to_string(options.target_faces) + " faces is above the input's " +
+                                     std::to_string(input_faces) + " faces");
+  }
+  return format::Status();
+}
+
+std::uint64_t finish_min_samples(const FinishOptions& options, std::uint64_t input_faces) {
+  const double faces = options.target_faces > 0 ? double(options.target_faces) : double(input_faces) / 8;
+  // No more than the finest approximations reach: about as many samples as the input has
+  // vertices, which is about half its faces.
+  const double cap = kFinishMaxSampleShare * double(input_faces);
+  return std::max<std::uint64_t>(1, std::uint64_t(std::min(cap, std::ceil(kFinishOversampling * faces / 2))));
+}
+
+format::Result<FinishResult> finish_from_sums(MeshView approximation, const FaceQuadrics& quadrics,
+                                              const std::vector<FixedQuadric>& sums, const FinishOptions& options) {
+  const auto start = Clock::now();
+  DecimationOptions d;
+  d.target_faces = options.target_faces;
+  d.max_error = options.max_error / quadrics.frame().scale;
+  auto decimated = decimate(approximation, sums, quadrics.frame(), d);
+  if (!decimated) return decimated.status();
+  FinishResult r;
+  r.approximation_faces = approximation.triangles.size();
+  r.mesh = std::move(decimated->mesh);
+  r.collapses = decimated->collapses;
+  r.refused = decimated->refused;
+  r.estimated_error = decimated->estimated_error * quadrics.frame().scale;
+  r.reached_target = decimated->reached_target;
+  r.seconds_decimate = seconds_since(start);
+  return r;
+}
+
+format::Result<FinishResult> finish_in_core(MeshView input, MeshView approximation, const FinishOptions& options) {
+  const auto start = Clock::now();
+  const FaceQuadrics quadrics(approximation);
+  // Fixed-point sums: the split over threads does not change the result.
+  tbb::enumerable_thread_specific<std::vector<FixedQuadric>> partial([&] { return quadrics.new_sums(); });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, input.triangles.size(), 4096),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      auto& sums = partial.local();
+                      for (std::size_t f = range.begin(); f < range.end(); ++f) {
+                        const auto& t = input.triangles[f];
+                        quadrics.add_face(input.positions[t.v[0]], input.positions[t.v[1]], input.positions[t.v[2]], sums);
+                      }
+                    });
+  std::vector<FixedQuadric> sums = quadrics.new_sums();
+  for (const auto& part : partial) add_sums(sums, part);
+  const double seconds_quadrics = seconds_since(start);
+  auto r = finish_from_sums(approximation, quadrics, sums, options);
+  if (r) r->seconds_quadrics = seconds_quadrics;
+  return r;
+}
+
+}  // namespace gaussmesh::stream

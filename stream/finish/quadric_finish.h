@@ -1,0 +1,70 @@
+// The quadric finish (docs/finish.md): turns the Gauss approximation into the mesh the user asked
+// for — a face target, an error bound — by QEM collapses with the input's own plane quadrics
+// (face_quadrics.h, quadric_decimation.h). In core the input faces are at hand; out of core the
+// pipeline adds them chunk by chunk into the same fixed-point sums, so both reach the same mesh.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <string>
+
+#include "format/status.h"
+#include "stream/core/mesh.h"
+#include "stream/finish/face_quadrics.h"
+#include "stream/finish/quadric_decimation.h"
+
+namespace gaussmesh::stream {
+
+struct FinishOptions {
+  std::uint64_t target_faces = 0;                               // 0: no face target
+  double max_error = std::numeric_limits<double>::infinity();  // estimated error bound, input units
+  bool enabled() const { return target_faces > 0 || std::isfinite(max_error); }
+};
+
+// What the user asked for, before the input is known.
+struct FinishTarget {
+  std::uint64_t faces = 0;  // 0: none
+  double ratio = 0;         // of the input's faces; 0: none
+  double max_error = 0;     // 0: none; absolute, or percent of the diagonal when relative
+  bool max_error_relative = false;
+  bool any() const { return faces > 0 || ratio > 0 || max_error > 0; }
+};
+
+// The face target is the smaller of `faces` and round(ratio × input_faces) (at least 1); the
+// error bound is made absolute with the input's bounding-box diagonal.
+FinishOptions resolve_finish(const FinishTarget& target, std::uint64_t input_faces, double diagonal);
+
+// The bounding-box diagonal the relative error bound refers to, from the bounds of the input's
+// finite positions (the same doubles in and out of core).
+double diagonal_of(const Vec3f& lo, const Vec3f& hi);
+
+// kUsage when the face target is above the input's faces (`name`: the input, for the message):
+// the finish only removes faces, and an output as large as the input is the input.
+format::Status check_finish_target(const FinishOptions& options, std::uint64_t input_faces, const std::string& name);
+
+// How many samples the Gauss approximation should reach (--frequency auto) so that the finish
+// has kFinishOversampling times the target's faces to collapse from (about two faces per
+// sample), at most kFinishMaxSampleShare of the input's faces; with an error bound only, an
+// eighth of the input's faces. docs/finish.md has the measurements behind both.
+inline constexpr double kFinishOversampling = 8;
+inline constexpr double kFinishMaxSampleShare = 0.45;
+std::uint64_t finish_min_samples(const FinishOptions& options, std::uint64_t input_faces);
+
+struct FinishResult {
+  Mesh mesh;
+  std::uint64_t approximation_faces = 0;  // the Gauss approximation's faces, before the finish
+  std::uint64_t collapses = 0, refused = 0;
+  double estimated_error = 0;  // largest estimated error of a collapse made, input units
+  bool reached_target = false;
+  double seconds_quadrics = 0, seconds_decimate = 0;
+};
+
+// The decimation half, once `sums` holds every input face (quadrics.add_face).
+format::Result<FinishResult> finish_from_sums(MeshView approximation, const FaceQuadrics& quadrics,
+                                              const std::vector<FixedQuadric>& sums, const FinishOptions& options);
+
+// Both halves in core: the input's faces are added on every core.
+format::Result<FinishResult> finish_in_core(MeshView input, MeshView approximation, const FinishOptions& options);
+
+}  // namespace gaussmesh::stream
