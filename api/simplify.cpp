@@ -75,6 +75,8 @@ void finish_report(Json& report, const stream::FinishOptions& o, const std::opti
   stats.estimated_error = f->estimated_error;
   report["approximation_faces"] = f->approximation_faces;
   report["reached_target"] = f->reached_target;
+  report["stopped_by"] = f->stopped_by;
+  stats.stopped_by = f->stopped_by;
   report["estimated_error"] = f->estimated_error;
   report["collapses"] = f->collapses;
   report["refused_collapses"] = f->refused;

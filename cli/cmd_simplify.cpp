@@ -97,6 +97,13 @@ int run_simplify(const SimplifyArgs& args, const std::function<bool(const char*)
   const Sink sink = Sink::file(args.output, *output_format);
   auto stats = simplify(Source::file(args.input, input_format), sink, options);
   if (!stats) return report_error(stats.status());
+  if (stats->stopped_by == "topology") {
+    std::fprintf(stderr,
+                 "gaussmesh: %s: %llu faces, above the target of %llu: every further collapse would change the "
+                 "topology or fold a face\n",
+                 args.input == "-" ? "<stdin>" : args.input.c_str(), static_cast<unsigned long long>(stats->output_faces),
+                 static_cast<unsigned long long>(stats->target_faces));
+  }
   if (verbosity() >= 1) {
     std::string where = stats->out_of_core ? ", " + std::to_string(stats->chunks) + " chunks" : "";
     std::fprintf(stderr, "gaussmesh: %llu -> %llu faces, %llu samples, %llu bytes (%s)%s\n",

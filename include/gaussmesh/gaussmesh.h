@@ -171,6 +171,9 @@ struct SimplifyStats {
   std::uint64_t target_faces = 0;  // the face target the run resolved (0: none)
   std::uint64_t approximation_faces = 0;  // the Gauss approximation's faces, before the finish
   double estimated_error = 0;      // the finish's largest estimated collapse error, input units
+  // What ended the finish (empty without one): "target", "max_error", or "topology" (the face
+  // target is out of reach: every further collapse would change the topology or fold a face).
+  std::string stopped_by;
   // With TargetOptions::measure: the symmetric Hausdorff and RMS distance between input and
   // output (compare()'s defaults), in input units, and the input's diagonal they are relative to.
   bool measured = false;

@@ -79,7 +79,7 @@ class Decimator {
   // same way and non-degenerate.
   bool geometry_ok(QMesh::HalfedgeHandle h, const Vec3d& x) const {
     const auto v0 = m_.from_vertex_handle(h), v1 = m_.to_vertex_handle(h);
-    const double cos_limit = std::cos(kMaxTurnDegrees * M_PI / 180.0);
+    const double cos_limit = std::cos((relaxed_ ? kRelaxedTurnDegrees : kMaxTurnDegrees) * M_PI / 180.0);
     for (auto v : {v0, v1}) {
       for (auto f : m_.vf_range(v)) {
         Vec3d p[3];
@@ -119,7 +119,15 @@ class Decimator {
   DecimationResult run(const DecimationOptions& options, std::uint64_t faces) {
     DecimationResult r;
     for (auto e : m_.edges()) push(e);
-    while (!heap_.empty() && (options.target_faces == 0 || faces > options.target_faces)) {
+    while (options.target_faces == 0 || faces > options.target_faces) {
+      if (heap_.empty()) {
+        // Short of the face target with every remaining collapse refused: once more with the
+        // turn limit relaxed to "no flipped face", then the topology is what stops it.
+        if (relaxed_ || options.target_faces == 0) break;
+        relaxed_ = true;
+        for (auto e : m_.edges()) push(e);
+        continue;
+      }
       const Candidate c = heap_.top();
       heap_.pop();
       const QMesh::EdgeHandle e(int(c.edge));
@@ -129,7 +137,10 @@ class Decimator {
       Quadric q = q_[m_.from_vertex_handle(h).idx()];
       q += q_[m_.to_vertex_handle(h).idx()];
       const double error = decimation_error(q, to_q(x));
-      if (error > options.max_error) continue;  // it stays until a neighbour's collapse re-queues it
+      if (error > options.max_error) {  // it stays until a neighbour's collapse re-queues it
+        ++r.over_error;
+        continue;
+      }
       if (!m_.is_collapse_ok(h)) {
         h = m_.halfedge_handle(e, 1);
         if (!m_.is_collapse_ok(h)) {
@@ -161,6 +172,7 @@ class Decimator {
   std::vector<std::uint32_t> stamp_;
   std::vector<Vec3d> target_;
   std::priority_queue<Candidate> heap_;
+  bool relaxed_ = false;
 };
 
 }  // namespace

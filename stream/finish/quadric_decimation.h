@@ -4,7 +4,8 @@
 //
 // Every collapse keeps the topology guarantee of the approximation: it passes the link
 // condition (OpenMesh's is_collapse_ok), so a closed manifold of genus g stays one; it flips no
-// remaining face (a face may turn by at most kMaxTurnDegrees) and makes none degenerate. The kept
+// remaining face (a face may turn by at most kMaxTurnDegrees, or kRelaxedTurnDegrees when the
+// target cannot be reached otherwise) and makes none degenerate. The kept
 // vertex moves to the point that minimises the summed quadric (the samples are then no longer
 // input vertices), or to the better endpoint or the midpoint when the quadric cannot place it.
 // Boundary edges carry constraint planes at right angles to the surface, so rims stay in place.
@@ -33,6 +34,7 @@ struct DecimationResult {
   Mesh mesh;
   std::uint64_t collapses = 0;
   std::uint64_t refused = 0;     // collapses refused by the link condition or the geometry tests
+  std::uint64_t over_error = 0;  // collapses left out for passing max_error
   double estimated_error = 0;    // largest decimation_error of a collapse made (frame units)
   bool reached_target = false;   // the face target was met (or there was none)
 };
@@ -42,7 +44,10 @@ struct DecimationResult {
 // a Hausdorff distance can be larger (docs/finish.md).
 double decimation_error(const Quadric& q, const Vec3dq& p);
 
+// A collapse may turn a remaining face by at most kMaxTurnDegrees; when that leaves the face
+// target out of reach, the rest of the run allows up to kRelaxedTurnDegrees (no face flips).
 inline constexpr double kMaxTurnDegrees = 60;
+inline constexpr double kRelaxedTurnDegrees = 89;
 
 // `sums` holds one fixed-point quadric per vertex of `approximation`, in `frame`.
 // Errors: kProcessing when the approximation is not an oriented manifold OpenMesh can hold.

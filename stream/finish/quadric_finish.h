@@ -57,6 +57,10 @@ struct FinishResult {
   std::uint64_t collapses = 0, refused = 0;
   double estimated_error = 0;  // largest estimated error of a collapse made, input units
   bool reached_target = false;
+  // What ended the collapses: "target" (the face target, or no collapse left without one),
+  // "max_error" (every further collapse passes the error bound), "topology" (every further one
+  // breaks the link condition, flips or degenerates a face).
+  const char* stopped_by = "target";
   double seconds_quadrics = 0, seconds_decimate = 0;
 };
 
