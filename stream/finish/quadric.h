@@ -56,9 +56,10 @@ struct Quadric {
 };
 
 // Fixed point: coefficients and weight times 2^kFixedQuadricBits, rounded. Coordinates are
-// normalised first (QuadricFrame), so a plane's coefficients are at most ~3 × its area and a
-// vertex's sum stays far below 2^63 for any surface area a mesh in a unit box can have.
-inline constexpr int kFixedQuadricBits = 40;
+// normalised first (QuadricFrame), so a plane's coefficients are at most ~3 × its area, and a
+// vertex's sum stays below 2^63 while the surface it absorbs has less than ~30,000 times the
+// squared diagonal of area. Sums wrap (unsigned arithmetic) rather than overflow.
+inline constexpr int kFixedQuadricBits = 48;
 
 struct FixedQuadric {
   std::array<std::int64_t, 11> q{};  // the 10 coefficients, then the weight
@@ -71,7 +72,7 @@ struct FixedQuadric {
     return r;
   }
   FixedQuadric& operator+=(const FixedQuadric& o) {
-    for (int i = 0; i < 11; ++i) q[i] += o.q[i];
+    for (int i = 0; i < 11; ++i) q[i] = std::int64_t(std::uint64_t(q[i]) + std::uint64_t(o.q[i]));
     return *this;
   }
   Quadric to_double() const {

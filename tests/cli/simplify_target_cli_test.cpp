@@ -1,0 +1,158 @@
+// Tests for `gaussmesh simplify` with a target (--target-faces, --ratio, --max-error,
+// --measure; docs/finish.md) as a user runs it: every real fixture lands on the face target or
+// says why not, keeps its topology, gives the same bytes in core, out of core and through a
+// pipe; bad targets are one line and exit 1 with nothing written.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "stream/core/mesh.h"
+#include "stream/core/mesh_topology.h"
+#include "tests/support/test_util.h"
+
+namespace gaussmesh::testing {
+namespace {
+
+std::string q(const std::string& text) { return "'" + text + "'"; }
+std::string binary() { return q(gaussmesh_binary()); }
+
+const char* const kFixtures[] = {"cow.off",           "fandisk.off",  "homer.off",       "knot1.off",
+                                 "mech-holes-shark.off", "mushroom.off", "bunny-lowres.ply"};
+
+stream::MeshTopology topology_of(const std::string& path) {
+  auto mesh = stream::load_mesh(path);
+  EXPECT_TRUE(mesh.is_ok()) << path;
+  if (!mesh) return {};
+  auto t = stream::compute_topology(mesh->view());
+  EXPECT_TRUE(t.is_ok()) << path;
+  return t ? *t : stream::MeshTopology{};
+}
+
+TEST(SimplifyTargetCli, EveryFixtureLandsOnTheTargetAndKeepsItsTopology) {
+  ScratchDir dir;
+  for (const char* name : kFixtures) {
+    const std::string in = fixture(std::string("real/") + name);
+    const stream::MeshTopology before = topology_of(in);
+    for (double ratio : {0.5, 0.1, 0.01, 0.001}) {
+      SCOPED_TRACE(std::string(name) + " --ratio " + std::to_string(ratio));
+      const std::string out = dir.file("out.ply"), report = dir.file("r.json");
+      auto run = run_command(binary() + " simplify " + q(in) + " -o " + q(out) + " --ratio " + std::to_string(ratio) +
+                             " --report " + q(report));
+      ASSERT_EQ(run.exit_code, 0) << run.err;
+      const auto json = nlohmann::json::parse(read_file(report));
+      const long target = json["target_faces"].get<long>(), faces = json["output_faces"].get<long>();
+      EXPECT_EQ(target, std::max(1L, std::lround(ratio * json["input_faces"].get<double>())));
+      EXPECT_LE(json["output_faces"].get<long>(), json["approximation_faces"].get<long>());
+      if (json["stopped_by"] == "topology") {
+        // Short of it only where every further collapse would break the topology: said on stderr.
+        EXPECT_GT(faces, target);
+        EXPECT_NE(run.err.find("above the target"), std::string::npos) << run.err;
+      } else {
+        EXPECT_EQ(json["stopped_by"], "target");
+        EXPECT_LE(faces, target);
+        // Within 1 %, or one face below an odd target (a closed mesh has an even face count).
+        EXPECT_GE(faces, std::min(target - 1, long(std::floor(0.99 * double(target)))));
+      }
+      const stream::MeshTopology after = topology_of(out);
+      EXPECT_EQ(after.faces, std::size_t(faces));
+      EXPECT_TRUE(after.is_manifold());
+      EXPECT_EQ(after.degenerate_faces, 0u);
+      EXPECT_EQ(after.zero_area_faces, 0u);
+      EXPECT_EQ(after.duplicate_faces, 0u);
+      EXPECT_EQ(after.is_closed(), before.is_closed());
+      if (before.genus) EXPECT_EQ(after.genus, before.genus);
+    }
+  }
+}
+
+TEST(SimplifyTargetCli, InCoreOutOfCoreAndPipeGiveTheSameBytes) {
+  ScratchDir dir, tmp;
+  for (const char* name : kFixtures) {
+    const std::string in = q(fixture(std::string("real/") + name));
+    for (const std::string target : {"--ratio 0.1", "--target-faces 300 --max-error 1%"}) {
+      SCOPED_TRACE(std::string(name) + " " + target);
+      ASSERT_EQ(run_command(binary() + " simplify " + in + " " + target + " -o " + q(dir.file("a.drc"))).exit_code, 0);
+      const auto ooc = run_command(binary() + " simplify " + in + " " + target + " -o " + q(dir.file("b.drc")) +
+                                   " --memory 16M --engine out-of-core --tmp " + q(tmp.path().string()));
+      ASSERT_EQ(ooc.exit_code, 0) << ooc.err;
+      const std::string ext = std::string(name).substr(std::string(name).rfind('.') + 1);
+      const auto piped = run_command("cat " + in + " | " + binary() + " simplify - --input-format " + ext + " " + target +
+                                     " -o - --memory 16M --threads 1 --tmp " + q(tmp.path().string()) + " > " +
+                                     q(dir.file("c.drc")));
+      ASSERT_EQ(piped.exit_code, 0) << piped.err;
+      const std::string a = read_file(dir.file("a.drc"));
+      EXPECT_GT(a.size(), 50u);
+      EXPECT_EQ(a, read_file(dir.file("b.drc")));
+      EXPECT_EQ(a, read_file(dir.file("c.drc")));
+      EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
+    }
+  }
+}
+
+TEST(SimplifyTargetCli, MeasureReportsTheDistanceToTheInput) {
+  ScratchDir dir;
+  const std::string in = q(fixture("real/cow.off")), report = dir.file("r.json");
+  auto run = run_command(binary() + " simplify " + in + " --target-faces 600 --measure -o " + q(dir.file("o.ply")) +
+                         " --report " + q(report));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto json = nlohmann::json::parse(read_file(report));
+  ASSERT_TRUE(json.contains("measured"));
+  const double hausdorff = json["measured"]["hausdorff"].get<double>(), rms = json["measured"]["rms"].get<double>();
+  EXPECT_GT(hausdorff, 0);
+  EXPECT_LE(rms, hausdorff);
+  // The same figure `gaussmesh compare` gives for the written file (PLY: no quantization).
+  auto cmp = run_command(binary() + " compare " + in + " " + q(dir.file("o.ply")) + " --report -");
+  ASSERT_EQ(cmp.exit_code, 0) << cmp.err;
+  EXPECT_NEAR(nlohmann::json::parse(cmp.out)["hausdorff"].get<double>(), hausdorff, 1e-6 + 1e-3 * hausdorff);
+  // Out of core there is no input to measure against.
+  auto ooc = run_command(binary() + " simplify " + in + " --target-faces 600 --measure --engine out-of-core -o " +
+                         q(dir.file("p.drc")));
+  EXPECT_EQ(ooc.exit_code, 1);
+  EXPECT_FALSE(std::filesystem::exists(dir.file("p.drc")));
+}
+
+TEST(SimplifyTargetCli, TheErrorBoundStopsEarlierThanATargetAndIsReported) {
+  ScratchDir dir;
+  const std::string in = q(fixture("real/homer.off")), report = dir.file("r.json");
+  long last_faces = 0;
+  for (const char* bound : {"0.1%", "0.5%", "2%"}) {
+    auto run = run_command(binary() + " simplify " + in + " --max-error " + bound + " --target-faces 10 -o " +
+                           q(dir.file("o.drc")) + " --report " + q(report));
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const auto json = nlohmann::json::parse(read_file(report));
+    EXPECT_EQ(json["stopped_by"], "max_error") << bound;
+    const double diagonal_pct = std::stod(bound);
+    EXPECT_GT(json["max_error"].get<double>(), 0);
+    EXPECT_LE(json["estimated_error"].get<double>(), json["max_error"].get<double>() * (1 + 1e-12));
+    const long faces = json["output_faces"].get<long>();
+    EXPECT_GT(faces, 10) << bound;
+    if (last_faces > 0) EXPECT_LT(faces, last_faces) << "a looser bound keeps fewer faces: " << bound;
+    last_faces = faces;
+    (void)diagonal_pct;
+  }
+}
+
+TEST(SimplifyTargetCli, BadTargetsAreOneLineAndExitOne) {
+  ScratchDir dir;
+  const std::string in = q(fixture("real/cow.off")), out = q(dir.file("o.drc"));
+  for (const char* bad : {"--target-faces 0", "--ratio 0", "--ratio 1.5", "--ratio -0.1", "--max-error -1",
+                          "--max-error 0", "--max-error abc", "--max-error 1%%", "--target-faces 5805",
+                          "--frequency nope", "--frequency 0", "--ratio 0.1 --orientations 2"}) {
+    auto run = run_command(binary() + " simplify " + in + " " + bad + " -o " + out);
+    EXPECT_EQ(run.exit_code, 1) << bad << ": " << run.err;
+    EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << bad << ": " << run.err;
+    EXPECT_TRUE(std::filesystem::is_empty(dir.path())) << bad;
+  }
+  // Above the input's faces out of core too, once the partition has counted them.
+  auto run = run_command(binary() + " simplify " + in + " --target-faces 5805 --engine out-of-core -o " + out);
+  EXPECT_EQ(run.exit_code, 1) << run.err;
+  EXPECT_NE(run.err.find("above the input's 5804 faces"), std::string::npos) << run.err;
+  EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
+}
+
+}  // namespace
+}  // namespace gaussmesh::testing

@@ -1,0 +1,151 @@
+// The quadric finish's collapses: the face target is met to the face, the topology is kept
+// (closed manifold of genus g in, closed manifold of genus g out; an open surface keeps its
+// boundary loops), no degenerate or duplicate face appears, the error bound stops it, and the
+// result is the same bits run after run.
+#include "stream/finish/quadric_finish.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "stream/core/mesh_topology.h"
+#include "tests/support/shapes.h"
+
+namespace gaussmesh::stream {
+namespace {
+
+using testing::make_genus2;
+using testing::make_sphere;
+using testing::make_torus;
+
+MeshTopology topology(const Mesh& m) {
+  auto t = compute_topology(m.view());
+  EXPECT_TRUE(t.is_ok());
+  return t.is_ok() ? *t : MeshTopology{};
+}
+
+// An open grid over a wavy height field: one boundary loop.
+Mesh wavy_sheet(int n) {
+  Mesh m;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      const float x = float(i) / float(n), y = float(j) / float(n);
+      m.positions.push_back({x, y, 0.1f * std::sin(6 * x) * std::cos(5 * y)});
+    }
+  auto id = [n](int i, int j) { return std::uint32_t(j * (n + 1) + i); };
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      m.triangles.push_back({{id(i, j), id(i + 1, j), id(i + 1, j + 1)}});
+      m.triangles.push_back({{id(i, j), id(i + 1, j + 1), id(i, j + 1)}});
+    }
+  return m;
+}
+
+void expect_same_surface_kind(const Mesh& in, const Mesh& out) {
+  const MeshTopology a = topology(in), b = topology(out);
+  EXPECT_TRUE(b.is_manifold());
+  EXPECT_TRUE(b.consistently_oriented);
+  EXPECT_EQ(b.degenerate_faces, 0u);
+  EXPECT_EQ(b.zero_area_faces, 0u);
+  EXPECT_EQ(b.duplicate_faces, 0u);
+  EXPECT_EQ(b.components, a.components);
+  EXPECT_EQ(b.boundary_loops, a.boundary_loops);
+  EXPECT_EQ(b.genus, a.genus);
+  EXPECT_EQ(b.is_closed(), a.is_closed());
+}
+
+struct Case {
+  const char* name;
+  Mesh input;
+};
+
+std::vector<Case> cases() {
+  return {{"sphere", make_sphere({.vertices = 3000})},
+          {"torus", make_torus(1.0, 0.3, {.vertices = 4000, .noise = 0.001, .seed = 2})},
+          {"genus2", make_genus2({.vertices = 5000})},
+          {"sheet", wavy_sheet(50)}};
+}
+
+TEST(QuadricFinish, MeetsTheFaceTargetAndKeepsTheTopology) {
+  for (const Case& c : cases()) {
+    const std::uint64_t faces = c.input.triangles.size();
+    for (double ratio : {0.5, 0.1, 0.01}) {
+      FinishOptions o;
+      o.target_faces = std::max<std::uint64_t>(40, std::uint64_t(ratio * double(faces)));
+      auto r = finish_in_core(c.input.view(), c.input.view(), o);
+      ASSERT_TRUE(r.is_ok()) << c.name << " " << r.status().to_string();
+      SCOPED_TRACE(std::string(c.name) + " ratio " + std::to_string(ratio));
+      EXPECT_TRUE(r->reached_target);
+      EXPECT_STREQ(r->stopped_by, "target");
+      EXPECT_LE(r->mesh.triangles.size(), o.target_faces);
+      // A collapse removes two faces (one on a boundary): the count lands on the target or one below.
+      EXPECT_GE(r->mesh.triangles.size() + 2, o.target_faces);
+      expect_same_surface_kind(c.input, r->mesh);
+    }
+  }
+}
+
+TEST(QuadricFinish, AnUnreachableTargetStopsAtTheTopologyAndSaysSo) {
+  const Mesh torus = make_torus(1.0, 0.3, {.vertices = 2000});
+  FinishOptions o;
+  o.target_faces = 4;  // a torus needs at least 14 triangles
+  auto r = finish_in_core(torus.view(), torus.view(), o);
+  ASSERT_TRUE(r.is_ok());
+  EXPECT_FALSE(r->reached_target);
+  EXPECT_STREQ(r->stopped_by, "topology");
+  EXPECT_GE(r->mesh.triangles.size(), 14u);
+  expect_same_surface_kind(torus, r->mesh);
+}
+
+TEST(QuadricFinish, TheErrorBoundStopsTheCollapses) {
+  const Mesh sphere = make_sphere({.vertices = 3000});
+  FinishOptions loose, tight;
+  loose.max_error = 0.02;
+  tight.max_error = 0.002;
+  auto a = finish_in_core(sphere.view(), sphere.view(), loose);
+  auto b = finish_in_core(sphere.view(), sphere.view(), tight);
+  ASSERT_TRUE(a.is_ok() && b.is_ok());
+  EXPECT_LE(a->estimated_error, loose.max_error);
+  EXPECT_LE(b->estimated_error, tight.max_error);
+  EXPECT_LT(a->mesh.triangles.size(), b->mesh.triangles.size());
+  EXPECT_LT(b->mesh.triangles.size(), sphere.triangles.size());
+  EXPECT_STREQ(b->stopped_by, "max_error");
+  // A unit sphere's vertices stay near radius 1 (the estimate is a mean, so allow a few times it).
+  for (const auto& p : b->mesh.positions) EXPECT_NEAR(std::sqrt(p.x * p.x + p.y * p.y + p.z * p.z), 1.0, 0.02);
+}
+
+TEST(QuadricFinish, SameBitsEveryRun) {
+  const Mesh torus = make_torus(1.0, 0.3, {.vertices = 4000, .noise = 0.002, .seed = 5});
+  const Mesh coarse = make_torus(1.0, 0.3, {.vertices = 1500});
+  FinishOptions o;
+  o.target_faces = 500;
+  auto a = finish_in_core(torus.view(), coarse.view(), o);
+  auto b = finish_in_core(torus.view(), coarse.view(), o);
+  ASSERT_TRUE(a.is_ok() && b.is_ok());
+  ASSERT_EQ(a->mesh.positions.size(), b->mesh.positions.size());
+  ASSERT_EQ(a->mesh.triangles.size(), b->mesh.triangles.size());
+  for (std::size_t i = 0; i < a->mesh.positions.size(); ++i) {
+    EXPECT_EQ(a->mesh.positions[i].x, b->mesh.positions[i].x);
+    EXPECT_EQ(a->mesh.positions[i].y, b->mesh.positions[i].y);
+    EXPECT_EQ(a->mesh.positions[i].z, b->mesh.positions[i].z);
+  }
+  for (std::size_t i = 0; i < a->mesh.triangles.size(); ++i)
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(a->mesh.triangles[i].v[k], b->mesh.triangles[i].v[k]);
+}
+
+TEST(QuadricFinish, ResolvesRatiosAndRelativeErrors) {
+  FinishTarget t;
+  t.ratio = 0.1;
+  EXPECT_EQ(resolve_finish(t, 5804, 2.0).target_faces, 580u);
+  t.faces = 100;  // both: the smaller wins (the first reached)
+  EXPECT_EQ(resolve_finish(t, 5804, 2.0).target_faces, 100u);
+  t = {};
+  t.max_error = 0.5;
+  t.max_error_relative = true;  // percent of the diagonal
+  EXPECT_DOUBLE_EQ(resolve_finish(t, 10, 2.0).max_error, 0.01);
+  EXPECT_FALSE(check_finish_target({.target_faces = 11}, 10, "in").is_ok());
+  EXPECT_TRUE(check_finish_target({.target_faces = 10}, 10, "in").is_ok());
+}
+
+}  // namespace
+}  // namespace gaussmesh::stream
