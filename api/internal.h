@@ -26,7 +26,7 @@ using Json = nlohmann::ordered_json;
 // drawn from the seed; orientation k > 0 is drawn from seed + k. kUsage for a frequency out of
 // range, a malformed or zero rotation, or no orientation.
 Result<std::vector<stream::GaussSphereOptions>> gauss_spheres(const SamplingOptions& options);
-// --frequency auto with a target: G at frequencies 1, 2, 4, … kMaxFrequency, in that order, the
+// --frequency auto with a target: G at frequencies 1, 2, 4, … kMaxAutoFrequency, in that order, the
 // first whose sampling reaches the finish's sample count kept (stream::finish_min_samples).
 Result<std::vector<stream::GaussSphereOptions>> frequency_ladder(const SamplingOptions& options);
 stream::SamplerOptions sampler_options(const SamplingOptions& options);

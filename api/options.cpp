@@ -43,7 +43,7 @@ Result<std::vector<stream::GaussSphereOptions>> frequency_ladder(const SamplingO
   auto base = gauss_spheres(one);
   if (!base) return base.status();
   std::vector<stream::GaussSphereOptions> ladder;
-  for (std::uint32_t f = 1; f <= stream::kMaxGaussFrequency; f *= 2) {
+  for (std::uint32_t f = 1; f <= kMaxAutoFrequency; f *= 2) {
     stream::GaussSphereOptions s = (*base)[0];
     s.frequency = f;
     ladder.push_back(s);

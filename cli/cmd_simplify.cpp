@@ -97,6 +97,13 @@ int run_simplify(const SimplifyArgs& args, const std::function<bool(const char*)
   const Sink sink = Sink::file(args.output, *output_format);
   auto stats = simplify(Source::file(args.input, input_format), sink, options);
   if (!stats) return report_error(stats.status());
+  if (stats->stopped_by == "approximation") {
+    std::fprintf(stderr,
+                 "gaussmesh: %s: %llu faces, below the target of %llu: the Gauss approximation has no more "
+                 "(--frequency auto stops at %u; a higher --frequency costs memory and time)\n",
+                 args.input == "-" ? "<stdin>" : args.input.c_str(), static_cast<unsigned long long>(stats->output_faces),
+                 static_cast<unsigned long long>(stats->target_faces), kMaxAutoFrequency);
+  }
   if (stats->stopped_by == "topology") {
     std::fprintf(stderr,
                  "gaussmesh: %s: %llu faces, above the target of %llu: every further collapse would change the "

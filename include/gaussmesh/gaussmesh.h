@@ -81,6 +81,9 @@ inline constexpr std::uint32_t kDefaultFrequency = 4;
 // SamplingOptions::frequency: chosen from the target (docs/finish.md); kDefaultFrequency when the
 // job has no target.
 inline constexpr std::uint32_t kAutoFrequency = 0;
+// The finest frequency auto picks: G's memory grows with f² (about 12 MB at 64, 800 MB at 512),
+// and one choice for every --memory keeps the output the same in and out of core.
+inline constexpr std::uint32_t kMaxAutoFrequency = 64;
 inline constexpr std::uint32_t kMaxFrequency = 512;
 inline constexpr std::uint64_t kDefaultSeed = 1;
 
@@ -171,8 +174,10 @@ struct SimplifyStats {
   std::uint64_t target_faces = 0;  // the face target the run resolved (0: none)
   std::uint64_t approximation_faces = 0;  // the Gauss approximation's faces, before the finish
   double estimated_error = 0;      // the finish's largest estimated collapse error, input units
-  // What ended the finish (empty without one): "target", "max_error", or "topology" (the face
-  // target is out of reach: every further collapse would change the topology or fold a face).
+  // What ended the finish (empty without one): "target", "max_error", "topology" (the face
+  // target is out of reach: every further collapse would change the topology or fold a face),
+  // or "approximation" (the Gauss approximation at kMaxAutoFrequency, or at the frequency given,
+  // has no more faces than the target: there was nothing to collapse).
   std::string stopped_by;
   // With TargetOptions::measure: the symmetric Hausdorff and RMS distance between input and
   // output (compare()'s defaults), in input units, and the input's diagonal they are relative to.

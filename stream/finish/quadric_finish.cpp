@@ -58,7 +58,8 @@ format::Result<FinishResult> finish_from_sums(MeshView approximation, const Face
   r.refused = decimated->refused;
   r.estimated_error = decimated->estimated_error * quadrics.frame().scale;
   r.reached_target = decimated->reached_target;
-  if (options.target_faces == 0 || decimated->reached_target) r.stopped_by = decimated->over_error > 0 && options.target_faces == 0 ? "max_error" : "target";
+  if (options.target_faces > 0 && r.approximation_faces <= options.target_faces) r.stopped_by = "approximation";
+  else if (options.target_faces == 0 || decimated->reached_target) r.stopped_by = decimated->over_error > 0 && options.target_faces == 0 ? "max_error" : "target";
   else r.stopped_by = decimated->over_error > 0 ? "max_error" : "topology";
   r.seconds_decimate = seconds_since(start);
   return r;

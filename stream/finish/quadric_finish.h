@@ -59,7 +59,8 @@ struct FinishResult {
   bool reached_target = false;
   // What ended the collapses: "target" (the face target, or no collapse left without one),
   // "max_error" (every further collapse passes the error bound), "topology" (every further one
-  // breaks the link condition, flips or degenerates a face).
+  // breaks the link condition, flips or degenerates a face), "approximation" (the Gauss
+  // approximation had no more faces than the target).
   const char* stopped_by = "target";
   double seconds_quadrics = 0, seconds_decimate = 0;
 };

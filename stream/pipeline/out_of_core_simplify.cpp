@@ -733,15 +733,27 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition& partition, std::
 // sample to mesh for the chosen sphere, the finish.
 format::Result<OutOfCoreSimplify> simplify_sampled(Partition& partition_ref, const std::vector<GaussSphere>& spheres,
                                                    const OutOfCoreSimplifyOptions& options, OutOfCoreSimplify base);
+format::Result<OutOfCoreSimplify> simplify_ladder(Partition& partition, const OutOfCoreSimplifyOptions& options,
+                                                  OutOfCoreSimplify base);
 
 }  // namespace
 
 format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_path, const format::ReadOptions& read,
                                                        const OutOfCoreSimplifyOptions& options) {
   GM_RETURN_IF_ERROR(check_out_of_core_options("simplify", options.spheres, options.threads));
-  auto created = create_spheres(options.spheres);
-  if (!created) return created.status();
-  const std::vector<GaussSphere>& spheres = *created;
+  // The frequency ladder (auto, exact test) creates its spheres pass by pass.
+  const bool ladder = options.auto_frequency && options.finish.any() && options.spheres.size() > 1 &&
+                      options.sampler.sample_test != SampleTest::kPaper;
+  std::vector<GaussSphere> spheres;
+  if (!ladder) {
+    auto created = create_spheres(options.spheres);
+    if (!created) return created.status();
+    spheres = std::move(created).value();
+  } else {
+    // The first rung (frequency 1) is cheap: creating it checks the rotation all rungs share.
+    auto first = GaussSphere::create(options.spheres.front());
+    if (!first) return first.status();
+  }
   auto partition = partition_for_chunks(input_path, read, options.partition, options.memory, options.sampler, options.threads);
   if (!partition) return partition.status();
   OutOfCoreSimplify base;
@@ -752,12 +764,74 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     OutOfCoreSimplifyOptions resolved = options;
     resolved.min_samples = finish_min_samples(base.finish_options, partition->faces);
     resolved.auto_frequency = false;
+    if (ladder) return simplify_ladder(*partition, resolved, std::move(base));
     return simplify_sampled(*partition, spheres, resolved, std::move(base));
   }
   return simplify_sampled(*partition, spheres, options, std::move(base));
 }
 
 namespace {
+
+// --frequency auto, exact test: the ladder's sample counts from counting passes over the chunks
+// (the cheap frequencies, up to kLadderGroupFrequency, in one pass; each finer one in a pass of
+// its own, only while none has reached min_samples), so that no finer sphere than the chosen
+// one is ever sampled; then the whole run with the chosen sphere. The counts are the in-core
+// run's, so the choice is too.
+constexpr std::uint32_t kLadderGroupFrequency = 16;
+
+format::Result<OutOfCoreSimplify> simplify_ladder(Partition& partition, const OutOfCoreSimplifyOptions& options,
+                                                  OutOfCoreSimplify base) {
+  const auto start = Clock::now();
+  const std::vector<GaussSphereOptions>& ladder = options.spheres;
+  std::vector<std::size_t> counts;
+  std::size_t chosen = ladder.size() - 1;
+  bool found = false;
+  for (std::size_t next = 0; next < ladder.size() && !found;) {
+    std::size_t end = next + 1;
+    while (end < ladder.size() && ladder[end].frequency <= kLadderGroupFrequency) ++end;
+    // Only this pass's spheres are held: a finer G costs memory (~3 KB per f²).
+    auto created = create_spheres(std::vector<GaussSphereOptions>(ladder.begin() + next, ladder.begin() + end));
+    if (!created) return created.status();
+    const std::vector<GaussSphere>& spheres = *created;
+    std::vector<std::size_t> part(end - next, 0);
+    std::mutex mutex;
+    GM_RETURN_IF_ERROR(for_each_chunk(
+        partition, options.threads,
+        [&](std::size_t, const ChunkMesh& chunk, ChunkSamplerWorkspace& ws) {
+          std::vector<std::size_t> mine(end - next, 0);
+          for (std::size_t k = next; k < end; ++k) {
+            std::vector<GlobalSample> samples;
+            ChunkSamplingStats stats;
+            GM_RETURN_IF_ERROR(sample_chunk(chunk, spheres[k - next], options.sampler, ws, samples, stats));
+            mine[k - next] = samples.size();
+          }
+          std::lock_guard<std::mutex> lock(mutex);
+          for (std::size_t i = 0; i < mine.size(); ++i) part[i] += mine[i];
+          return format::Status();
+        },
+        [&](std::size_t done, std::size_t total) {
+          if (options.progress) options.progress("frequency", done, total, partition.faces);
+        },
+        options.memory));
+    for (std::size_t k = next; k < end && !found; ++k) {
+      counts.push_back(part[k - next]);
+      if (counts.back() >= options.min_samples) chosen = k, found = true;
+    }
+    next = end;
+  }
+  const double seconds_ladder = seconds_since(start);
+  OutOfCoreSimplifyOptions one = options;
+  one.min_samples = 0;
+  one.spheres = {ladder[chosen]};
+  auto sphere = create_spheres(one.spheres);
+  if (!sphere) return sphere.status();
+  auto run = simplify_partition(partition, std::span(sphere->data(), 1), one, std::move(base), true);
+  if (!run) return run.status();
+  run->chosen = chosen;
+  run->samples_per_orientation = counts;
+  run->seconds_sample += seconds_ladder;
+  return run;
+}
 
 format::Result<OutOfCoreSimplify> simplify_sampled(Partition& partition_ref, const std::vector<GaussSphere>& spheres,
                                                    const OutOfCoreSimplifyOptions& options, OutOfCoreSimplify base) {

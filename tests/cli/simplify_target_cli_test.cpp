@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "gaussmesh/gaussmesh.h"
 #include "stream/core/mesh.h"
 #include "stream/core/mesh_topology.h"
 #include "tests/support/test_util.h"
@@ -51,6 +52,12 @@ TEST(SimplifyTargetCli, EveryFixtureLandsOnTheTargetAndKeepsItsTopology) {
         // Short of it only where every further collapse would break the topology: said on stderr.
         EXPECT_GT(faces, target);
         EXPECT_NE(run.err.find("above the target"), std::string::npos) << run.err;
+      } else if (json["stopped_by"] == "approximation") {
+        // Or where the finest automatic approximation has fewer faces than asked: said too.
+        EXPECT_LT(faces, target);
+        EXPECT_EQ(json["gauss_frequency"].get<long>(), long(kMaxAutoFrequency));
+        EXPECT_EQ(faces, json["approximation_faces"].get<long>());
+        EXPECT_NE(run.err.find("below the target"), std::string::npos) << run.err;
       } else {
         EXPECT_EQ(json["stopped_by"], "target");
         EXPECT_LE(faces, target);
