@@ -33,6 +33,7 @@
 #include "stream/partition/chunk_partition.h"
 #include "stream/core/mesh.h"
 #include "stream/core/mesh_adjacency.h"
+#include "tests/support/scattered_copy.h"
 #include "tests/support/child_process.h"
 
 namespace gaussmesh::bench {
@@ -103,27 +104,6 @@ int child_main(int argc, char** argv) {
     std::printf("load_cpu=%.3f adjacency_cpu=%.3f\n", load, adjacency);
   }
   return 0;
-}
-
-// Writes a copy of the PLY at in with vertex ids and face order shuffled (fixed seed).
-bool write_shuffled(const fs::path& in, const fs::path& out, std::uint64_t seed) {
-  auto mesh = stream::load_mesh(in.string());
-  if (!mesh) return false;
-  std::mt19937_64 rng(seed);
-  std::vector<std::uint32_t> to_new(mesh->positions.size());
-  std::iota(to_new.begin(), to_new.end(), 0u);
-  std::shuffle(to_new.begin(), to_new.end(), rng);
-  std::vector<format::Vec3f> positions(mesh->positions.size());
-  for (std::size_t v = 0; v < positions.size(); ++v) positions[to_new[v]] = mesh->positions[v];
-  mesh->positions.swap(positions);
-  std::vector<format::Vec3f>().swap(positions);
-  for (auto& t : mesh->triangles)
-    for (auto& v : t.v) v = to_new[v];
-  std::shuffle(mesh->triangles.begin(), mesh->triangles.end(), rng);
-  auto file = format::OutputFile::create(out.string(), true);
-  if (!file) return false;
-  if (!format::write_ply(**file, mesh->view(), {}).is_ok()) return false;
-  return (*file)->commit().is_ok();
 }
 
 int usage() {
@@ -205,7 +185,7 @@ int main(int argc, char** argv) {
     std::vector<std::pair<std::string, fs::path>> inputs = {{"ordered", input}};
     if (size <= shuffle_max) {
       const fs::path shuffled = work / ("shuffled-" + std::to_string(size) + ".ply");
-      if (write_shuffled(input, shuffled, 7)) inputs.push_back({"shuffled", shuffled});
+      if (gaussmesh::testing::write_scattered_copy(input.string(), shuffled.string(), 7)) inputs.push_back({"shuffled", shuffled});
     }
     for (const auto& [order, path] : inputs) {
       const fs::path tmp = work / "tmp";
