@@ -99,6 +99,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   api::set_streaming_options(options, o.resources, memory, spheres, sampler);
   options.finish = finish_target(o.target);
   options.auto_frequency = o.sampling.frequency == kAutoFrequency;
+  options.memory_explicit = o.resources.memory_bytes != 0;
   if (o.resources.progress) {
     const ProgressFn& progress = o.resources.progress;
     options.progress = [&progress](const char* pass, std::size_t done, std::size_t total, std::uint64_t faces) {
@@ -135,6 +136,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   report["mesher"] = "patch";
   report["out_of_core"] = true;
   report["memory_bytes"] = memory;
+  if (result->finish_memory_estimate > 0) report["finish_memory_estimate_bytes"] = result->finish_memory_estimate;
   report["threads"] = options.threads;
   report["chunks"] = result->chunks;
   report["bytes_spilled"] = result->bytes_spilled;

@@ -51,6 +51,16 @@ inline constexpr double kFinishOversampling = 8;
 inline constexpr double kFinishMaxSampleShare = 0.45;
 std::uint64_t finish_min_samples(const FinishOptions& options, std::uint64_t input_faces);
 
+// Out of core, what an approximation with `samples` samples costs at the peak of the stitch,
+// mesh and finish passes (about two faces a sample) with G at `frequency` (~3 KB per f²): their
+// structures grow with the approximation, not with the input (docs/finish.md, "Memory"). An
+// estimate from measurements, not a bound.
+inline constexpr std::uint64_t kFinishBytesPerFace = 2048;
+inline constexpr std::uint64_t kGaussBytesPerFrequencySquared = 3072;
+inline std::uint64_t finish_memory_estimate(std::uint64_t samples, std::uint32_t frequency) {
+  return kGaussBytesPerFrequencySquared * frequency * frequency + 2 * samples * kFinishBytesPerFace;
+}
+
 struct FinishResult {
   Mesh mesh;
   std::uint64_t approximation_faces = 0;  // the Gauss approximation's faces, before the finish

@@ -820,6 +820,20 @@ format::Result<OutOfCoreSimplify> simplify_ladder(Partition& partition, const Ou
     next = end;
   }
   const double seconds_ladder = seconds_since(start);
+  // The stitch, the mesher and the finish hold the approximation: about two faces per sample,
+  // kFinishBytesPerFace each at their peak. An explicit budget is a contract (refuse what would
+  // pass it); the automatic one grows to what the target needs.
+  const std::uint64_t need = finish_memory_estimate(counts[chosen], ladder[chosen].frequency);
+  base.finish_memory_estimate = need;
+  if (need > options.memory.bytes()) {
+    if (options.memory_explicit) {
+      return format::Status::error(
+          format::Code::kResources, "--memory",
+          "the target needs an approximation of about " + std::to_string(2 * counts[chosen]) + " faces, about " +
+              std::to_string(need >> 20) + " MiB, above the budget of " + std::to_string(options.memory.bytes() >> 20) +
+              " MiB: raise --memory or lower the target");
+    }
+  }
   OutOfCoreSimplifyOptions one = options;
   one.min_samples = 0;
   one.spheres = {ladder[chosen]};

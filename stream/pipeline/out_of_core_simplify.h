@@ -51,6 +51,10 @@ struct OutOfCoreSimplifyOptions {
   // auto_frequency for that) and a quadrics pass over the chunks runs after the mesh pass.
   FinishTarget finish;
   bool auto_frequency = false;
+  // `memory` was given by the user: a target whose approximation would not fit it is refused
+  // (kResources) rather than run past it. Otherwise the passes that hold the approximation
+  // take what it needs (finish_memory_estimate).
+  bool memory_explicit = false;
   SamplerOptions sampler;
   // (pass name, chunks done, chunks, input faces) after each chunk.
   std::function<void(const char*, std::size_t, std::size_t, std::uint64_t)> progress;
@@ -64,6 +68,7 @@ struct OutOfCoreSimplify {
   Mesh mesh;  // after the finish, when there is one
   FinishOptions finish_options;        // the resolved target
   std::optional<FinishResult> finish;  // its figures (its mesh moved into `mesh`)
+  std::uint64_t finish_memory_estimate = 0;  // --frequency auto: what the chosen approximation needs
   std::vector<std::uint32_t> birth;
   std::array<double, 4> rotation{};
   std::size_t chosen = 0;

@@ -83,12 +83,14 @@ TEST(SimplifyTargetCli, InCoreOutOfCoreAndPipeGiveTheSameBytes) {
     for (const std::string target : {"--ratio 0.1", "--target-faces 300 --max-error 1%"}) {
       SCOPED_TRACE(std::string(name) + " " + target);
       ASSERT_EQ(run_command(binary() + " simplify " + in + " " + target + " -o " + q(dir.file("a.drc"))).exit_code, 0);
+      // 64M: under 16M the finer approximations some of these targets need are refused (the
+      // next test).
       const auto ooc = run_command(binary() + " simplify " + in + " " + target + " -o " + q(dir.file("b.drc")) +
-                                   " --memory 16M --engine out-of-core --tmp " + q(tmp.path().string()));
+                                   " --memory 64M --engine out-of-core --tmp " + q(tmp.path().string()));
       ASSERT_EQ(ooc.exit_code, 0) << ooc.err;
       const std::string ext = std::string(name).substr(std::string(name).rfind('.') + 1);
       const auto piped = run_command("cat " + in + " | " + binary() + " simplify - --input-format " + ext + " " + target +
-                                     " -o - --memory 16M --threads 1 --tmp " + q(tmp.path().string()) + " > " +
+                                     " -o - --memory 64M --threads 1 --tmp " + q(tmp.path().string()) + " > " +
                                      q(dir.file("c.drc")));
       ASSERT_EQ(piped.exit_code, 0) << piped.err;
       const std::string a = read_file(dir.file("a.drc"));
@@ -98,6 +100,26 @@ TEST(SimplifyTargetCli, InCoreOutOfCoreAndPipeGiveTheSameBytes) {
       EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
     }
   }
+}
+
+TEST(SimplifyTargetCli, AnApproximationAboveAnExplicitBudgetIsRefused) {
+  ScratchDir dir, tmp;
+  // mech-holes-shark at 50 % needs G at frequency 64 and ~9,400 faces: more than 16 MiB.
+  const std::string in = q(fixture("real/mech-holes-shark.off")), out = dir.file("o.drc");
+  auto run = run_command(binary() + " simplify " + in + " --ratio 0.5 --memory 16M --tmp " + q(tmp.path().string()) +
+                         " -o " + q(out));
+  EXPECT_EQ(run.exit_code, 5) << run.err;
+  EXPECT_NE(run.err.find("raise --memory or lower the target"), std::string::npos) << run.err;
+  EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+  EXPECT_FALSE(std::filesystem::exists(out));
+  EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
+  // Without --memory the automatic budget takes what the approximation needs.
+  auto automatic = run_command("cat " + in + " | " + binary() + " simplify - --input-format off --ratio 0.5 --tmp " +
+                               q(tmp.path().string()) + " -o " + q(out) + " --report " + q(dir.file("r.json")));
+  EXPECT_EQ(automatic.exit_code, 0) << automatic.err;
+  const auto json = nlohmann::json::parse(read_file(dir.file("r.json")));
+  EXPECT_EQ(json["out_of_core"], true);
+  EXPECT_GT(json["finish_memory_estimate_bytes"].get<double>(), 16.0 * (1 << 20));  // above what 16M would allow
 }
 
 TEST(SimplifyTargetCli, MeasureReportsTheDistanceToTheInput) {
