@@ -80,6 +80,30 @@ TEST(GaussmeshApi, BothEnginesGiveTheSameMesh) {
   }
 }
 
+TEST(GaussmeshApi, AFaceTargetGivesThatManyFacesInBothEngines) {
+  ScratchDir tmp;
+  Mesh in_core, streamed;
+  SimplifyOptions options;
+  options.target.faces = 400;
+  options.resources.engine = Engine::kInCore;
+  auto a = simplify(Source::file(fixture("real/knot1.off")), Sink::memory(&in_core), options);
+  ASSERT_TRUE(a) << a.status().to_string();
+  EXPECT_EQ(a->target_faces, 400u);
+  EXPECT_EQ(a->output_faces, 400u);
+  EXPECT_EQ(a->stopped_by, "target");
+  EXPECT_GT(a->approximation_faces, 400u);
+  auto measured = info(Source::memory(in_core.view()));
+  ASSERT_TRUE(measured) << measured.status().to_string();
+  EXPECT_TRUE(measured->closed && measured->manifold);
+  EXPECT_EQ(measured->genus, std::optional<long long>(1));  // the knot is a torus
+  options.resources.engine = Engine::kOutOfCore;
+  options.resources.tmp_dir = tmp.path().string();
+  auto b = simplify(Source::file(fixture("real/knot1.off")), Sink::memory(&streamed), options);
+  ASSERT_TRUE(b) << b.status().to_string();
+  EXPECT_EQ(in_core.positions, streamed.positions);
+  EXPECT_EQ(in_core.triangles, streamed.triangles);
+}
+
 TEST(GaussmeshApi, AFilesBytesInMemoryReadAsTheFile) {
   const std::string bytes = testing::read_file(fixture("real/cow.off"));
   Mesh from_bytes, from_file;
@@ -138,11 +162,20 @@ TEST(GaussmeshApi, ErrorsAreValuesWithTheirCode) {
   EXPECT_EQ(choice.status().code(), Code::kUsage);
 
   SimplifyOptions bad_frequency;
-  bad_frequency.sampling.frequency = 0;
+  bad_frequency.sampling.frequency = kMaxFrequency + 1;  // 0 is kAutoFrequency
   Mesh out;
   auto stats = simplify(Source::file(fixture("real/cow.off")), Sink::memory(&out), bad_frequency);
   ASSERT_FALSE(stats);
   EXPECT_EQ(stats.status().code(), Code::kUsage);
+
+  for (auto set : {+[](TargetOptions& t) { t.ratio = 1.5; }, +[](TargetOptions& t) { t.max_error = -1; },
+                   +[](TargetOptions& t) { t.faces = 5805; }}) {
+    SimplifyOptions bad_target;
+    set(bad_target.target);
+    stats = simplify(Source::file(fixture("real/cow.off")), Sink::memory(&out), bad_target);
+    ASSERT_FALSE(stats);
+    EXPECT_EQ(stats.status().code(), Code::kUsage) << stats.status().to_string();
+  }
 
   stats = simplify(Source::file(fixture("bad/invalid.off")), Sink::memory(&out));
   ASSERT_FALSE(stats);
