@@ -48,7 +48,7 @@ format::Result<FinishResult> finish_from_sums(MeshView approximation, const Face
   const auto start = Clock::now();
   DecimationOptions d;
   d.target_faces = options.target_faces;
-  d.max_error = options.max_error / quadrics.frame().scale;
+  d.max_error = options.max_error / kMaxErrorMargin / quadrics.frame().scale;
   auto decimated = decimate(approximation, sums, quadrics.frame(), d);
   if (!decimated) return decimated.status();
   FinishResult r;
