@@ -36,7 +36,10 @@ format::Status check_finish_target(const FinishOptions& options, std::uint64_t i
 }
 
 std::uint64_t finish_min_samples(const FinishOptions& options, std::uint64_t input_faces) {
-  const double faces = options.target_faces > 0 ? double(options.target_faces) : double(input_faces) / 8;
+  // An error bound wants the finest approximation whatever the face target: a coarse one would
+  // be further off than the bound before any collapse.
+  const double faces = options.target_faces > 0 && !std::isfinite(options.max_error) ? double(options.target_faces)
+                                                                                     : double(input_faces) / 8;
   // No more than the finest approximations reach: about as many samples as the input has
   // vertices, which is about half its faces.
   const double cap = kFinishMaxSampleShare * double(input_faces);

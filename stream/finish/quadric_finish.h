@@ -49,8 +49,8 @@ format::Status check_finish_target(const FinishOptions& options, std::uint64_t i
 
 // How many samples the Gauss approximation should reach (--frequency auto) so that the finish
 // has kFinishOversampling times the target's faces to collapse from (about two faces per
-// sample), at most kFinishMaxSampleShare of the input's faces; with an error bound only, an
-// eighth of the input's faces. docs/finish.md has the measurements behind both.
+// sample), at most kFinishMaxSampleShare of the input's faces; with an error bound (with or
+// without a face target), an eighth of the input's faces. docs/finish.md has the measurements behind both.
 inline constexpr double kFinishOversampling = 8;
 inline constexpr double kFinishMaxSampleShare = 0.45;
 std::uint64_t finish_min_samples(const FinishOptions& options, std::uint64_t input_faces);

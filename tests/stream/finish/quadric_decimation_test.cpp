@@ -100,8 +100,8 @@ TEST(QuadricFinish, AnUnreachableTargetStopsAtTheTopologyAndSaysSo) {
 TEST(QuadricFinish, TheErrorBoundStopsTheCollapses) {
   const Mesh sphere = make_sphere({.vertices = 3000});
   FinishOptions loose, tight;
-  loose.max_error = 0.02;
-  tight.max_error = 0.002;
+  loose.max_error = 0.08;  // held to an eighth: kMaxErrorMargin
+  tight.max_error = 0.02;
   auto a = finish_in_core(sphere.view(), sphere.view(), loose);
   auto b = finish_in_core(sphere.view(), sphere.view(), tight);
   ASSERT_TRUE(a.is_ok() && b.is_ok());
