@@ -4,6 +4,7 @@
 // pipeline adds them chunk by chunk into the same fixed-point sums, so both reach the same mesh.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -55,14 +56,16 @@ inline constexpr double kFinishOversampling = 8;
 inline constexpr double kFinishMaxSampleShare = 0.45;
 std::uint64_t finish_min_samples(const FinishOptions& options, std::uint64_t input_faces);
 
-// Out of core, what an approximation with `samples` samples costs at the peak of the stitch,
-// mesh and finish passes (about two faces a sample) with G at `frequency` (~3 KB per f²): their
-// structures grow with the approximation, not with the input (docs/finish.md, "Memory"). An
-// estimate from measurements, not a bound.
+// Out of core, the peak of the stitch, mesh and finish passes with an approximation of `samples`
+// samples (about two faces each, kFinishBytesPerFace a face) and G at `frequency` (~3 KB per
+// f²), on top of what the process keeps from the earlier passes (12 MiB, and up to 24 MiB more
+// as the input grows). Fitted to measured peaks with a margin (docs/finish.md, "Memory"): an
+// estimate, not a bound.
 inline constexpr std::uint64_t kFinishBytesPerFace = 2048;
 inline constexpr std::uint64_t kGaussBytesPerFrequencySquared = 3072;
-inline std::uint64_t finish_memory_estimate(std::uint64_t samples, std::uint32_t frequency) {
-  return kGaussBytesPerFrequencySquared * frequency * frequency + 2 * samples * kFinishBytesPerFace;
+inline std::uint64_t finish_memory_estimate(std::uint64_t samples, std::uint32_t frequency, std::uint64_t input_faces) {
+  const std::uint64_t kept = (std::uint64_t{12} << 20) + std::min<std::uint64_t>(std::uint64_t{24} << 20, 256 * input_faces);
+  return kept + kGaussBytesPerFrequencySquared * frequency * frequency + 2 * samples * kFinishBytesPerFace;
 }
 
 struct FinishResult {

@@ -823,7 +823,7 @@ format::Result<OutOfCoreSimplify> simplify_ladder(Partition& partition, const Ou
   // The stitch, the mesher and the finish hold the approximation: about two faces per sample,
   // kFinishBytesPerFace each at their peak. An explicit budget is a contract (refuse what would
   // pass it); the automatic one grows to what the target needs.
-  const std::uint64_t need = finish_memory_estimate(counts[chosen], ladder[chosen].frequency);
+  const std::uint64_t need = finish_memory_estimate(counts[chosen], ladder[chosen].frequency, partition.faces);
   base.finish_memory_estimate = need;
   if (need > options.memory.bytes()) {
     if (options.memory_explicit) {
