@@ -81,31 +81,44 @@ std::uint64_t FaceQuadrics::cell_key(std::int64_t i, std::int64_t j, std::int64_
   return axis(i) << 42 | axis(j) << 21 | axis(k);
 }
 
-std::uint32_t FaceQuadrics::nearest(const Vec3dq& point, const Vec3dq& normal) const {
-  const std::int64_t ci = std::int64_t(std::floor(point.x / cell_));
-  const std::int64_t cj = std::int64_t(std::floor(point.y / cell_));
-  const std::int64_t ck = std::int64_t(std::floor(point.z / cell_));
-  // Best facing vertex, and best of any orientation (used when no vertex faces the face's side
-  // within the search), both by (squared distance, id).
-  double best_facing = std::numeric_limits<double>::infinity(), best_any = best_facing;
-  std::uint32_t facing = UINT32_MAX, any = UINT32_MAX;
+void FaceQuadrics::nearest(const Vec3dq* points, int count, const Vec3dq& normal, std::uint32_t* out) const {
+  // All the points share the first one's cell (add_face checks): one search visits the cells for
+  // all of them, each point keeping its own best and its own stopping shell, so the answer for a
+  // point is the one a search for it alone would give.
+  const std::int64_t ci = std::int64_t(std::floor(points[0].x / cell_));
+  const std::int64_t cj = std::int64_t(std::floor(points[0].y / cell_));
+  const std::int64_t ck = std::int64_t(std::floor(points[0].z / cell_));
+  // Per point: the best facing vertex and the best of any orientation (used when no vertex faces
+  // the point's side within kFacingShells), both by (squared distance, id).
+  double best_facing[3], best_any[3];
+  std::uint32_t facing[3], any[3];
+  bool done[3] = {false, false, false};
+  for (int p = 0; p < count; ++p) {
+    best_facing[p] = best_any[p] = std::numeric_limits<double>::infinity();
+    facing[p] = any[p] = UINT32_MAX;
+  }
   auto visit = [&](std::int64_t i, std::int64_t j, std::int64_t k) {
     auto it = cells_.find(cell_key(i, j, k));
     if (it == cells_.end()) return;
     for (std::uint32_t s = it->second.first; s < it->second.second; ++s) {
       const std::uint32_t v = cell_vertices_[s];
-      const Vec3dq d = sub(positions_[v], point);
-      const double d2 = dot(d, d);
-      if (d2 < best_any || (d2 == best_any && v < any)) best_any = d2, any = v;
-      if (dot(normals_[v], normal) > 0 && (d2 < best_facing || (d2 == best_facing && v < facing)))
-        best_facing = d2, facing = v;
+      const bool faces_side = dot(normals_[v], normal) > 0;
+      for (int p = 0; p < count; ++p) {
+        if (done[p]) continue;
+        const Vec3dq d = sub(positions_[v], points[p]);
+        const double d2 = dot(d, d);
+        if (d2 < best_any[p] || (d2 == best_any[p] && v < any[p])) best_any[p] = d2, any[p] = v;
+        if (faces_side && (d2 < best_facing[p] || (d2 == best_facing[p] && v < facing[p])))
+          best_facing[p] = d2, facing[p] = v;
+      }
     }
   };
-  // Shells of cells at Chebyshev radius r: a vertex in shell r + 1 is at least r cells away.
   constexpr std::int64_t kFacingShells = 6;
   // Every vertex lies within the frame's unit box, so shells beyond 2 / cell_ find nothing new.
   const std::int64_t max_shell = std::int64_t(std::ceil(2.0 / cell_)) + 1;
-  for (std::int64_t r = 0; r <= max_shell; ++r) {
+  int left = count;
+  for (std::int64_t r = 0; r <= max_shell && left > 0; ++r) {
+    // Shell r: the cells at Chebyshev distance r from the centre cell.
     for (std::int64_t i = ci - r; i <= ci + r; ++i)
       for (std::int64_t j = cj - r; j <= cj + r; ++j) {
         const bool edge = i == ci - r || i == ci + r || j == cj - r || j == cj + r;
@@ -116,14 +129,81 @@ std::uint32_t FaceQuadrics::nearest(const Vec3dq& point, const Vec3dq& normal) c
           if (r > 0) visit(i, j, ck + r);
         }
       }
-    const double reach = double(r) * cell_;
-    if (facing != UINT32_MAX && best_facing <= reach * reach) return facing;
-    if (r >= kFacingShells && any != UINT32_MAX && best_any <= reach * reach) return facing != UINT32_MAX ? facing : any;
+    // A vertex not yet visited lies outside the searched box: at least `reach` from the point.
+    const double lo_x = double(ci - r) * cell_, hi_x = double(ci + r + 1) * cell_;
+    const double lo_y = double(cj - r) * cell_, hi_y = double(cj + r + 1) * cell_;
+    const double lo_z = double(ck - r) * cell_, hi_z = double(ck + r + 1) * cell_;
+    for (int p = 0; p < count; ++p) {
+      if (done[p]) continue;
+      const Vec3dq& q = points[p];
+      const double reach = std::max(0.0, std::min({q.x - lo_x, hi_x - q.x, q.y - lo_y, hi_y - q.y, q.z - lo_z, hi_z - q.z}));
+      if (facing[p] != UINT32_MAX && best_facing[p] <= reach * reach) {
+        out[p] = facing[p];
+      } else if (r >= kFacingShells && any[p] != UINT32_MAX && best_any[p] <= reach * reach) {
+        out[p] = facing[p] != UINT32_MAX ? facing[p] : any[p];
+      } else {
+        continue;
+      }
+      done[p] = true;
+      --left;
+    }
   }
-  return facing != UINT32_MAX ? facing : any;
+  for (int p = 0; p < count; ++p)
+    if (!done[p]) out[p] = facing[p] != UINT32_MAX ? facing[p] : any[p];
 }
 
-void FaceQuadrics::add_face(const Vec3f& a, const Vec3f& b, const Vec3f& c, std::vector<FixedQuadric>& sums) const {
+bool FaceQuadrics::nearest_cached(const Vec3dq* points, const Vec3dq& normal, std::uint64_t key, std::int64_t ci,
+                                  std::int64_t cj, std::int64_t ck, Accumulator& cache, std::uint32_t* out) const {
+  if (cache.cached_cell != key) {
+    cache.cached_cell = key;
+    cache.centre.clear();
+    cache.ring.clear();
+    for (std::int64_t i = ci - 1; i <= ci + 1; ++i)
+      for (std::int64_t j = cj - 1; j <= cj + 1; ++j)
+        for (std::int64_t k = ck - 1; k <= ck + 1; ++k) {
+          auto it = cells_.find(cell_key(i, j, k));
+          if (it == cells_.end()) continue;
+          auto& into = i == ci && j == cj && k == ck ? cache.centre : cache.ring;
+          into.insert(into.end(), cell_vertices_.begin() + it->second.first, cell_vertices_.begin() + it->second.second);
+        }
+  }
+  // As nearest() stops at shells 0 and 1: ties go to the lower id, so the visiting order within
+  // a shell does not matter.
+  double best[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                    std::numeric_limits<double>::infinity()};
+  std::uint32_t facing[3] = {UINT32_MAX, UINT32_MAX, UINT32_MAX};
+  bool found[3] = {false, false, false};
+  for (int shell = 0; shell < 2; ++shell) {
+    for (std::uint32_t v : shell == 0 ? cache.centre : cache.ring) {
+      if (!(dot(normals_[v], normal) > 0)) continue;
+      const Vec3dq& x = positions_[v];
+      for (int p = 0; p < 3; ++p) {
+        if (found[p]) continue;
+        const Vec3dq d = sub(x, points[p]);
+        const double d2 = dot(d, d);
+        if (d2 < best[p] || (d2 == best[p] && v < facing[p])) best[p] = d2, facing[p] = v;
+      }
+    }
+    const double lo_x = double(ci - shell) * cell_, hi_x = double(ci + shell + 1) * cell_;
+    const double lo_y = double(cj - shell) * cell_, hi_y = double(cj + shell + 1) * cell_;
+    const double lo_z = double(ck - shell) * cell_, hi_z = double(ck + shell + 1) * cell_;
+    bool all = true;
+    for (int p = 0; p < 3; ++p) {
+      if (found[p]) continue;
+      const Vec3dq& q = points[p];
+      const double reach = std::max(0.0, std::min({q.x - lo_x, hi_x - q.x, q.y - lo_y, hi_y - q.y, q.z - lo_z, hi_z - q.z}));
+      found[p] = facing[p] != UINT32_MAX && best[p] <= reach * reach;
+      all = all && found[p];
+    }
+    if (all) break;
+  }
+  if (!(found[0] && found[1] && found[2])) return false;
+  for (int p = 0; p < 3; ++p) out[p] = facing[p];
+  return true;
+}
+
+void FaceQuadrics::add_face(const Vec3f& a, const Vec3f& b, const Vec3f& c, Accumulator& into) const {
+  std::vector<FixedQuadric>& sums = into.sums;
   if (positions_.empty()) return;
   const Vec3dq p0 = frame_.to_frame(a.x, a.y, a.z);
   const Vec3dq p1 = frame_.to_frame(b.x, b.y, b.z);
@@ -135,15 +215,30 @@ void FaceQuadrics::add_face(const Vec3f& a, const Vec3f& b, const Vec3f& c, std:
   // The face counts for the vertex nearest to each of its corners (one to three of them), as
   // Garland & Heckbert give a face's plane to each of its corners.
   const FixedQuadric q = FixedQuadric::from(Quadric::plane(unit, -dot(unit, p0), length / 2));
-  const std::uint32_t v0 = nearest(p0, unit), v1 = nearest(p1, unit), v2 = nearest(p2, unit);
+  const Vec3dq corners[3] = {p0, p1, p2};
+  std::uint32_t v[3];
+  auto cell_of = [this](const Vec3dq& q) {
+    return cell_key(std::int64_t(std::floor(q.x / cell_)), std::int64_t(std::floor(q.y / cell_)),
+                    std::int64_t(std::floor(q.z / cell_)));
+  };
+  const std::uint64_t c0 = cell_of(p0);
+  if (cell_of(p1) == c0 && cell_of(p2) == c0) {
+    // The common case: a face much smaller than a cell.
+    const std::int64_t ci = std::int64_t(std::floor(p0.x / cell_)), cj = std::int64_t(std::floor(p0.y / cell_)),
+                       ck = std::int64_t(std::floor(p0.z / cell_));
+    if (!nearest_cached(corners, unit, c0, ci, cj, ck, into, v)) nearest(corners, 3, unit, v);
+  } else {
+    for (int k = 0; k < 3; ++k) nearest(&corners[k], 1, unit, &v[k]);
+  }
+  const std::uint32_t v0 = v[0], v1 = v[1], v2 = v[2];
   sums[v0] += q;
   if (v1 != v0) sums[v1] += q;
   if (v2 != v0 && v2 != v1) sums[v2] += q;
 }
 
-void FaceQuadrics::add_mesh(MeshView mesh, std::vector<FixedQuadric>& sums) const {
+void FaceQuadrics::add_mesh(MeshView mesh, Accumulator& into) const {
   for (const auto& t : mesh.triangles)
-    add_face(mesh.positions[t.v[0]], mesh.positions[t.v[1]], mesh.positions[t.v[2]], sums);
+    add_face(mesh.positions[t.v[0]], mesh.positions[t.v[1]], mesh.positions[t.v[2]], into);
 }
 
 void add_sums(std::vector<FixedQuadric>& into, const std::vector<FixedQuadric>& from) {

@@ -23,18 +23,31 @@ class FaceQuadrics {
 
   const QuadricFrame& frame() const { return frame_; }
   std::size_t vertex_count() const { return positions_.size(); }
-  // A zeroed sum per vertex of the approximation.
+  // One thread's sums (one per approximation vertex) and its cache of the cells around the last
+  // face's cell (consecutive faces are mostly neighbours; the cache changes no answer).
+  struct Accumulator {
+    std::vector<FixedQuadric> sums;
+    std::uint64_t cached_cell = UINT64_MAX;
+    std::vector<std::uint32_t> centre, ring;  // the cell's vertices, its 26 neighbours'
+  };
+  Accumulator new_accumulator() const { return {std::vector<FixedQuadric>(positions_.size()), UINT64_MAX, {}, {}}; }
   std::vector<FixedQuadric> new_sums() const { return std::vector<FixedQuadric>(positions_.size()); }
 
-  // Adds the face (a, b, c) to `sums` (one per approximation vertex). Zero-area faces add
-  // nothing. Const: threads may add to sums of their own at once.
-  void add_face(const Vec3f& a, const Vec3f& b, const Vec3f& c, std::vector<FixedQuadric>& sums) const;
+  // Adds the face (a, b, c) to `into`. Zero-area faces add nothing. Const: threads may add to
+  // accumulators of their own at once.
+  void add_face(const Vec3f& a, const Vec3f& b, const Vec3f& c, Accumulator& into) const;
 
   // Every face of `mesh`, on the calling thread.
-  void add_mesh(MeshView mesh, std::vector<FixedQuadric>& sums) const;
+  void add_mesh(MeshView mesh, Accumulator& into) const;
 
  private:
-  std::uint32_t nearest(const Vec3dq& point, const Vec3dq& normal) const;
+  // For each of `count` (1 to 3) points in the first one's cell: the nearest vertex whose normal
+  // faces `normal`'s side (found within a few shells of cells), else the nearest of any.
+  void nearest(const Vec3dq* points, int count, const Vec3dq& normal, std::uint32_t* out) const;
+  // The same for points of cell `key` = (ci, cj, ck), from the accumulator's cache of shells 0
+  // and 1; false if a point needs a farther shell (then nothing is written).
+  bool nearest_cached(const Vec3dq* points, const Vec3dq& normal, std::uint64_t key, std::int64_t ci,
+                      std::int64_t cj, std::int64_t ck, Accumulator& cache, std::uint32_t* out) const;
   std::uint64_t cell_key(std::int64_t i, std::int64_t j, std::int64_t k) const;
 
   QuadricFrame frame_;

@@ -61,14 +61,19 @@ struct Quadric {
 // squared diagonal of area. Sums wrap (unsigned arithmetic) rather than overflow.
 inline constexpr int kFixedQuadricBits = 48;
 
+// Round half away from zero, without libm's call (the quadrics pass rounds 11 values a face).
+inline std::int64_t round_to_int(double x) {
+  return x >= 0 ? std::int64_t(x + 0.5) : -std::int64_t(0.5 - x);
+}
+
 struct FixedQuadric {
   std::array<std::int64_t, 11> q{};  // the 10 coefficients, then the weight
 
   static FixedQuadric from(const Quadric& d) {
     FixedQuadric r;
     const double scale = std::ldexp(1.0, kFixedQuadricBits);
-    for (int i = 0; i < 10; ++i) r.q[i] = std::llround(d.q[i] * scale);
-    r.q[10] = std::llround(d.weight * scale);
+    for (int i = 0; i < 10; ++i) r.q[i] = round_to_int(d.q[i] * scale);
+    r.q[10] = round_to_int(d.weight * scale);
     return r;
   }
   FixedQuadric& operator+=(const FixedQuadric& o) {

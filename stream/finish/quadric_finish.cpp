@@ -72,17 +72,17 @@ format::Result<FinishResult> finish_in_core(MeshView input, MeshView approximati
   const auto start = Clock::now();
   const FaceQuadrics quadrics(approximation);
   // Fixed-point sums: the split over threads does not change the result.
-  tbb::enumerable_thread_specific<std::vector<FixedQuadric>> partial([&] { return quadrics.new_sums(); });
+  tbb::enumerable_thread_specific<FaceQuadrics::Accumulator> partial([&] { return quadrics.new_accumulator(); });
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, input.triangles.size(), 4096),
                     [&](const tbb::blocked_range<std::size_t>& range) {
-                      auto& sums = partial.local();
+                      auto& acc = partial.local();
                       for (std::size_t f = range.begin(); f < range.end(); ++f) {
                         const auto& t = input.triangles[f];
-                        quadrics.add_face(input.positions[t.v[0]], input.positions[t.v[1]], input.positions[t.v[2]], sums);
+                        quadrics.add_face(input.positions[t.v[0]], input.positions[t.v[1]], input.positions[t.v[2]], acc);
                       }
                     });
   std::vector<FixedQuadric> sums = quadrics.new_sums();
-  for (const auto& part : partial) add_sums(sums, part);
+  for (const auto& part : partial) add_sums(sums, part.sums);
   const double seconds_quadrics = seconds_since(start);
   auto r = finish_from_sums(approximation, quadrics, sums, options);
   if (r) r->seconds_quadrics = seconds_quadrics;

@@ -655,18 +655,18 @@ format::Status SimplifyRun::finish() {
   const auto start = Clock::now();
   const FaceQuadrics quadrics(out_.mesh.view());
   // Fixed-point sums: which thread adds which chunk does not change the result.
-  tbb::enumerable_thread_specific<std::vector<FixedQuadric>> partial([&] { return quadrics.new_sums(); });
+  tbb::enumerable_thread_specific<FaceQuadrics::Accumulator> partial([&] { return quadrics.new_accumulator(); });
   GM_RETURN_IF_ERROR(for_each_chunk("quadrics", [&](std::size_t, const ChunkMesh& chunk, ChunkSamplerWorkspace&) {
-    auto& sums = partial.local();
+    auto& acc = partial.local();
     for (std::size_t f = 0; f < chunk.triangles.size(); ++f) {
       if (!chunk.owned_face[f]) continue;
       const auto& t = chunk.triangles[f];
-      quadrics.add_face(chunk.positions[t.v[0]], chunk.positions[t.v[1]], chunk.positions[t.v[2]], sums);
+      quadrics.add_face(chunk.positions[t.v[0]], chunk.positions[t.v[1]], chunk.positions[t.v[2]], acc);
     }
     return format::Status();
   }));
   std::vector<FixedQuadric> sums = quadrics.new_sums();
-  for (const auto& part : partial) add_sums(sums, part);
+  for (const auto& part : partial) add_sums(sums, part.sums);
   partial.clear();
   const double seconds_quadrics = seconds_since(start);
   auto finished = finish_from_sums(out_.mesh.view(), quadrics, sums, out_.finish_options);

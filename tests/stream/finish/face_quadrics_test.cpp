@@ -29,21 +29,22 @@ TEST(FaceQuadrics, SumsDoNotDependOnFaceOrderOrChunks) {
   const Mesh input = make_torus(1.0, 0.35, {.vertices = 6000, .noise = 0.002, .seed = 3});
   const Mesh coarse = make_torus(1.0, 0.35, {.vertices = 300});
   const FaceQuadrics quadrics(coarse.view());
-  auto in_order = quadrics.new_sums();
-  quadrics.add_mesh(input.view(), in_order);
+  auto whole = quadrics.new_accumulator();
+  quadrics.add_mesh(input.view(), whole);
+  const auto& in_order = whole.sums;
 
   std::vector<std::size_t> order(input.triangles.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
   std::mt19937 rng(7);
   std::shuffle(order.begin(), order.end(), rng);
   // Three "chunks", each summed on its own and added at the end, in another order.
-  std::vector<std::vector<FixedQuadric>> chunks(3, quadrics.new_sums());
+  std::vector<FaceQuadrics::Accumulator> chunks(3, quadrics.new_accumulator());
   for (std::size_t k = 0; k < order.size(); ++k) {
     const auto& t = input.triangles[order[k]];
     quadrics.add_face(input.positions[t.v[0]], input.positions[t.v[1]], input.positions[t.v[2]], chunks[k % 3]);
   }
   auto shuffled = quadrics.new_sums();
-  for (int c : {2, 0, 1}) add_sums(shuffled, chunks[c]);
+  for (int c : {2, 0, 1}) add_sums(shuffled, chunks[c].sums);
   EXPECT_TRUE(same_bits(in_order, shuffled));
 
   // And the sums are not trivially zero: every face's area is in some vertex's weight.
@@ -57,8 +58,9 @@ TEST(FaceQuadrics, EveryVertexOfTheInputItselfGetsZeroErrorAtItsPosition) {
   // every vertex lies on all its planes.
   const Mesh input = make_sphere({.vertices = 800});
   const FaceQuadrics quadrics(input.view());
-  auto sums = quadrics.new_sums();
-  quadrics.add_mesh(input.view(), sums);
+  auto acc = quadrics.new_accumulator();
+  quadrics.add_mesh(input.view(), acc);
+  const auto& sums = acc.sums;
   double worst = 0;
   for (std::size_t v = 0; v < input.positions.size(); ++v) {
     const auto& p = input.positions[v];
@@ -77,8 +79,9 @@ TEST(FaceQuadrics, TheTwoSidesOfAThinPlateKeepTheirOwnPlanes) {
   plate.positions = {{0, 0, h}, {1, 0, h}, {1, 1, h}, {0, 1, h}, {0, 0, -h}, {1, 0, -h}, {1, 1, -h}, {0, 1, -h}};
   plate.triangles = {{{0, 1, 2}}, {{0, 2, 3}}, {{4, 6, 5}}, {{4, 7, 6}}};
   const FaceQuadrics quadrics(plate.view());
-  auto sums = quadrics.new_sums();
-  quadrics.add_mesh(plate.view(), sums);
+  auto acc = quadrics.new_accumulator();
+  quadrics.add_mesh(plate.view(), acc);
+  const auto& sums = acc.sums;
   for (std::size_t v = 0; v < plate.positions.size(); ++v) {
     const auto& p = plate.positions[v];
     const Quadric q = sums[v].to_double();
