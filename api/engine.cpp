@@ -13,13 +13,19 @@
 #include "stream/partition/chunk_partition.h"
 
 namespace gaussmesh {
-namespace {
+namespace api {
 
 std::uint64_t physical_memory() {
   const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
   if (pages <= 0 || page <= 0) return 0;
   return static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page);
 }
+
+}  // namespace api
+
+namespace {
+
+using api::physical_memory;
 
 // Fewest input bytes a face takes in any format we read (binary PLY: a 13-byte face record and
 // a share of the 12-byte vertices; Draco is compressed further but decodes whole anyway), so

@@ -29,6 +29,8 @@ Result<std::vector<stream::GaussSphereOptions>> gauss_spheres(const SamplingOpti
 // --frequency auto with a target: G at frequencies 1, 2, 4, … kMaxAutoFrequency, in that order, the
 // first whose sampling reaches the finish's sample count kept (stream::finish_min_samples).
 Result<std::vector<stream::GaussSphereOptions>> frequency_ladder(const SamplingOptions& options);
+// The machine's physical memory in bytes (0 if unknown).
+std::uint64_t physical_memory();
 stream::SamplerOptions sampler_options(const SamplingOptions& options);
 
 format::ReadOptions read_options(const Source& source);

@@ -779,10 +779,29 @@ namespace {
 // run's, so the choice is too.
 constexpr std::uint32_t kLadderGroupFrequency = 16;
 
+format::Status too_large_for_budget(std::uint64_t samples, std::uint64_t need, std::uint64_t limit, bool explicit_budget) {
+  const std::string what = "the target needs an approximation of about " + std::to_string(2 * samples) + " faces, about " +
+                           std::to_string(need >> 20) + " MiB, ";
+  if (explicit_budget) {
+    return format::Status::error(format::Code::kResources, "--memory",
+                                 what + "above the budget of " + std::to_string(limit >> 20) +
+                                     " MiB: raise --memory or lower the target");
+  }
+  return format::Status::error(format::Code::kResources, "--memory",
+                               what + "more than a quarter of this machine's memory (" + std::to_string(limit >> 20) +
+                                   " MiB): lower the target");
+}
+
 format::Result<OutOfCoreSimplify> simplify_ladder(Partition& partition, const OutOfCoreSimplifyOptions& options,
                                                   OutOfCoreSimplify base) {
   const auto start = Clock::now();
   const std::vector<GaussSphereOptions>& ladder = options.spheres;
+  // The chosen approximation has at least min_samples samples (unless no rung reaches them): when
+  // even that passes an explicit budget, say so before any counting pass.
+  const std::uint64_t limit = options.memory_explicit ? options.memory.bytes() : options.memory_ceiling;
+  const std::uint64_t least = finish_memory_estimate(options.min_samples, ladder.front().frequency, partition.faces);
+  if (limit > 0 && options.min_samples <= partition.faces && least > limit)
+    return too_large_for_budget(options.min_samples, least, limit, options.memory_explicit);
   std::vector<std::size_t> counts;
   std::size_t chosen = ladder.size() - 1;
   bool found = false;
@@ -822,18 +841,10 @@ format::Result<OutOfCoreSimplify> simplify_ladder(Partition& partition, const Ou
   const double seconds_ladder = seconds_since(start);
   // The stitch, the mesher and the finish hold the approximation: about two faces per sample,
   // kFinishBytesPerFace each at their peak. An explicit budget is a contract (refuse what would
-  // pass it); the automatic one grows to what the target needs.
+  // pass it); the automatic one grows to what the target needs, up to memory_ceiling.
   const std::uint64_t need = finish_memory_estimate(counts[chosen], ladder[chosen].frequency, partition.faces);
   base.finish_memory_estimate = need;
-  if (need > options.memory.bytes()) {
-    if (options.memory_explicit) {
-      return format::Status::error(
-          format::Code::kResources, "--memory",
-          "the target needs an approximation of about " + std::to_string(2 * counts[chosen]) + " faces, about " +
-              std::to_string(need >> 20) + " MiB, above the budget of " + std::to_string(options.memory.bytes() >> 20) +
-              " MiB: raise --memory or lower the target");
-    }
-  }
+  if (limit > 0 && need > limit) return too_large_for_budget(counts[chosen], need, limit, options.memory_explicit);
   OutOfCoreSimplifyOptions one = options;
   one.min_samples = 0;
   one.spheres = {ladder[chosen]};

@@ -55,6 +55,7 @@ struct OutOfCoreSimplifyOptions {
   // (kResources) rather than run past it. Otherwise the passes that hold the approximation
   // take what it needs (finish_memory_estimate).
   bool memory_explicit = false;
+  std::uint64_t memory_ceiling = 0;  // how far the automatic budget may grow for the finish (0: no limit)
   SamplerOptions sampler;
   // (pass name, chunks done, chunks, input faces) after each chunk.
   std::function<void(const char*, std::size_t, std::size_t, std::uint64_t)> progress;
