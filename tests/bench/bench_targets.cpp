@@ -38,6 +38,8 @@
 //     meshopt_simplify, 51 MB for the sloppy one, on the 980,876-triangle refined cow); the row
 //     says so;
 //   - every meshopt row with --no-meshopt.
+// A run that fails gets a row saying so, with its exit code and its last stderr line (e.g.
+// meshopt_simplifySloppy's "no faces left" at a handful of faces); the other runs go on.
 // "within 1 %" is |output_faces − target_faces| ≤ 1 % of target_faces, gaussmesh rows only: a
 // small target can miss it by a face or two (a collapse removes two faces), or stop above it
 // when every further collapse would change the topology (stopped_by topology).
@@ -269,6 +271,25 @@ class Runner {
   int failures() const { return failures_; }
   const std::vector<Row>& rows() const { return rows_; }
   void add_note_row(const Row& row) { rows_.push_back(row); }
+  void count_failure() { ++failures_; }
+
+  // "failed (exit N: the child's last stderr line)": the log grows by what the run wrote from its size before.
+  std::string failure(int exit_code, std::uintmax_t log_before) const {
+    std::ifstream in(log_, std::ios::binary);
+    in.seekg(std::streamoff(log_before));
+    std::string line, last;
+    while (std::getline(in, line)) {
+      if (!line.empty()) last = line;
+    }
+    std::replace(last.begin(), last.end(), '|', '/');  // a table cell
+    return "failed (exit " + std::to_string(exit_code) + (last.empty() ? "" : ": " + last) + ")";
+  }
+
+  std::uintmax_t log_size() const {
+    std::error_code ec;
+    const std::uintmax_t size = fs::file_size(log_, ec);
+    return ec ? 0 : size;
+  }
 
   void run(Input& input) {
     for (const std::string& ratio : options_.ratios) {
@@ -289,10 +310,11 @@ class Runner {
     std::vector<std::string> cmd = {options_.gaussmesh, "simplify", input.path.string(), "-o", out.string(),
                                     "--format", "ply", "--ratio", ratio, "--report", report.string()};
     cmd.insert(cmd.end(), options_.extra.begin(), options_.extra.end());
+    const std::uintmax_t log_before = log_size();
     const ChildRun r = run_child(cmd, work_ / "simplify.out", log_);
     const auto json = read_json(report);
     if (r.exit_code != 0 || !json) {
-      row.note = "failed (exit " + std::to_string(r.exit_code) + ", see log)";
+      row.note = failure(r.exit_code, log_before);
       ++failures_;
     } else {
       input.faces = json->value("input_faces", input.faces);
@@ -304,7 +326,9 @@ class Runner {
       row.seconds = r.seconds;
       row.peak_rss_mib = r.peak_rss_mb * 1e6 / 1048576;
       compare(row, input, out);
-      progress(row, json->value("out_of_core", false) ? ", out of core" : ", in core");
+      const std::string how = ", frequency " + std::to_string(json->value("gauss_frequency", 0)) +
+                              (json->value("out_of_core", false) ? ", out of core" : ", in core");
+      progress(row, how.c_str());
     }
     fs::remove(out);
     fs::remove(report);
@@ -323,10 +347,11 @@ class Runner {
     std::vector<std::string> cmd = {meshopt_, input.path.string(), "--target-faces", std::to_string(target), "-o",
                                     out.string()};
     if (sloppy) cmd.push_back("--sloppy");
+    const std::uintmax_t log_before = log_size();
     const ChildRun r = run_child(cmd, work_ / "meshopt.out", log_);
     auto pairs = parse_pairs(r.out);
     if (r.exit_code != 0 || !pairs.count("output_faces")) {
-      row.note = "failed (exit " + std::to_string(r.exit_code) + ", see log)";
+      row.note = failure(r.exit_code, log_before);
       ++failures_;
     } else {
       row.output_faces = std::strtoull(pairs["output_faces"].c_str(), nullptr, 10);
@@ -345,11 +370,12 @@ class Runner {
     std::vector<std::string> cmd = {options_.gaussmesh, "compare", input.path.string(), output.string(), "--report",
                                     "-", "-q"};
     if (!options_.samples.empty()) cmd.insert(cmd.end(), {"--samples", options_.samples});
+    const std::uintmax_t log_before = log_size();
     const ChildRun c = run_child(cmd, work_ / "compare.out", log_);
     const auto json = parse_json(c.out);
     if (c.exit_code != 0 || !json || !json->contains("hausdorff_pct")) {
-      std::fprintf(stderr, "bench_targets: compare %s %s failed (exit %d, see log)\n", input.label.c_str(),
-                   row.tool.c_str(), c.exit_code);
+      std::fprintf(stderr, "bench_targets: compare %s %s: %s\n", input.label.c_str(), row.tool.c_str(),
+                   failure(c.exit_code, log_before).c_str());
       ++failures_;
       return;
     }
@@ -582,9 +608,11 @@ int main(int argc, char** argv) {
         std::vector<std::string> make = {generator, "--triangles", std::to_string(size), "--source", source,
                                          "--out", input.path.string()};
         if (scattered) make.insert(make.end(), shuffle.begin(), shuffle.end());
+        const std::uintmax_t log_before = runner.log_size();
         const ChildRun made = run_child(make, work / "make.out", runner.log());
         if (made.exit_code != 0) {
-          skip_all("make_large_mesh failed (exit " + std::to_string(made.exit_code) + ", see log)");
+          skip_all("make_large_mesh " + runner.failure(made.exit_code, log_before));
+          runner.count_failure();
           continue;
         }
         input.faces = header_faces(input.path);  // the generator rounds to its grid
