@@ -13,23 +13,26 @@
 // printed above the table; progress goes to stderr. Not a timed test.
 //
 //   bench_targets [--ratios R,R,...] [--sizes N,N,...|none] [--large] [--sources cow,torus,...]
-//                 [--no-fixtures] [--dir D] [--keep] [--no-meshopt] [--compare-max N]
-//                 [--samples N] [--gaussmesh PATH] [-- EXTRA GAUSSMESH SIMPLIFY ARGS...]
+//                 [--no-fixtures] [--no-scattered] [--dir D] [--keep] [--no-meshopt]
+//                 [--compare-max N] [--samples N] [--gaussmesh PATH] [-- EXTRA SIMPLIFY ARGS...]
 //
 // Ratios default to 0.5,0.1,0.01,0.001. Inputs: the repository's fixtures/real/*.off and *.ply
 // (unless --no-fixtures), then for each of --sizes (default 1000000; --large adds 10000000 and
 // 100000000; `none`: no generated input) and each of --sources (default cow,torus; any
 // make_large_mesh --source) a binary PLY from make_large_mesh in its own coherent vertex order,
-// and a scattered copy when make_large_mesh has a --shuffle option (its usage text is read;
-// today it has none, and the output says so). Generated inputs are made in a fresh run-XXXXXX
-// directory under --dir (default /var/tmp/gaussmesh-bench-targets), one at a time, and deleted
-// when their rows are done unless --keep (outputs are always deleted); the run directory is
-// removed at the end, except its log.txt (the children's stderr) when a child failed.
+// then (unless --no-scattered) its scattered copy from scatter_mesh (vertex ids and face order
+// shuffled, seed 7: make_large_mesh has no shuffle option). Generated inputs are made in a fresh
+// run-XXXXXX directory under --dir (default /var/tmp/gaussmesh-bench-targets), one source and
+// size at a time, and deleted when their rows are done unless --keep (outputs are always
+// deleted); the run directory is removed at the end, except its log.txt (the children's stderr)
+// when a child failed.
 // Arguments after `--` go to `gaussmesh simplify` unchanged (e.g. `-- --memory 64M`).
 //
 // What is skipped, and why:
-//   - a generated input whose PLY (~19 bytes a triangle) and largest output would not fit in
-//     the free disk of --dir;
+//   - a generated input whose PLY (~19 bytes a triangle), its scattered copy and the largest
+//     output would not fit in the free disk of --dir;
+//   - a scattered copy whose ~40 bytes a triangle (scatter_mesh holds the whole mesh) pass 85 %
+//     of MemAvailable;
 //   - compare above --compare-max input triangles (default 20M): it holds both meshes and
 //     measures every input vertex and edge midpoint (~3 s at 1M triangles); the cells say –;
 //   - a meshopt run whose predicted peak RSS passes 85 % of MemAvailable, as in bench_pipeline:
@@ -82,6 +85,7 @@ constexpr double kPlyBytesPerTriangle = 19;  // binary PLY: 13 a face, ~6 a vert
 constexpr double kMeshoptPriorBaseMb = 16, kMeshoptPriorBytesPerTriangle = 160;
 constexpr std::uint64_t kExtrapolateFrom = 1'000'000;  // triangles: below, the fixed cost dominates RSS
 constexpr double kMemoryShare = 0.85;                   // of MemAvailable
+constexpr double kScatterBytesPerTriangle = 40;          // scatter_mesh: the mesh and its renumbering
 const char* const kNone = "–";
 
 const char* const kGaussmesh = "gaussmesh";
@@ -93,7 +97,7 @@ struct Options {
   std::vector<std::uint64_t> sizes = {1'000'000};
   std::vector<std::string> sources = {"cow", "torus"};
   fs::path dir = "/var/tmp/gaussmesh-bench-targets";
-  bool fixtures = true, keep = false, meshopt = true;
+  bool fixtures = true, scattered = true, keep = false, meshopt = true;
   std::uint64_t compare_max = 20'000'000;
   std::string samples;  // empty: compare's default
   std::string gaussmesh = testing::gaussmesh_binary();
@@ -212,23 +216,6 @@ std::vector<std::string> split(const std::string& list) {
     if (!item.empty()) items.push_back(item);
   }
   return items;
-}
-
-// How make_large_mesh scatters the vertex order, read off its usage text: {} when it cannot,
-// {"--shuffle"} for a bare flag, {"--shuffle", "7"} when the flag takes a value (a seed).
-std::vector<std::string> shuffle_flag(const std::string& generator, const fs::path& work) {
-  const fs::path usage_text = work / "make_large_mesh-usage.txt";
-  run_child({generator}, work / "make_large_mesh-usage.out", usage_text);
-  const std::string text = testing::read_file(usage_text.string());
-  fs::remove(usage_text);
-  fs::remove(work / "make_large_mesh-usage.out");
-  const auto at = text.find("--shuffle");
-  if (at == std::string::npos) return {};
-  const auto after = at + std::strlen("--shuffle");
-  if (after + 1 < text.size() && text[after] == ' ' && std::isupper(static_cast<unsigned char>(text[after + 1]))) {
-    return {"--shuffle", "7"};
-  }
-  return {"--shuffle"};
 }
 
 // The meshopt runs' memory guard: each tool's largest run so far predicts the next.
@@ -400,8 +387,8 @@ class Runner {
 };
 
 void print_table(const std::vector<Row>& rows) {
-  std::printf("| input | input faces | ratio | tool | target | output faces | within 1 %% | stopped_by | Hausdorff %% | "
-              "RMS %% | seconds | peak RSS MiB |\n");
+  std::printf("| input | input faces | ratio | tool | target | output faces | within 1 %% | stopped_by "
+              "| Hausdorff %% | RMS %% | seconds | peak RSS MiB |\n");
   std::printf("| --- | ---: | ---: | --- | ---: | ---: | --- | --- | ---: | ---: | ---: | ---: |\n");
   for (const Row& r : rows) {
     const std::string target = r.target ? std::to_string(r.target) : "";
@@ -464,7 +451,7 @@ void print_summary(const std::vector<Row>& rows, const std::vector<std::string>&
 int usage() {
   std::fprintf(stderr,
                "usage: bench_targets [--ratios R,R,...] [--sizes N,N,...|none] [--large] [--sources cow,torus,...] "
-               "[--no-fixtures] [--dir D] [--keep] [--no-meshopt] [--compare-max N] [--samples N] "
+               "[--no-fixtures] [--no-scattered] [--dir D] [--keep] [--no-meshopt] [--compare-max N] [--samples N] "
                "[--gaussmesh PATH] [-- GAUSSMESH SIMPLIFY ARGS...]\n");
   return 1;
 }
@@ -492,6 +479,8 @@ int main(int argc, char** argv) {
       large = true;
     } else if (arg == "--no-fixtures") {
       options.fixtures = false;
+    } else if (arg == "--no-scattered") {
+      options.scattered = false;
     } else if (arg == "--keep") {
       options.keep = true;
     } else if (arg == "--no-meshopt") {
@@ -531,6 +520,7 @@ int main(int argc, char** argv) {
 
   const fs::path bin_dir = fs::read_symlink("/proc/self/exe").parent_path();
   const std::string generator = (bin_dir / "make_large_mesh").string();
+  const std::string scatterer = (bin_dir / "scatter_mesh").string();
   const std::string meshopt = (bin_dir / "meshopt_file").string();
   if (options.meshopt && ::access(meshopt.c_str(), X_OK) != 0) {
     std::fprintf(stderr, "bench_targets: %s not found (meshoptimizer not installed?); use --no-meshopt\n",
@@ -550,10 +540,8 @@ int main(int argc, char** argv) {
   std::fprintf(stderr, "bench_targets: work dir %s (children's stderr in log.txt)\n", work.c_str());
 
   std::vector<std::string> notes;
-  const std::vector<std::string> shuffle =
-      options.sizes.empty() ? std::vector<std::string>{} : shuffle_flag(generator, work);
-  if (!options.sizes.empty() && shuffle.empty()) {
-    notes.push_back("make_large_mesh has no --shuffle option: generated inputs in coherent order only");
+  if (!options.sizes.empty() && !options.scattered) {
+    notes.push_back("generated inputs in coherent order only (--no-scattered)");
   }
 
   // The command line, then the machine, then the table.
@@ -584,42 +572,71 @@ int main(int argc, char** argv) {
                                                        }));
   for (std::uint64_t size : options.sizes) {
     for (const std::string& source : options.sources) {
-      for (bool scattered : {false, true}) {
-        if (scattered && shuffle.empty()) continue;
-        const std::string name = fs::path(source).stem().string();
-        Input input{"generated " + name + " " + size_label(size) + (scattered ? ", scattered" : ""),
-                    work / (name + "-" + std::to_string(size) + (scattered ? "-scattered" : "") + ".ply"), size};
-        auto skip_all = [&](const std::string& why) {
-          for (const std::string& ratio : options.ratios) {
-            Row row{input.label, input.faces, ratio, "(all)"};
-            row.note = why;
-            runner.add_note_row(row);
+      const std::string name = fs::path(source).stem().string();
+      Input coherent{"generated " + name + " " + size_label(size), work / (name + "-" + std::to_string(size) + ".ply"),
+                     size};
+      Input scattered{coherent.label + ", scattered", work / (name + "-" + std::to_string(size) + "-scattered.ply"),
+                      size};
+      auto skip_all = [&](const Input& input, const std::string& why) {
+        for (const std::string& ratio : options.ratios) {
+          Row row{input.label, input.faces, ratio, "(all)"};
+          row.note = why;
+          runner.add_note_row(row);
+        }
+      };
+      // Both copies while the scattered one is written, and the largest output (one at a time).
+      const double need_gb =
+          double(size) * kPlyBytesPerTriangle * 1.1 * ((options.scattered ? 2 : 1) + max_ratio) / 1e9 + 0.05;
+      const double free_gb = free_disk_gb(work);
+      std::fprintf(stderr, "bench_targets: %s needs ~%.2f GB in %s; %.1f GB free\n", coherent.label.c_str(), need_gb,
+                   work.c_str(), free_gb);
+      if (free_gb < need_gb) {
+        const std::string why =
+            "skipped: needs " + fixed(need_gb, 1) + " GB of disk, " + fixed(free_gb, 1) + " GB free";
+        skip_all(coherent, why);
+        if (options.scattered) skip_all(scattered, why);
+        continue;
+      }
+      std::uintmax_t log_before = runner.log_size();
+      const ChildRun made = run_child({generator, "--triangles", std::to_string(size), "--source", source, "--out",
+                                       coherent.path.string()},
+                                      work / "make.out", runner.log());
+      if (made.exit_code != 0) {
+        const std::string why = "make_large_mesh " + runner.failure(made.exit_code, log_before);
+        skip_all(coherent, why);
+        if (options.scattered) skip_all(scattered, why);
+        runner.count_failure();
+        continue;
+      }
+      coherent.faces = scattered.faces = header_faces(coherent.path);  // the generator rounds to its grid
+      std::fprintf(stderr, "bench_targets: made %s: %llu triangles, %.0f MB in %.1f s\n", coherent.label.c_str(),
+                   (unsigned long long)coherent.faces, double(fs::file_size(coherent.path, ec)) / 1e6, made.seconds);
+      runner.run(coherent);
+      if (options.scattered) {
+        // scatter_mesh holds the whole mesh: ~40 bytes a triangle.
+        const double scatter_mb = double(coherent.faces) * kScatterBytesPerTriangle / 1e6;
+        const double available = meminfo_mb("MemAvailable:");
+        if (scatter_mb > kMemoryShare * available) {
+          skip_all(scattered, "skipped: scatter_mesh needs ~" + fixed(scatter_mb / 1000, 1) + " GB, " +
+                                  fixed(available / 1000, 1) + " GB available");
+        } else {
+          log_before = runner.log_size();
+          const ChildRun copied =
+              run_child({scatterer, coherent.path.string(), scattered.path.string()}, work / "make.out", runner.log());
+          if (copied.exit_code != 0) {
+            skip_all(scattered, "scatter_mesh " + runner.failure(copied.exit_code, log_before));
+            runner.count_failure();
+          } else {
+            std::fprintf(stderr, "bench_targets: made %s in %.1f s, peak RSS %.0f MB\n", scattered.label.c_str(),
+                         copied.seconds, copied.peak_rss_mb);
+            if (!options.keep) fs::remove(coherent.path, ec);
+            runner.run(scattered);
           }
-        };
-        // The input and the largest output (one at a time), ~19 bytes a triangle, plus slack.
-        const double need_gb = double(size) * kPlyBytesPerTriangle * 1.1 * (1 + max_ratio) / 1e9 + 0.05;
-        const double free_gb = free_disk_gb(work);
-        std::fprintf(stderr, "bench_targets: %s needs ~%.2f GB in %s; %.1f GB free\n", input.label.c_str(), need_gb,
-                     work.c_str(), free_gb);
-        if (free_gb < need_gb) {
-          skip_all("skipped: needs " + fixed(need_gb, 1) + " GB of disk, " + fixed(free_gb, 1) + " GB free");
-          continue;
         }
-        std::vector<std::string> make = {generator, "--triangles", std::to_string(size), "--source", source,
-                                         "--out", input.path.string()};
-        if (scattered) make.insert(make.end(), shuffle.begin(), shuffle.end());
-        const std::uintmax_t log_before = runner.log_size();
-        const ChildRun made = run_child(make, work / "make.out", runner.log());
-        if (made.exit_code != 0) {
-          skip_all("make_large_mesh " + runner.failure(made.exit_code, log_before));
-          runner.count_failure();
-          continue;
-        }
-        input.faces = header_faces(input.path);  // the generator rounds to its grid
-        std::fprintf(stderr, "bench_targets: made %s: %llu triangles, %.0f MB in %.1f s\n", input.label.c_str(),
-                     (unsigned long long)input.faces, double(fs::file_size(input.path, ec)) / 1e6, made.seconds);
-        runner.run(input);
-        if (!options.keep) fs::remove(input.path, ec);
+      }
+      if (!options.keep) {
+        fs::remove(coherent.path, ec);
+        fs::remove(scattered.path, ec);
       }
     }
   }
