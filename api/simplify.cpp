@@ -132,6 +132,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   Json report = common_report(source, sink, o, result->vertices, result->faces, spheres[result->chosen], sampler,
                               *result, result->chosen, *bytes);
   finish_report(report, result->finish_options, result->finish, stats);
+  if (result->finish) report["approximation"] = result->collapsed_input ? "input" : "gauss";
   report["merged_patches"] = result->merged_patches;
   report["merge_rounds"] = result->merge_rounds;
   report["mesher"] = "patch";
@@ -210,12 +211,27 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   if (o.target.any() && o.sampling.frequency == kAutoFrequency)
     options.min_samples = stream::finish_min_samples(finish, input.triangles.size());
   options.mesher = o.mesher == Mesher::kVoronoi ? stream::MesherKind::kVoronoi : stream::MesherKind::kPatch;
-  auto result = stream::simplify_mesh(input, options);
+  // The finish on the input itself where the target asks for it (stream::finish_collapses_input),
+  // else on the Gauss approximation; also when the input is not a manifold OpenMesh can hold.
+  std::optional<stream::FinishResult> finished;
+  std::optional<stream::SimplifyResult> direct;
+  if (o.target.any() && o.sampling.frequency == kAutoFrequency &&
+      stream::finish_collapses_input(finish, input.triangles.size())) {
+    const stream::Mesh compact = stream::compact_input(input.positions, input.triangles);
+    auto f = stream::finish_input(compact.view(), finish);
+    if (!f && f.status().code() != Code::kProcessing) return f.status();
+    if (f) {
+      direct.emplace();
+      direct->mesh = std::move(f->mesh);
+      finished = std::move(f).value();
+    }
+  }
+  const bool direct_used = direct.has_value();
+  auto result = direct ? Result<stream::SimplifyResult>(std::move(*direct)) : stream::simplify_mesh(input, options);
   if (!result) return result.status();
   if (result->mesh.triangles.empty()) return empty_approximation(source);
 
-  std::optional<stream::FinishResult> finished;
-  if (finish.enabled()) {
+  if (finish.enabled() && !finished) {
     auto f = stream::finish_in_core(input, result->mesh.view(), finish);
     if (!f) return f.status();
     result->mesh = std::move(f->mesh);
@@ -249,6 +265,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
                               options.spheres[result->orientation_index], options.sampler, *result,
                               result->orientation_index, *bytes);
   finish_report(report, finish, finished, stats);
+  if (finished) report["approximation"] = direct_used ? "input" : "gauss";
   if (measured) {
     stats.measured = true;
     stats.hausdorff = measured->hausdorff;

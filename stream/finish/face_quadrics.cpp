@@ -18,21 +18,25 @@ constexpr std::int64_t kCellBias = std::int64_t{1} << 20;
 
 }  // namespace
 
-FaceQuadrics::FaceQuadrics(MeshView approximation) {
-  const auto& p = approximation.positions;
+QuadricFrame frame_of(MeshView mesh) {
   Vec3dq lo{std::numeric_limits<double>::max(), std::numeric_limits<double>::max(),
             std::numeric_limits<double>::max()};
   Vec3dq hi{-lo.x, -lo.y, -lo.z};
-  for (const auto& v : p) {
+  for (const auto& v : mesh.positions) {
     lo = {std::min(lo.x, double(v.x)), std::min(lo.y, double(v.y)), std::min(lo.z, double(v.z))};
     hi = {std::max(hi.x, double(v.x)), std::max(hi.y, double(v.y)), std::max(hi.z, double(v.z))};
   }
-  if (p.empty()) lo = hi = {};
+  if (mesh.positions.empty()) lo = hi = {};
   const Vec3dq extent = sub(hi, lo);
   const double diagonal = std::sqrt(dot(extent, extent));
-  frame_.origin = lo;
-  frame_.scale = diagonal > 0 ? diagonal : 1;
+  QuadricFrame frame;
+  frame.origin = lo;
+  frame.scale = diagonal > 0 ? diagonal : 1;
+  return frame;
+}
 
+FaceQuadrics::FaceQuadrics(MeshView approximation) : frame_(frame_of(approximation)) {
+  const auto& p = approximation.positions;
   positions_.reserve(p.size());
   for (const auto& v : p) positions_.push_back(frame_.to_frame(v.x, v.y, v.z));
   normals_.assign(p.size(), {});

@@ -58,6 +58,9 @@ class FaceQuadrics {
   std::unordered_map<std::uint64_t, std::pair<std::uint32_t, std::uint32_t>> cells_;  // key -> [begin, end)
 };
 
+// The frame quadrics live in: the mesh's bounding box, scaled to unit diagonal.
+QuadricFrame frame_of(MeshView mesh);
+
 // Sums a set of per-thread or per-chunk sums into `into`.
 void add_sums(std::vector<FixedQuadric>& into, const std::vector<FixedQuadric>& from);
 

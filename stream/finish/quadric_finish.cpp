@@ -46,20 +46,20 @@ std::uint64_t finish_min_samples(const FinishOptions& options, std::uint64_t inp
   return std::max<std::uint64_t>(1, std::uint64_t(std::min(cap, std::ceil(kFinishOversampling * faces / 2))));
 }
 
-format::Result<FinishResult> finish_from_sums(MeshView approximation, const FaceQuadrics& quadrics,
+format::Result<FinishResult> finish_from_sums(MeshView approximation, const QuadricFrame& frame,
                                               const std::vector<FixedQuadric>& sums, const FinishOptions& options) {
   const auto start = Clock::now();
   DecimationOptions d;
   d.target_faces = options.target_faces;
-  d.max_error = options.max_error / kMaxErrorMargin / quadrics.frame().scale;
-  auto decimated = decimate(approximation, sums, quadrics.frame(), d);
+  d.max_error = options.max_error / kMaxErrorMargin / frame.scale;
+  auto decimated = decimate(approximation, sums, frame, d);
   if (!decimated) return decimated.status();
   FinishResult r;
   r.approximation_faces = approximation.triangles.size();
   r.mesh = std::move(decimated->mesh);
   r.collapses = decimated->collapses;
   r.refused = decimated->refused;
-  r.estimated_error = decimated->estimated_error * quadrics.frame().scale;
+  r.estimated_error = decimated->estimated_error * frame.scale;
   r.reached_target = decimated->reached_target;
   if (options.target_faces > 0 && r.approximation_faces <= options.target_faces) r.stopped_by = "approximation";
   else if (options.target_faces == 0 || decimated->reached_target) r.stopped_by = decimated->over_error > 0 && options.target_faces == 0 ? "max_error" : "target";
@@ -84,7 +84,67 @@ format::Result<FinishResult> finish_in_core(MeshView input, MeshView approximati
   std::vector<FixedQuadric> sums = quadrics.new_sums();
   for (const auto& part : partial) add_sums(sums, part.sums);
   const double seconds_quadrics = seconds_since(start);
-  auto r = finish_from_sums(approximation, quadrics, sums, options);
+  auto r = finish_from_sums(approximation, quadrics.frame(), sums, options);
+  if (r) r->seconds_quadrics = seconds_quadrics;
+  return r;
+}
+
+bool finish_collapses_input(const FinishOptions& options, std::uint64_t input_faces) {
+  if (std::isfinite(options.max_error)) return true;
+  return options.target_faces > 0 &&
+         kFinishOversampling * double(options.target_faces) / 2 >= kFinishInputShare * double(input_faces);
+}
+
+Mesh compact_input(std::span<const Vec3f> positions, std::span<const Triangle> faces) {
+  auto repeated = [](const Triangle& t) { return t.v[0] == t.v[1] || t.v[1] == t.v[2] || t.v[0] == t.v[2]; };
+  std::vector<std::uint32_t> index(positions.size(), UINT32_MAX);
+  for (const auto& t : faces)
+    if (!repeated(t))
+      for (auto v : t.v) index[v] = 0;
+  Mesh m;
+  for (std::size_t v = 0; v < positions.size(); ++v) {
+    if (index[v] == UINT32_MAX) continue;
+    index[v] = std::uint32_t(m.positions.size());
+    m.positions.push_back(positions[v]);
+  }
+  for (const auto& t : faces)
+    if (!repeated(t)) m.triangles.push_back({{index[t.v[0]], index[t.v[1]], index[t.v[2]]}});
+  return m;
+}
+
+void add_own_faces(MeshView mesh, std::span<const Triangle> faces, const QuadricFrame& frame,
+                   std::vector<FixedQuadric>& sums) {
+  for (const auto& t : faces) {
+    const auto& a = mesh.positions[t.v[0]];
+    const auto& b = mesh.positions[t.v[1]];
+    const auto& c = mesh.positions[t.v[2]];
+    const Vec3dq p0 = frame.to_frame(a.x, a.y, a.z), p1 = frame.to_frame(b.x, b.y, b.z), p2 = frame.to_frame(c.x, c.y, c.z);
+    const Vec3dq e1{p1.x - p0.x, p1.y - p0.y, p1.z - p0.z}, e2{p2.x - p0.x, p2.y - p0.y, p2.z - p0.z};
+    const Vec3dq n{e1.y * e2.z - e1.z * e2.y, e1.z * e2.x - e1.x * e2.z, e1.x * e2.y - e1.y * e2.x};
+    const double length = std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+    if (!(length > 0) || !std::isfinite(length)) continue;
+    const Vec3dq unit{n.x / length, n.y / length, n.z / length};
+    const FixedQuadric q =
+        FixedQuadric::from(Quadric::plane(unit, -(unit.x * p0.x + unit.y * p0.y + unit.z * p0.z), length / 2));
+    for (auto v : t.v) sums[v] += q;
+  }
+}
+
+format::Result<FinishResult> finish_input(MeshView compact, const FinishOptions& options) {
+  const auto start = Clock::now();
+  const QuadricFrame frame = frame_of(compact);
+  // Fixed-point sums: the split over threads does not change the result.
+  tbb::enumerable_thread_specific<std::vector<FixedQuadric>> partial(
+      [&] { return std::vector<FixedQuadric>(compact.positions.size()); });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, compact.triangles.size(), 16384),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      add_own_faces(compact, compact.triangles.subspan(range.begin(), range.size()), frame,
+                                    partial.local());
+                    });
+  std::vector<FixedQuadric> sums(compact.positions.size());
+  for (const auto& part : partial) add_sums(sums, part);
+  const double seconds_quadrics = seconds_since(start);
+  auto r = finish_from_sums(compact, frame, sums, options);
   if (r) r->seconds_quadrics = seconds_quadrics;
   return r;
 }

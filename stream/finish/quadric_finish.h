@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <span>
 #include <string>
 
 #include "format/status.h"
@@ -82,8 +83,38 @@ struct FinishResult {
   double seconds_quadrics = 0, seconds_decimate = 0;
 };
 
-// The decimation half, once `sums` holds every input face (quadrics.add_face).
-format::Result<FinishResult> finish_from_sums(MeshView approximation, const FaceQuadrics& quadrics,
+// Targets above kFinishInputShare of the input's faces (with the oversampling, what would need
+// G at frequency 32 or more), and error bounds, collapse the input itself rather than a Gauss
+// approximation: finer Gauss approximations cost more than the input's own collapses and are
+// further off (docs/finish.md, "The approximation"). Only for an input OpenMesh can hold (an
+// oriented manifold once faces with a repeated corner are left out); else the Gauss one.
+inline constexpr double kFinishInputShare = 0.02;
+bool finish_collapses_input(const FinishOptions& options, std::uint64_t input_faces);
+
+// The input as the finish collapses it: faces with a repeated corner left out, the vertices
+// they use renumbered in id order. `faces` is the input's faces in order; out of core the
+// chunks' owned faces sorted by global id are the same list.
+Mesh compact_input(std::span<const Vec3f> positions, std::span<const Triangle> faces);
+
+// Garland & Heckbert's quadrics of `mesh` itself: each face's plane to its three corners, in
+// `frame` (frame_of(mesh)); fixed point, so any split of the faces reaches the same sums.
+void add_own_faces(MeshView mesh, std::span<const Triangle> faces, const QuadricFrame& frame,
+                   std::vector<FixedQuadric>& sums);
+
+// Out of core, the peak of collapsing the input itself: kInputBytesPerFace a face on top of the
+// kept memory of finish_memory_estimate.
+inline constexpr std::uint64_t kInputBytesPerFace = 512;
+inline std::uint64_t input_finish_memory_estimate(std::uint64_t input_faces) {
+  return (std::uint64_t{12} << 20) + std::min<std::uint64_t>(std::uint64_t{24} << 20, 256 * input_faces) +
+         kInputBytesPerFace * input_faces;
+}
+
+// The collapses on the input itself (compact_input), both halves, on every core. kProcessing
+// when the input is not an oriented manifold (the caller then takes the Gauss approximation).
+format::Result<FinishResult> finish_input(MeshView compact, const FinishOptions& options);
+
+// The decimation half, once `sums` (in `frame`) holds every input face (FaceQuadrics::add_face).
+format::Result<FinishResult> finish_from_sums(MeshView approximation, const QuadricFrame& frame,
                                               const std::vector<FixedQuadric>& sums, const FinishOptions& options);
 
 // Both halves in core: the input's faces are added on every core.

@@ -669,7 +669,7 @@ format::Status SimplifyRun::finish() {
   for (const auto& part : partial) add_sums(sums, part.sums);
   partial.clear();
   const double seconds_quadrics = seconds_since(start);
-  auto finished = finish_from_sums(out_.mesh.view(), quadrics, sums, out_.finish_options);
+  auto finished = finish_from_sums(out_.mesh.view(), quadrics.frame(), sums, out_.finish_options);
   if (!finished) return finished.status();
   finished->seconds_quadrics = seconds_quadrics;
   out_.mesh = std::move(finished->mesh);
@@ -735,6 +735,11 @@ format::Result<OutOfCoreSimplify> simplify_sampled(Partition& partition_ref, con
                                                    const OutOfCoreSimplifyOptions& options, OutOfCoreSimplify base);
 format::Result<OutOfCoreSimplify> simplify_ladder(Partition& partition, const OutOfCoreSimplifyOptions& options,
                                                   OutOfCoreSimplify base);
+// The finish on the input itself (stream::finish_collapses_input): the input gathered from the
+// chunks' owned faces, as compact_input has it in core. Sets `done` unless the input is not a
+// manifold OpenMesh can hold (then the Gauss approximation is the caller's to make).
+format::Status simplify_input(Partition& partition, const OutOfCoreSimplifyOptions& options, OutOfCoreSimplify& out,
+                              bool& done);
 
 }  // namespace
 
@@ -760,6 +765,11 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   record_partition(*partition, base);
   base.finish_options = resolve_finish(options.finish, partition->faces, diagonal_of(partition->lo, partition->hi));
   GM_RETURN_IF_ERROR(check_finish_target(base.finish_options, partition->faces, input_path));
+  if (options.auto_frequency && options.finish.any() && finish_collapses_input(base.finish_options, partition->faces)) {
+    bool done = false;
+    GM_RETURN_IF_ERROR(simplify_input(*partition, options, base, done));
+    if (done) return base;
+  }
   if (options.auto_frequency && options.finish.any()) {
     OutOfCoreSimplifyOptions resolved = options;
     resolved.min_samples = finish_min_samples(base.finish_options, partition->faces);
@@ -790,6 +800,75 @@ format::Status too_large_for_budget(std::uint64_t samples, std::uint64_t need, s
   return format::Status::error(format::Code::kResources, "--memory",
                                what + "more than a quarter of this machine's memory (" + std::to_string(limit >> 20) +
                                    " MiB): lower the target");
+}
+
+format::Status simplify_input(Partition& partition, const OutOfCoreSimplifyOptions& options, OutOfCoreSimplify& out,
+                              bool& done) {
+  const std::uint64_t need = input_finish_memory_estimate(partition.faces);
+  out.finish_memory_estimate = need;
+  const std::uint64_t limit = options.memory_explicit ? options.memory.bytes() : options.memory_ceiling;
+  if (limit > 0 && need > limit) {
+    const std::string what = "the target collapses the input itself (" + std::to_string(partition.faces) +
+                             " faces), about " + std::to_string(need >> 20) + " MiB, ";
+    return format::Status::error(format::Code::kResources, "--memory",
+                                 options.memory_explicit
+                                     ? what + "above the budget of " + std::to_string(limit >> 20) +
+                                           " MiB: raise --memory or lower the target"
+                                     : what + "more than a quarter of this machine's memory (" +
+                                           std::to_string(limit >> 20) + " MiB): lower the target");
+  }
+  const auto start = Clock::now();
+  struct OwnedFace {
+    std::uint64_t id;
+    format::Triangle t;  // global vertex ids
+  };
+  std::vector<OwnedFace> faces;
+  std::vector<format::Vec3f> positions(partition.vertices);
+  std::mutex mutex;
+  GM_RETURN_IF_ERROR(for_each_chunk(
+      partition, options.threads,
+      [&](std::size_t, const ChunkMesh& chunk, ChunkSamplerWorkspace&) {
+        std::vector<OwnedFace> mine;
+        for (std::size_t f = 0; f < chunk.triangles.size(); ++f) {
+          if (!chunk.owned_face[f]) continue;
+          const auto& t = chunk.triangles[f];
+          mine.push_back({chunk.global_face[f], {{chunk.global_vertex[t.v[0]], chunk.global_vertex[t.v[1]],
+                                                  chunk.global_vertex[t.v[2]]}}});
+        }
+        std::lock_guard<std::mutex> lock(mutex);
+        for (std::size_t v = 0; v < chunk.positions.size(); ++v)
+          if (chunk.owned_vertex[v] && chunk.global_vertex[v] < positions.size())
+            positions[chunk.global_vertex[v]] = chunk.positions[v];
+        faces.insert(faces.end(), mine.begin(), mine.end());
+        return format::Status();
+      },
+      [&](std::size_t done_chunks, std::size_t total) {
+        if (options.progress) options.progress("gather", done_chunks, total, partition.faces);
+      },
+      options.memory));
+  std::sort(faces.begin(), faces.end(), [](const OwnedFace& a, const OwnedFace& b) { return a.id < b.id; });
+  std::vector<format::Triangle> triangles;
+  triangles.reserve(faces.size());
+  for (const auto& f : faces) triangles.push_back(f.t);
+  std::vector<OwnedFace>().swap(faces);
+  Mesh compact = compact_input(positions, triangles);
+  std::vector<format::Vec3f>().swap(positions);
+  std::vector<format::Triangle>().swap(triangles);
+  auto finished = finish_input(compact.view(), out.finish_options);
+  if (!finished) {
+    if (finished.status().code() != format::Code::kProcessing) return finished.status();
+    return format::Status();  // not a manifold: the Gauss approximation
+  }
+  out.mesh = std::move(finished->mesh);
+  out.finish = std::move(finished).value();
+  out.seconds_mesh = seconds_since(start);
+  const auto cleanup = Clock::now();
+  partition.remove_temp();
+  out.seconds_cleanup = seconds_since(cleanup);
+  out.bytes_spilled = partition.bytes_spilled;
+  out.collapsed_input = true;
+  done = true;
+  return format::Status();
 }
 
 format::Result<OutOfCoreSimplify> simplify_ladder(Partition& partition, const OutOfCoreSimplifyOptions& options,

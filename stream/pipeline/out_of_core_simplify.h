@@ -70,6 +70,7 @@ struct OutOfCoreSimplify {
   FinishOptions finish_options;        // the resolved target
   std::optional<FinishResult> finish;  // its figures (its mesh moved into `mesh`)
   std::uint64_t finish_memory_estimate = 0;  // --frequency auto: what the chosen approximation needs
+  bool collapsed_input = false;  // the finish ran on the input itself, not on a Gauss approximation
   std::vector<std::uint32_t> birth;
   std::array<double, 4> rotation{};
   std::size_t chosen = 0;
