@@ -118,8 +118,9 @@ void FaceQuadrics::nearest(const Vec3dq* points, int count, const Vec3dq& normal
     }
   };
   constexpr std::int64_t kFacingShells = 6;
-  // Every vertex lies within the frame's unit box, so shells beyond 2 / cell_ find nothing new.
-  const std::int64_t max_shell = std::int64_t(std::ceil(2.0 / cell_)) + 1;
+  // Every vertex lies within the frame's unit box and every point within a cell of it (add_face
+  // clamps them), so shells beyond 2 / cell_ + 3 find nothing new.
+  const std::int64_t max_shell = std::int64_t(std::ceil(2.0 / cell_)) + 3;
   int left = count;
   for (std::int64_t r = 0; r <= max_shell && left > 0; ++r) {
     // Shell r: the cells at Chebyshev distance r from the centre cell.
@@ -219,22 +220,31 @@ void FaceQuadrics::add_face(const Vec3f& a, const Vec3f& b, const Vec3f& c, Accu
   // The face counts for the vertex nearest to each of its corners (one to three of them), as
   // Garland & Heckbert give a face's plane to each of its corners.
   const FixedQuadric q = FixedQuadric::from(Quadric::plane(unit, -dot(unit, p0), length / 2));
-  const Vec3dq corners[3] = {p0, p1, p2};
+  // Searched from within the frame's box grown by a cell: a corner far outside (an outlier the
+  // approximation left out) is assigned as its nearest point of that box, which keeps every search
+  // within a bounded number of shells.
+  auto inside = [this](const Vec3dq& q) {
+    const double lo = -cell_, hi = 1 + cell_;
+    return Vec3dq{std::clamp(q.x, lo, hi), std::clamp(q.y, lo, hi), std::clamp(q.z, lo, hi)};
+  };
+  const Vec3dq corners[3] = {inside(p0), inside(p1), inside(p2)};
   std::uint32_t v[3];
   auto cell_of = [this](const Vec3dq& q) {
     return cell_key(std::int64_t(std::floor(q.x / cell_)), std::int64_t(std::floor(q.y / cell_)),
                     std::int64_t(std::floor(q.z / cell_)));
   };
-  const std::uint64_t c0 = cell_of(p0);
-  if (cell_of(p1) == c0 && cell_of(p2) == c0) {
+  const std::uint64_t c0 = cell_of(corners[0]);
+  if (cell_of(corners[1]) == c0 && cell_of(corners[2]) == c0) {
     // The common case: a face much smaller than a cell.
-    const std::int64_t ci = std::int64_t(std::floor(p0.x / cell_)), cj = std::int64_t(std::floor(p0.y / cell_)),
-                       ck = std::int64_t(std::floor(p0.z / cell_));
+    const std::int64_t ci = std::int64_t(std::floor(corners[0].x / cell_)),
+                       cj = std::int64_t(std::floor(corners[0].y / cell_)),
+                       ck = std::int64_t(std::floor(corners[0].z / cell_));
     if (!nearest_cached(corners, unit, c0, ci, cj, ck, into, v)) nearest(corners, 3, unit, v);
   } else {
     for (int k = 0; k < 3; ++k) nearest(&corners[k], 1, unit, &v[k]);
   }
   const std::uint32_t v0 = v[0], v1 = v[1], v2 = v[2];
+  if (v0 == UINT32_MAX || v1 == UINT32_MAX || v2 == UINT32_MAX) return;  // no vertex at all
   sums[v0] += q;
   if (v1 != v0) sums[v1] += q;
   if (v2 != v0 && v2 != v1) sums[v2] += q;

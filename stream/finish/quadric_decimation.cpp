@@ -6,6 +6,7 @@
 #define NDEBUG
 #endif
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+#include <OpenMesh/Core/System/omstream.hh>
 #ifdef GAUSSMESH_RESTORE_ASSERT
 #undef NDEBUG
 #undef GAUSSMESH_RESTORE_ASSERT
@@ -186,6 +187,8 @@ format::Result<DecimationResult> decimate(MeshView approximation, const std::vec
   if (sums.size() != approximation.positions.size()) {
     return format::Status::error(format::Code::kProcessing, "finish", "one quadric per vertex expected");
   }
+  // A face OpenMesh refuses is our error to report (below), not a line of its own on stderr.
+  omerr().disable();
   QMesh mesh;
   mesh.reserve(approximation.positions.size(), 3 * approximation.triangles.size() / 2,
                approximation.triangles.size());

@@ -133,6 +133,39 @@ TEST(QuadricFinish, SameBitsEveryRun) {
     for (int k = 0; k < 3; ++k) EXPECT_EQ(a->mesh.triangles[i].v[k], b->mesh.triangles[i].v[k]);
 }
 
+TEST(QuadricFinish, TheInputItselfIsCollapsedWhenItIsAManifold) {
+  const Mesh torus = make_torus(1.0, 0.3, {.vertices = 3000, .noise = 0.001, .seed = 4});
+  FinishOptions o;
+  o.target_faces = 600;
+  auto r = finish_input(torus.view(), o);
+  ASSERT_TRUE(r.is_ok()) << r.status().to_string();
+  EXPECT_EQ(r->approximation_faces, torus.triangles.size());
+  EXPECT_LE(r->mesh.triangles.size(), 600u);
+  EXPECT_GE(r->mesh.triangles.size(), 598u);
+  expect_same_surface_kind(torus, r->mesh);
+
+  // A fin on one edge (three faces on it): no manifold for OpenMesh, so the caller is told.
+  Mesh fin = torus;
+  const auto& t = fin.triangles[0];
+  fin.positions.push_back({0, 0, 2});
+  fin.triangles.push_back({{t.v[0], t.v[1], std::uint32_t(fin.positions.size() - 1)}});
+  auto refused = finish_input(fin.view(), o);
+  ASSERT_FALSE(refused.is_ok());
+  EXPECT_EQ(refused.status().code(), format::Code::kProcessing);
+}
+
+TEST(QuadricFinish, CompactInputDropsRepeatedCornersAndUnusedVertices) {
+  const std::vector<format::Vec3f> positions = {{0, 0, 0}, {9, 9, 9}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  const std::vector<format::Triangle> faces = {{{0, 2, 3}}, {{2, 2, 4}}, {{0, 3, 4}}};
+  const Mesh m = compact_input(positions, faces);
+  ASSERT_EQ(m.positions.size(), 4u);  // vertex 1 is unused
+  EXPECT_EQ(m.positions[1].x, 1.0f);
+  ASSERT_EQ(m.triangles.size(), 2u);  // the face with a repeated corner is left out
+  EXPECT_EQ(m.triangles[1].v[0], 0u);
+  EXPECT_EQ(m.triangles[1].v[1], 2u);
+  EXPECT_EQ(m.triangles[1].v[2], 3u);
+}
+
 TEST(QuadricFinish, ResolvesRatiosAndRelativeErrors) {
   FinishTarget t;
   t.ratio = 0.1;
@@ -143,6 +176,10 @@ TEST(QuadricFinish, ResolvesRatiosAndRelativeErrors) {
   t.max_error = 0.5;
   t.max_error_relative = true;  // percent of the diagonal
   EXPECT_DOUBLE_EQ(resolve_finish(t, 10, 2.0).max_error, 0.01);
+  // Which targets collapse the input itself: above 0.5 % of its faces, and any error bound.
+  EXPECT_TRUE(finish_collapses_input({.target_faces = 10000}, 1000000));
+  EXPECT_FALSE(finish_collapses_input({.target_faces = 1000}, 1000000));
+  EXPECT_TRUE(finish_collapses_input({.target_faces = 1000, .max_error = 0.1}, 1000000));
   EXPECT_FALSE(check_finish_target({.target_faces = 11}, 10, "in").is_ok());
   EXPECT_TRUE(check_finish_target({.target_faces = 10}, 10, "in").is_ok());
 }
