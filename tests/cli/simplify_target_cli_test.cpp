@@ -145,7 +145,7 @@ TEST(SimplifyTargetCli, ANonManifoldInputIsFinishedFromItsGaussApproximation) {
   const auto json = nlohmann::json::parse(read_file(dir.file("r.json")));
   EXPECT_EQ(json["approximation"], "gauss");
   EXPECT_EQ(json["stopped_by"], "target");
-  EXPECT_EQ(json["output_faces"].get<long>(), json["target_faces"].get<long>());
+  EXPECT_LE(json["target_faces"].get<long>() - json["output_faces"].get<long>(), 1);  // even counts: closed
   EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << "only the summary line: " << run.err;
 }
 
