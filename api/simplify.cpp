@@ -328,6 +328,18 @@ Result<SimplifyStats> simplify_job(const Source& source, const Sink& sink, const
                     ? api::choose_in_core_only(source, options.resources, "--mesher", "the Voronoi mesher")
                     : choose_engine(source, options.resources);
   if (!engine) return engine.status();
+  // A target's finish adds to the in-core working set (the input path holds ~kInputBytesPerFace
+  // more a face): the automatic choice counts it, so that an explicit budget still holds.
+  if (engine->engine == Engine::kInCore && options.resources.engine == Engine::kAuto && options.target.any() &&
+      source.kind == Source::Kind::kFile) {
+    const std::uint64_t limit =
+        options.resources.memory_bytes != 0 ? options.resources.memory_bytes : api::physical_memory() / 4;
+    const std::uint64_t faces = engine->estimated_faces;
+    if (in_core_bytes(faces) + stream::kInputBytesPerFace * faces > limit) {
+      engine->engine = Engine::kOutOfCore;
+      engine->memory_bytes = options.resources.memory_bytes != 0 ? options.resources.memory_bytes : auto_memory_budget();
+    }
+  }
   if (engine->engine == Engine::kOutOfCore) {
     if (options.target.measure) {
       return Status::error(Code::kUsage, "--measure",
