@@ -40,16 +40,78 @@ constexpr double kBoundaryWeight = 1;
 struct Candidate {
   double cost;
   std::uint32_t edge;
-  std::uint32_t stamp;
-  bool operator<(const Candidate& o) const {  // std::priority_queue pops the largest
-    return cost != o.cost ? cost > o.cost : edge > o.edge;
+  bool before(const Candidate& o) const { return cost != o.cost ? cost < o.cost : edge < o.edge; }
+};
+
+// A 4-ary min-heap of (cost, edge) with at most one entry per edge, whose cost can be updated:
+// the collapses pop it several million times on a large input, and a heap of stale entries
+// (std::priority_queue with lazy deletion) spent most of the run in cache misses.
+class EdgeHeap {
+ public:
+  explicit EdgeHeap(std::size_t edges) : pos_(edges, kAbsent) {}
+  bool empty() const { return heap_.empty(); }
+  const Candidate& top() const { return heap_.front(); }
+  void set(std::uint32_t edge, double cost) {
+    if (pos_[edge] == kAbsent) {
+      pos_[edge] = std::uint32_t(heap_.size());
+      heap_.push_back({cost, edge});
+      up(heap_.size() - 1);
+    } else {
+      const std::size_t i = pos_[edge];
+      const bool lower = cost < heap_[i].cost;
+      heap_[i].cost = cost;
+      lower ? up(i) : down(i);
+    }
   }
+  void pop() {
+    pos_[heap_.front().edge] = kAbsent;
+    heap_.front() = heap_.back();
+    heap_.pop_back();
+    if (!heap_.empty()) {
+      pos_[heap_.front().edge] = 0;
+      down(0);
+    }
+  }
+
+ private:
+  static constexpr std::uint32_t kAbsent = UINT32_MAX;
+  static constexpr std::size_t kArity = 4;
+  void place(std::size_t i, const Candidate& c) {
+    heap_[i] = c;
+    pos_[c.edge] = std::uint32_t(i);
+  }
+  void up(std::size_t i) {
+    const Candidate c = heap_[i];
+    while (i > 0) {
+      const std::size_t parent = (i - 1) / kArity;
+      if (!c.before(heap_[parent])) break;
+      place(i, heap_[parent]);
+      i = parent;
+    }
+    place(i, c);
+  }
+  void down(std::size_t i) {
+    const Candidate c = heap_[i];
+    for (;;) {
+      const std::size_t first = kArity * i + 1;
+      if (first >= heap_.size()) break;
+      std::size_t best = first;
+      const std::size_t last = std::min(first + kArity, heap_.size());
+      for (std::size_t k = first + 1; k < last; ++k)
+        if (heap_[k].before(heap_[best])) best = k;
+      if (!heap_[best].before(c)) break;
+      place(i, heap_[best]);
+      i = best;
+    }
+    place(i, c);
+  }
+  std::vector<Candidate> heap_;
+  std::vector<std::uint32_t> pos_;
 };
 
 class Decimator {
  public:
-  Decimator(QMesh& mesh, std::vector<Quadric> quadrics) : m_(mesh), q_(std::move(quadrics)) {
-    stamp_.assign(m_.n_edges(), 0);
+  Decimator(QMesh& mesh, std::vector<Quadric> quadrics) : m_(mesh), q_(std::move(quadrics)), heap_(mesh.n_edges()) {
     target_.resize(m_.n_edges());
   }
 
@@ -114,7 +176,7 @@ class Decimator {
     double cost;
     if (!evaluate(e, x, cost)) return;
     target_[e.idx()] = x;
-    heap_.push({cost, std::uint32_t(e.idx()), ++stamp_[e.idx()]});
+    heap_.set(std::uint32_t(e.idx()), cost);
   }
 
   DecimationResult run(const DecimationOptions& options, std::uint64_t faces) {
@@ -130,9 +192,9 @@ class Decimator {
         continue;
       }
       const Candidate c = heap_.top();
-      heap_.pop();
+      heap_.pop();  // made or refused, it comes back only when a neighbour's collapse re-queues it
       const QMesh::EdgeHandle e(int(c.edge));
-      if (m_.status(e).deleted() || c.stamp != stamp_[c.edge]) continue;
+      if (m_.status(e).deleted()) continue;
       const Vec3d x = target_[c.edge];
       auto h = m_.halfedge_handle(e, 0);
       Quadric q = q_[m_.from_vertex_handle(h).idx()];
@@ -170,9 +232,8 @@ class Decimator {
  private:
   QMesh& m_;
   std::vector<Quadric> q_;
-  std::vector<std::uint32_t> stamp_;
   std::vector<Vec3d> target_;
-  std::priority_queue<Candidate> heap_;
+  EdgeHeap heap_;
   bool relaxed_ = false;
 };
 
