@@ -195,18 +195,8 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   stream::SimplifyOptions options;
   options.spheres = spheres;
   options.sampler = sampler;
-  // The finish's target, resolved against the input (the bounds of its finite positions, as the
-  // out-of-core partition takes them).
-  format::Vec3f lo{0, 0, 0}, hi{0, 0, 0};
-  bool first = true;
-  for (const auto& p : input.positions) {
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
-    if (first) lo = hi = p, first = false;
-    lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
-    hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
-  }
-  const stream::FinishOptions finish =
-      stream::resolve_finish(finish_target(o.target), input.triangles.size(), stream::diagonal_of(lo, hi));
+  const stream::FinishOptions finish = stream::resolve_finish(finish_target(o.target), input.triangles.size(),
+                                                              stream::finite_diagonal(input.positions));
   GM_RETURN_IF_ERROR(stream::check_finish_target(finish, input.triangles.size(), source.name()));
   if (o.target.any() && o.sampling.frequency == kAutoFrequency)
     options.min_samples = stream::finish_min_samples(finish, input.triangles.size());
@@ -214,21 +204,18 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   // The finish on the input itself where the target asks for it (stream::finish_collapses_input),
   // else on the Gauss approximation; also when the input is not a manifold OpenMesh can hold.
   std::optional<stream::FinishResult> finished;
-  std::optional<stream::SimplifyResult> direct;
+  bool collapsed_input = false;
   if (o.target.any() && o.sampling.frequency == kAutoFrequency &&
       stream::finish_collapses_input(finish, input.triangles.size())) {
     const stream::Mesh compact = stream::compact_input(input.positions, input.triangles);
     auto f = stream::finish_input(compact.view(), finish);
     if (!f && f.status().code() != Code::kProcessing) return f.status();
-    if (f) {
-      direct.emplace();
-      direct->mesh = std::move(f->mesh);
-      finished = std::move(f).value();
-    }
+    if (f) finished = std::move(f).value(), collapsed_input = true;
   }
-  const bool direct_used = direct.has_value();
-  auto result = direct ? Result<stream::SimplifyResult>(std::move(*direct)) : stream::simplify_mesh(input, options);
+  auto result = collapsed_input ? Result<stream::SimplifyResult>(stream::SimplifyResult{})
+                                : stream::simplify_mesh(input, options);
   if (!result) return result.status();
+  if (collapsed_input) result->mesh = std::move(finished->mesh);
   if (result->mesh.triangles.empty()) return empty_approximation(source);
 
   if (finish.enabled() && !finished) {
@@ -265,7 +252,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
                               options.spheres[result->orientation_index], options.sampler, *result,
                               result->orientation_index, *bytes);
   finish_report(report, finish, finished, stats);
-  if (finished) report["approximation"] = direct_used ? "input" : "gauss";
+  if (finished) report["approximation"] = collapsed_input ? "input" : "gauss";
   if (measured) {
     stats.measured = true;
     stats.hausdorff = measured->hausdorff;

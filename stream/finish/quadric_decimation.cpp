@@ -1,21 +1,9 @@
 #include "stream/finish/quadric_decimation.h"
 
-// OpenMesh's property asserts cost much and check nothing of ours; see collapse_mesher.cpp.
-#ifndef NDEBUG
-#define GAUSSMESH_RESTORE_ASSERT
-#define NDEBUG
-#endif
-#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
-#include <OpenMesh/Core/System/omstream.hh>
-#ifdef GAUSSMESH_RESTORE_ASSERT
-#undef NDEBUG
-#undef GAUSSMESH_RESTORE_ASSERT
-#include <cassert>
-#endif
+#include "stream/core/openmesh_include.h"
 
 #include <algorithm>
 #include <cmath>
-#include <queue>
 
 namespace gaussmesh::stream {
 namespace {
@@ -144,21 +132,15 @@ class Decimator {
     const auto v0 = m_.from_vertex_handle(h), v1 = m_.to_vertex_handle(h);
     const double cos_limit = std::cos((relaxed_ ? kRelaxedTurnDegrees : kMaxTurnDegrees) * M_PI / 180.0);
     for (auto v : {v0, v1}) {
+      // Every face here holds v; those holding both ends vanish with the edge.
       for (auto f : m_.vf_range(v)) {
-        Vec3d p[3];
-        bool has_both = false, moved = false;
-        int k = 0;
         QMesh::VertexHandle vs[3];
+        int k = 0, ends = 0;
         for (auto fv : m_.fv_range(f)) vs[k++] = fv;
-        int count = 0;
-        for (int i = 0; i < 3; ++i) count += (vs[i] == v0 || vs[i] == v1);
-        has_both = count == 2;
-        if (has_both) continue;
-        for (int i = 0; i < 3; ++i) {
-          p[i] = m_.point(vs[i]);
-          if (vs[i] == v0 || vs[i] == v1) p[i] = x, moved = true;
-        }
-        if (!moved) continue;
+        for (int i = 0; i < 3; ++i) ends += vs[i] == v0 || vs[i] == v1;
+        if (ends == 2) continue;
+        Vec3d p[3];
+        for (int i = 0; i < 3; ++i) p[i] = vs[i] == v0 || vs[i] == v1 ? x : m_.point(vs[i]);
         const Vec3d old_n = (m_.point(vs[1]) - m_.point(vs[0])) % (m_.point(vs[2]) - m_.point(vs[0]));
         const Vec3d new_n = (p[1] - p[0]) % (p[2] - p[0]);
         const double old_len = old_n.norm(), new_len = new_n.norm();

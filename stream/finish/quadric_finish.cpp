@@ -35,6 +35,18 @@ format::Status check_finish_target(const FinishOptions& options, std::uint64_t i
   return format::Status();
 }
 
+double finite_diagonal(std::span<const Vec3f> positions) {
+  Vec3f lo{0, 0, 0}, hi{0, 0, 0};
+  bool first = true;
+  for (const auto& p : positions) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
+    if (first) lo = hi = p, first = false;
+    lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+    hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+  }
+  return diagonal_of(lo, hi);
+}
+
 std::uint64_t finish_min_samples(const FinishOptions& options, std::uint64_t input_faces) {
   // An error bound wants the finest approximation whatever the face target: a coarse one would
   // be further off than the bound before any collapse.

@@ -44,6 +44,9 @@ FinishOptions resolve_finish(const FinishTarget& target, std::uint64_t input_fac
 // The bounding-box diagonal the relative error bound refers to, from the bounds of the input's
 // finite positions (the same doubles in and out of core).
 double diagonal_of(const Vec3f& lo, const Vec3f& hi);
+// The same from the positions themselves (in core), skipping the non-finite ones as the
+// partition's bounds do.
+double finite_diagonal(std::span<const Vec3f> positions);
 
 // kUsage when the face target is above the input's faces (`name`: the input, for the message):
 // the finish only removes faces, and an output as large as the input is the input.
@@ -64,9 +67,12 @@ std::uint64_t finish_min_samples(const FinishOptions& options, std::uint64_t inp
 // estimate, not a bound.
 inline constexpr std::uint64_t kFinishBytesPerFace = 2048;
 inline constexpr std::uint64_t kGaussBytesPerFrequencySquared = 3072;
+inline std::uint64_t kept_memory_estimate(std::uint64_t input_faces) {
+  return (std::uint64_t{12} << 20) + std::min<std::uint64_t>(std::uint64_t{24} << 20, 256 * input_faces);
+}
 inline std::uint64_t finish_memory_estimate(std::uint64_t samples, std::uint32_t frequency, std::uint64_t input_faces) {
-  const std::uint64_t kept = (std::uint64_t{12} << 20) + std::min<std::uint64_t>(std::uint64_t{24} << 20, 256 * input_faces);
-  return kept + kGaussBytesPerFrequencySquared * frequency * frequency + 2 * samples * kFinishBytesPerFace;
+  return kept_memory_estimate(input_faces) + kGaussBytesPerFrequencySquared * frequency * frequency +
+         2 * samples * kFinishBytesPerFace;
 }
 
 struct FinishResult {
@@ -105,8 +111,7 @@ void add_own_faces(MeshView mesh, std::span<const Triangle> faces, const Quadric
 // kept memory of finish_memory_estimate.
 inline constexpr std::uint64_t kInputBytesPerFace = 512;
 inline std::uint64_t input_finish_memory_estimate(std::uint64_t input_faces) {
-  return (std::uint64_t{12} << 20) + std::min<std::uint64_t>(std::uint64_t{24} << 20, 256 * input_faces) +
-         kInputBytesPerFace * input_faces;
+  return kept_memory_estimate(input_faces) + kInputBytesPerFace * input_faces;
 }
 
 // The collapses on the input itself (compact_input), both halves, on every core. kProcessing

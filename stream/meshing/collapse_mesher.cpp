@@ -22,22 +22,7 @@
 // Every collapse moves no position: output vertices are input vertices ("birth" indices).
 #include "stream/meshing/collapse_mesher.h"
 
-// Our asserts stay on in release builds (CMakeLists.txt); OpenMesh's are off. Its every property
-// access (mesh.point(v), status, a face's patch) asserts that the property's type name equals the
-// handle's, a string compare: a large share of the mesher's time, for no check of ours.
-// This is the only file that includes OpenMesh; <cassert> is included again below so that an
-// assert of ours after these headers still checks.
-#ifndef NDEBUG
-#define GAUSSMESH_RESTORE_ASSERT
-#define NDEBUG
-#endif
-#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
-#include <OpenMesh/Core/System/omstream.hh>
-#ifdef GAUSSMESH_RESTORE_ASSERT
-#undef NDEBUG
-#undef GAUSSMESH_RESTORE_ASSERT
-#include <cassert>
-#endif
+#include "stream/core/openmesh_include.h"
 
 #include <algorithm>
 #include <array>

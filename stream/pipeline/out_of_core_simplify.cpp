@@ -789,17 +789,23 @@ namespace {
 // run's, so the choice is too.
 constexpr std::uint32_t kLadderGroupFrequency = 16;
 
-format::Status too_large_for_budget(std::uint64_t samples, std::uint64_t need, std::uint64_t limit, bool explicit_budget) {
-  const std::string what = "the target needs an approximation of about " + std::to_string(2 * samples) + " faces, about " +
-                           std::to_string(need >> 20) + " MiB, ";
+// The refusal of a finish that would hold `need` bytes, more than `limit`; `what` says what it
+// holds ("an approximation of about N faces").
+format::Status too_large_for_budget(const std::string& what, std::uint64_t need, std::uint64_t limit,
+                                    bool explicit_budget) {
+  const std::string held = "the target needs " + what + ", about " + std::to_string(need >> 20) + " MiB, ";
   if (explicit_budget) {
     return format::Status::error(format::Code::kResources, "--memory",
-                                 what + "above the budget of " + std::to_string(limit >> 20) +
+                                 held + "above the budget of " + std::to_string(limit >> 20) +
                                      " MiB: raise --memory or lower the target");
   }
   return format::Status::error(format::Code::kResources, "--memory",
-                               what + "more than a quarter of this machine's memory (" + std::to_string(limit >> 20) +
+                               held + "more than a quarter of this machine's memory (" + std::to_string(limit >> 20) +
                                    " MiB): lower the target");
+}
+
+std::string approximation_of(std::uint64_t samples) {
+  return "an approximation of about " + std::to_string(2 * samples) + " faces";
 }
 
 format::Status simplify_input(Partition& partition, const OutOfCoreSimplifyOptions& options, OutOfCoreSimplify& out,
@@ -808,14 +814,8 @@ format::Status simplify_input(Partition& partition, const OutOfCoreSimplifyOptio
   out.finish_memory_estimate = need;
   const std::uint64_t limit = options.memory_explicit ? options.memory.bytes() : options.memory_ceiling;
   if (limit > 0 && need > limit) {
-    const std::string what = "the target collapses the input itself (" + std::to_string(partition.faces) +
-                             " faces), about " + std::to_string(need >> 20) + " MiB, ";
-    return format::Status::error(format::Code::kResources, "--memory",
-                                 options.memory_explicit
-                                     ? what + "above the budget of " + std::to_string(limit >> 20) +
-                                           " MiB: raise --memory or lower the target"
-                                     : what + "more than a quarter of this machine's memory (" +
-                                           std::to_string(limit >> 20) + " MiB): lower the target");
+    return too_large_for_budget("to collapse the input itself (" + std::to_string(partition.faces) + " faces)", need,
+                                limit, options.memory_explicit);
   }
   const auto start = Clock::now();
   struct OwnedFace {
@@ -880,7 +880,7 @@ format::Result<OutOfCoreSimplify> simplify_ladder(Partition& partition, const Ou
   const std::uint64_t limit = options.memory_explicit ? options.memory.bytes() : options.memory_ceiling;
   const std::uint64_t least = finish_memory_estimate(options.min_samples, ladder.front().frequency, partition.faces);
   if (limit > 0 && options.min_samples <= partition.faces && least > limit)
-    return too_large_for_budget(options.min_samples, least, limit, options.memory_explicit);
+    return too_large_for_budget(approximation_of(options.min_samples), least, limit, options.memory_explicit);
   std::vector<std::size_t> counts;
   std::size_t chosen = ladder.size() - 1;
   bool found = false;
@@ -923,7 +923,8 @@ format::Result<OutOfCoreSimplify> simplify_ladder(Partition& partition, const Ou
   // pass it); the automatic one grows to what the target needs, up to memory_ceiling.
   const std::uint64_t need = finish_memory_estimate(counts[chosen], ladder[chosen].frequency, partition.faces);
   base.finish_memory_estimate = need;
-  if (limit > 0 && need > limit) return too_large_for_budget(counts[chosen], need, limit, options.memory_explicit);
+  if (limit > 0 && need > limit)
+    return too_large_for_budget(approximation_of(counts[chosen]), need, limit, options.memory_explicit);
   OutOfCoreSimplifyOptions one = options;
   one.min_samples = 0;
   one.spheres = {ladder[chosen]};

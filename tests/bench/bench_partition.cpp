@@ -8,7 +8,6 @@
 //   bench_partition --child INPUT MEMORY RINGS THREADS LEVEL TMPDIR [read-back]
 //       (one run; key=value line; read-back: then loads every chunk and builds its adjacency on one
 //       thread, and prints the CPU seconds of each — what the sample and loops passes pay per chunk)
-#include <sys/statvfs.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -35,6 +34,7 @@
 #include "stream/core/mesh_adjacency.h"
 #include "tests/support/scattered_copy.h"
 #include "tests/support/child_process.h"
+#include "tests/support/machine.h"
 
 namespace gaussmesh::bench {
 namespace {
@@ -42,15 +42,10 @@ namespace {
 namespace fs = std::filesystem;
 
 using testing::ChildRun;
+using testing::first_line;
+using testing::free_disk_gb;
 using testing::parse_pairs;
 using testing::run_child;
-
-std::string read_line(const char* path) {
-  std::ifstream in(path);
-  std::string line;
-  std::getline(in, line);
-  return line;
-}
 
 // The child: one partition, figures on stdout.
 int child_main(int argc, char** argv) {
@@ -159,7 +154,7 @@ int main(int argc, char** argv) {
   const fs::path work = work_template;
   const fs::path log = work / "log.txt";
   std::fprintf(stderr, "bench_partition: work dir %s (child stderr in log.txt)\n", work.c_str());
-  std::printf("machine: %ld cores, loadavg at start: %s\n", ::sysconf(_SC_NPROCESSORS_ONLN), read_line("/proc/loadavg").c_str());
+  std::printf("machine: %ld cores, loadavg at start: %s\n", ::sysconf(_SC_NPROCESSORS_ONLN), first_line("/proc/loadavg").c_str());
   std::printf("CPU s = user + system seconds of the child (robust to other load; wall seconds are not)\n");
   std::printf("partition_mesh: --memory %llu (%.0f MiB), rings %s, threads %s, zstd level %s, temp in %s\n\n",
               (unsigned long long)memory, double(memory) / (1 << 20), rings.c_str(), threads.c_str(), level.c_str(),
@@ -169,9 +164,8 @@ int main(int argc, char** argv) {
   std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
   std::fflush(stdout);
   for (std::uint64_t size : sizes) {
-    struct statvfs fsinfo {};
     const double need_gb = double(size) * (19 + 19 + 12 + 60) * 1.2 / 1e9;  // input, shuffled copy, spills, chunks
-    const double free_gb = ::statvfs(work.c_str(), &fsinfo) == 0 ? double(fsinfo.f_bavail) * fsinfo.f_frsize / 1e9 : 0;
+    const double free_gb = free_disk_gb(work);
     if (free_gb < need_gb) {
       std::printf("| cow %llu | | skipped: needs ~%.0f GB of disk, %.0f GB free |\n", (unsigned long long)size, need_gb, free_gb);
       continue;
@@ -210,7 +204,7 @@ int main(int argc, char** argv) {
     if (!keep)
       for (const auto& [order, path] : inputs) fs::remove(path);
   }
-  std::printf("\nloadavg at end: %s\n", read_line("/proc/loadavg").c_str());
+  std::printf("\nloadavg at end: %s\n", first_line("/proc/loadavg").c_str());
   if (!keep) fs::remove_all(work);
   return 0;
 }

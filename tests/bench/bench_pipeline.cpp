@@ -18,7 +18,6 @@
 // compare's cost grows with the input whatever --samples says (every input vertex and edge
 // midpoint is measured: ~45 s at 10M triangles on 2 busy cores), so inputs above --compare-max
 // triangles (default 20M) get no error figures. --gaussmesh runs another build of the tool (default: the one built beside this program).
-#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -38,6 +37,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tests/support/child_process.h"
+#include "tests/support/machine.h"
 #include "tests/support/test_util.h"
 
 namespace gaussmesh::bench {
@@ -46,6 +46,9 @@ namespace {
 namespace fs = std::filesystem;
 
 using testing::ChildRun;
+using testing::first_line;
+using testing::free_disk_gb;
+using testing::meminfo_mb;
 using testing::parse_pairs;
 using testing::run_child;
 
@@ -57,22 +60,6 @@ std::optional<nlohmann::json> read_json(const fs::path& path) {
   } catch (const std::exception&) {
     return std::nullopt;
   }
-}
-
-double meminfo_mb(const char* key) {
-  std::ifstream in("/proc/meminfo");
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind(key, 0) == 0) return std::strtod(line.c_str() + std::strlen(key) + 1, nullptr) * 1024 / 1e6;
-  }
-  return 0;
-}
-
-std::string read_line(const char* path) {
-  std::ifstream in(path);
-  std::string line;
-  std::getline(in, line);
-  return line;
 }
 
 bool on_path(const std::string& program) {
@@ -191,7 +178,7 @@ int main(int argc, char** argv) {
 
   std::printf("machine: %ld cores, MemTotal %.0f MB, MemAvailable %.0f MB, loadavg at start: %s\n",
               ::sysconf(_SC_NPROCESSORS_ONLN), meminfo_mb("MemTotal:"), meminfo_mb("MemAvailable:"),
-              read_line("/proc/loadavg").c_str());
+              first_line("/proc/loadavg").c_str());
   std::printf("gaussmesh: %s simplify IN -o OUT.drc --report R.json", gaussmesh.c_str());
   for (const auto& a : extra) std::printf(" %s", a.c_str());
   std::printf("\ninput: make_large_mesh --source %s --seed %s%s%s; compare --samples %s up to %llu triangles%s\n",
@@ -205,9 +192,8 @@ int main(int argc, char** argv) {
   std::vector<std::string> generator_lines;
   for (std::uint64_t size : sizes) {
     // Disk: ~19 bytes per triangle of PLY (13 per face, ~6 per vertex) plus small outputs.
-    struct statvfs fsinfo {};
     const double need_gb = double(size) * 19 * 1.1 / 1e9 + 0.05;
-    const double free_gb = ::statvfs(work.c_str(), &fsinfo) == 0 ? double(fsinfo.f_bavail) * fsinfo.f_frsize / 1e9 : 0;
+    const double free_gb = free_disk_gb(work);
     std::fprintf(stderr, "bench_pipeline: %llu triangles need ~%.1f GB in %s; %.1f GB free\n",
                  (unsigned long long)size, need_gb, work.c_str(), free_gb);
     if (free_gb < need_gb) {
@@ -338,7 +324,7 @@ int main(int argc, char** argv) {
   for (const Row& r : rows) {
     if (r.hausdorff_pct) std::printf(" %s@%llu %.1f;", r.tool.c_str(), (unsigned long long)r.input_faces, r.compare_seconds);
   }
-  std::printf("\nloadavg at end: %s\n", read_line("/proc/loadavg").c_str());
+  std::printf("\nloadavg at end: %s\n", first_line("/proc/loadavg").c_str());
   if (keep) {
     std::fprintf(stderr, "bench_pipeline: kept %s\n", work.c_str());
   } else {

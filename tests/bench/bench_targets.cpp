@@ -48,7 +48,6 @@
 // when every further collapse would change the topology (stopped_by topology).
 // --samples is passed to compare (default: compare's own); --gaussmesh runs another build of the
 // tool (default: the one built beside this program).
-#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -70,6 +69,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tests/support/child_process.h"
+#include "tests/support/machine.h"
 #include "tests/support/test_util.h"
 
 namespace gaussmesh::bench {
@@ -78,6 +78,9 @@ namespace {
 namespace fs = std::filesystem;
 
 using testing::ChildRun;
+using testing::first_line;
+using testing::free_disk_gb;
+using testing::meminfo_mb;
 using testing::parse_pairs;
 using testing::run_child;
 
@@ -156,27 +159,6 @@ std::optional<nlohmann::json> read_json(const fs::path& path) {
   std::stringstream text;
   text << in.rdbuf();
   return parse_json(text.str());
-}
-
-double meminfo_mb(const char* key) {
-  std::ifstream in("/proc/meminfo");
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind(key, 0) == 0) return std::strtod(line.c_str() + std::strlen(key), nullptr) * 1024 / 1e6;
-  }
-  return 0;
-}
-
-std::string first_line(const char* path) {
-  std::ifstream in(path);
-  std::string line;
-  std::getline(in, line);
-  return line;
-}
-
-double free_disk_gb(const fs::path& dir) {
-  struct statvfs info {};
-  return ::statvfs(dir.c_str(), &info) == 0 ? double(info.f_bavail) * double(info.f_frsize) / 1e9 : 0;
 }
 
 // The face count a PLY or OFF header declares (0 when it cannot tell; the report says later).
