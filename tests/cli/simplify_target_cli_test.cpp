@@ -71,7 +71,9 @@ TEST(SimplifyTargetCli, EveryFixtureLandsOnTheTargetAndKeepsItsTopology) {
       EXPECT_EQ(after.zero_area_faces, 0u);
       EXPECT_EQ(after.duplicate_faces, 0u);
       EXPECT_EQ(after.is_closed(), before.is_closed());
-      if (before.genus) EXPECT_EQ(after.genus, before.genus);
+      if (before.genus) {
+        EXPECT_EQ(after.genus, before.genus);
+      }
     }
   }
 }
@@ -186,7 +188,9 @@ TEST(SimplifyTargetCli, TheErrorBoundStopsEarlierThanATargetAndIsReported) {
     EXPECT_LE(json["estimated_error"].get<double>(), json["max_error"].get<double>() * (1 + 1e-12));
     const long faces = json["output_faces"].get<long>();
     EXPECT_GT(faces, 10) << bound;
-    if (last_faces > 0) EXPECT_LT(faces, last_faces) << "a looser bound keeps fewer faces: " << bound;
+    if (last_faces > 0) {
+      EXPECT_LT(faces, last_faces) << "a looser bound keeps fewer faces: " << bound;
+    }
     last_faces = faces;
     (void)diagonal_pct;
   }
