@@ -21,10 +21,6 @@ using OpenMesh::Vec3d;
 Vec3dq to_q(const Vec3d& p) { return {p[0], p[1], p[2]}; }
 Vec3d to_om(const Vec3dq& p) { return Vec3d(p.x, p.y, p.z); }
 
-// Constraint planes along boundary edges weigh this much per squared edge length: enough to hold
-// a rim against the area-weighted planes of the faces beside it.
-constexpr double kBoundaryWeight = 1;
-
 struct Candidate {
   double cost;
   std::uint32_t edge;
@@ -99,9 +95,13 @@ class EdgeHeap {
 
 class Decimator {
  public:
-  Decimator(QMesh& mesh, std::vector<Quadric> quadrics) : m_(mesh), q_(std::move(quadrics)), heap_(mesh.n_edges()) {
+  Decimator(QMesh& mesh, std::vector<Quadric> quadrics, std::span<const std::uint8_t> locked)
+      : m_(mesh), q_(std::move(quadrics)), heap_(mesh.n_edges()), locked_(locked) {
     target_.resize(m_.n_edges());
   }
+  const std::vector<Quadric>& quadrics() const { return q_; }
+
+  bool locked(QMesh::VertexHandle v) const { return !locked_.empty() && locked_[v.idx()]; }
 
   // The placement and cost of collapsing edge e.
   bool evaluate(QMesh::EdgeHandle e, Vec3d& x, double& cost) const {
@@ -110,6 +110,12 @@ class Decimator {
     Quadric q = q_[v0.idx()];
     q += q_[v1.idx()];
     const Vec3d p0 = m_.point(v0), p1 = m_.point(v1), mid = (p0 + p1) * 0.5;
+    if (locked(v0) || locked(v1)) {  // onto the locked end, if only one is
+      if (locked(v0) && locked(v1)) return false;
+      x = locked(v0) ? p0 : p1;
+      cost = q.error(to_q(x));
+      return std::isfinite(cost);
+    }
     Vec3dq best;
     const double length = (p1 - p0).norm();
     // The minimiser, unless it lies far from the edge (an ill-conditioned quadric).
@@ -152,6 +158,26 @@ class Decimator {
     return true;
   }
 
+  // Collapsing free vertex a onto locked b (h: a → b) joins every neighbour of a to b. A locked
+  // neighbour may already be joined to b by faces this mesh does not hold (another piece's), and
+  // the link condition cannot see those: so no locked neighbour of a but b and the two vertices
+  // across the edge, whose joins to b are this mesh's own.
+  bool locked_neighbours_ok(QMesh::HalfedgeHandle h) const {
+    const auto a = m_.from_vertex_handle(h), b = m_.to_vertex_handle(h);
+    QMesh::VertexHandle across[2];
+    int n = 0;
+    if (!m_.is_boundary(h)) across[n++] = m_.to_vertex_handle(m_.next_halfedge_handle(h));
+    const auto o = m_.opposite_halfedge_handle(h);
+    if (!m_.is_boundary(o)) across[n++] = m_.to_vertex_handle(m_.next_halfedge_handle(o));
+    for (auto w : m_.vv_range(a)) {
+      if (w == b || !locked(w)) continue;
+      bool ok = false;
+      for (int i = 0; i < n; ++i) ok = ok || across[i] == w;
+      if (!ok) return false;
+    }
+    return true;
+  }
+
   void push(QMesh::EdgeHandle e) {
     if (m_.status(e).deleted()) return;
     Vec3d x;
@@ -186,7 +212,13 @@ class Decimator {
         ++r.over_error;
         continue;
       }
-      if (!m_.is_collapse_ok(h)) {
+      if (locked(m_.from_vertex_handle(h)) || locked(m_.to_vertex_handle(h))) {
+        if (locked(m_.from_vertex_handle(h))) h = m_.halfedge_handle(e, 1);  // the locked end is kept
+        if (!m_.is_collapse_ok(h) || !locked_neighbours_ok(h)) {
+          ++r.refused;
+          continue;
+        }
+      } else if (!m_.is_collapse_ok(h)) {
         h = m_.halfedge_handle(e, 1);
         if (!m_.is_collapse_ok(h)) {
           ++r.refused;
@@ -216,6 +248,7 @@ class Decimator {
   std::vector<Quadric> q_;
   std::vector<Vec3d> target_;
   EdgeHeap heap_;
+  std::span<const std::uint8_t> locked_;
   bool relaxed_ = false;
 };
 
@@ -225,9 +258,31 @@ double decimation_error(const Quadric& q, const Vec3dq& p) {
   return q.weight > 0 ? std::sqrt(q.error(p) / q.weight) : 0;
 }
 
+Quadric boundary_constraint(const Vec3dq& a, const Vec3dq& b, const Vec3dq& n) {
+  const Vec3d pa = to_om(a), pb = to_om(b);
+  Vec3d m = (pb - pa) % to_om(n);
+  const double length = m.norm();
+  if (!(length > 0)) return Quadric{};
+  m /= length;
+  Quadric c = Quadric::plane(to_q(m), -(m | pa), kBoundaryWeight * (pb - pa).sqrnorm());
+  c.weight = 0;
+  return c;
+}
+
 format::Result<DecimationResult> decimate(MeshView approximation, const std::vector<FixedQuadric>& sums,
                                           const QuadricFrame& frame, const DecimationOptions& options) {
   if (sums.size() != approximation.positions.size()) {
+    return format::Status::error(format::Code::kProcessing, "finish", "one quadric per vertex expected");
+  }
+  std::vector<Quadric> quadrics(sums.size());
+  for (std::size_t v = 0; v < sums.size(); ++v) quadrics[v] = sums[v].to_double();
+  return decimate(approximation, std::move(quadrics), frame, options);
+}
+
+format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Quadric> quadrics,
+                                          const QuadricFrame& frame, const DecimationOptions& options) {
+  if (quadrics.size() != approximation.positions.size() ||
+      (!options.locked.empty() && options.locked.size() != approximation.positions.size())) {
     return format::Status::error(format::Code::kProcessing, "finish", "one quadric per vertex expected");
   }
   // A face OpenMesh refuses is our error to report (below), not a line of its own on stderr.
@@ -245,11 +300,9 @@ format::Result<DecimationResult> decimate(MeshView approximation, const std::vec
                                        std::to_string(&t - approximation.triangles.data()) + ")");
     }
   }
-  std::vector<Quadric> quadrics(sums.size());
-  for (std::size_t v = 0; v < sums.size(); ++v) quadrics[v] = sums[v].to_double();
   // Boundary constraints: a plane through each boundary edge, at right angles to its face.
   for (auto e : mesh.edges()) {
-    if (!mesh.is_boundary(e)) continue;
+    if (!options.boundary_constraints || !mesh.is_boundary(e)) continue;
     auto h = mesh.halfedge_handle(e, 0);
     if (mesh.is_boundary(h)) h = mesh.opposite_halfedge_handle(h);
     const auto f = mesh.face_handle(h);
@@ -257,23 +310,26 @@ format::Result<DecimationResult> decimate(MeshView approximation, const std::vec
     Vec3d fv[3];
     int k = 0;
     for (auto v : mesh.fv_range(f)) fv[k++] = mesh.point(v);
-    const Vec3d n = (fv[1] - fv[0]) % (fv[2] - fv[0]);
-    Vec3d m = (b - a) % n;
-    const double length = m.norm();
-    if (!(length > 0)) continue;
-    m /= length;
-    Quadric c = Quadric::plane(to_q(m), -(m | a), kBoundaryWeight * (b - a).sqrnorm());
-    c.weight = 0;  // a constraint, not surface: it does not dilute the mean distance
+    const Quadric c = boundary_constraint(to_q(a), to_q(b), to_q((fv[1] - fv[0]) % (fv[2] - fv[0])));
     quadrics[mesh.from_vertex_handle(h).idx()] += c;
     quadrics[mesh.to_vertex_handle(h).idx()] += c;
   }
 
-  Decimator decimator(mesh, std::move(quadrics));
+  Decimator decimator(mesh, std::move(quadrics), options.locked);
   DecimationResult result = decimator.run(options, approximation.triangles.size());
+  // Each vertex's index before the garbage collection, which moves vertices into the holes.
+  OpenMesh::VPropHandleT<int> source;
+  mesh.add_property(source);
+  for (auto v : mesh.vertices()) mesh.property(source, v) = v.idx();
   mesh.garbage_collection();
   result.mesh.positions.reserve(mesh.n_vertices());
+  result.source.reserve(mesh.n_vertices());
+  result.quadrics.reserve(mesh.n_vertices());
   for (auto v : mesh.vertices()) {
     const Vec3d& p = mesh.point(v);
+    const int from = mesh.property(source, v);
+    result.source.push_back(std::uint32_t(from));
+    result.quadrics.push_back(decimator.quadrics()[from]);
     result.mesh.positions.push_back({float(frame.origin.x + p[0] * frame.scale), float(frame.origin.y + p[1] * frame.scale),
                                      float(frame.origin.z + p[2] * frame.scale)});
   }

@@ -15,6 +15,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <span>
 #include <vector>
 
 #include "format/status.h"
@@ -28,6 +29,14 @@ struct DecimationOptions {
   // No collapse whose estimated error (decimation_error) passes this, in the frame's units (a
   // fraction of the approximation's bounding-box diagonal); infinity: no bound.
   double max_error = std::numeric_limits<double>::infinity();
+  // One flag per vertex (empty: none locked). A locked vertex keeps its place: an edge between
+  // two locked vertices is never collapsed, one with a locked end collapses onto it, and only
+  // when no other locked vertex beside the free end could be joined to it outside this mesh
+  // (the chunked finish locks what its piece shares with others, whose faces it cannot see).
+  std::span<const std::uint8_t> locked;
+  // Add constraint planes along the boundary edges; false when the quadrics already hold them
+  // (the chunked finish adds them where it knows an edge is on the input's boundary).
+  bool boundary_constraints = true;
 };
 
 struct DecimationResult {
@@ -37,6 +46,8 @@ struct DecimationResult {
   std::uint64_t over_error = 0;  // collapses left out for passing max_error
   double estimated_error = 0;    // largest decimation_error of a collapse made (frame units)
   bool reached_target = false;   // the face target was met (or there was none)
+  std::vector<std::uint32_t> source;  // per output vertex: its vertex in the input mesh
+  std::vector<Quadric> quadrics;      // per output vertex: its summed quadric (frame units)
 };
 
 // The estimated error of a vertex with quadric q at p: the root of the mean squared distance from
@@ -49,9 +60,18 @@ double decimation_error(const Quadric& q, const Vec3dq& p);
 inline constexpr double kMaxTurnDegrees = 60;
 inline constexpr double kRelaxedTurnDegrees = 89;
 
+// The constraint plane of boundary edge a → b of a face with normal n (any length): through the
+// edge, at right angles to the face, weighing kBoundaryWeight per squared edge length, with no
+// surface weight (it does not dilute the mean distance). Zero for a degenerate edge or face.
+inline constexpr double kBoundaryWeight = 1;
+Quadric boundary_constraint(const Vec3dq& a, const Vec3dq& b, const Vec3dq& n);
+
 // `sums` holds one fixed-point quadric per vertex of `approximation`, in `frame`.
 // Errors: kProcessing when the approximation is not an oriented manifold OpenMesh can hold.
 format::Result<DecimationResult> decimate(MeshView approximation, const std::vector<FixedQuadric>& sums,
                                           const QuadricFrame& frame, const DecimationOptions& options);
+// The same with the quadrics in double form.
+format::Result<DecimationResult> decimate(MeshView mesh, std::vector<Quadric> quadrics, const QuadricFrame& frame,
+                                          const DecimationOptions& options);
 
 }  // namespace gaussmesh::stream
