@@ -124,20 +124,25 @@ Mesh compact_input(std::span<const Vec3f> positions, std::span<const Triangle> f
   return m;
 }
 
+bool own_face_quadric(const Vec3dq& p0, const Vec3dq& p1, const Vec3dq& p2, FixedQuadric& out) {
+  const Vec3dq e1{p1.x - p0.x, p1.y - p0.y, p1.z - p0.z}, e2{p2.x - p0.x, p2.y - p0.y, p2.z - p0.z};
+  const Vec3dq n{e1.y * e2.z - e1.z * e2.y, e1.z * e2.x - e1.x * e2.z, e1.x * e2.y - e1.y * e2.x};
+  const double length = std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+  if (!(length > 0) || !std::isfinite(length)) return false;
+  const Vec3dq unit{n.x / length, n.y / length, n.z / length};
+  out = FixedQuadric::from(Quadric::plane(unit, -(unit.x * p0.x + unit.y * p0.y + unit.z * p0.z), length / 2));
+  return true;
+}
+
 void add_own_faces(MeshView mesh, std::span<const Triangle> faces, const QuadricFrame& frame,
                    std::vector<FixedQuadric>& sums) {
   for (const auto& t : faces) {
     const auto& a = mesh.positions[t.v[0]];
     const auto& b = mesh.positions[t.v[1]];
     const auto& c = mesh.positions[t.v[2]];
-    const Vec3dq p0 = frame.to_frame(a.x, a.y, a.z), p1 = frame.to_frame(b.x, b.y, b.z), p2 = frame.to_frame(c.x, c.y, c.z);
-    const Vec3dq e1{p1.x - p0.x, p1.y - p0.y, p1.z - p0.z}, e2{p2.x - p0.x, p2.y - p0.y, p2.z - p0.z};
-    const Vec3dq n{e1.y * e2.z - e1.z * e2.y, e1.z * e2.x - e1.x * e2.z, e1.x * e2.y - e1.y * e2.x};
-    const double length = std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
-    if (!(length > 0) || !std::isfinite(length)) continue;
-    const Vec3dq unit{n.x / length, n.y / length, n.z / length};
-    const FixedQuadric q =
-        FixedQuadric::from(Quadric::plane(unit, -(unit.x * p0.x + unit.y * p0.y + unit.z * p0.z), length / 2));
+    FixedQuadric q;
+    if (!own_face_quadric(frame.to_frame(a.x, a.y, a.z), frame.to_frame(b.x, b.y, b.z), frame.to_frame(c.x, c.y, c.z), q))
+      continue;
     for (auto v : t.v) sums[v] += q;
   }
 }

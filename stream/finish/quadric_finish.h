@@ -106,6 +106,9 @@ Mesh compact_input(std::span<const Vec3f> positions, std::span<const Triangle> f
 // `frame` (frame_of(mesh)); fixed point, so any split of the faces reaches the same sums.
 void add_own_faces(MeshView mesh, std::span<const Triangle> faces, const QuadricFrame& frame,
                    std::vector<FixedQuadric>& sums);
+// One face's plane quadric, weighted by its area (corners in frame units); false for a
+// degenerate face, which adds nothing.
+bool own_face_quadric(const Vec3dq& p0, const Vec3dq& p1, const Vec3dq& p2, FixedQuadric& out);
 
 // Out of core, the peak of collapsing the input itself: kInputBytesPerFace a face on top of the
 // kept memory of finish_memory_estimate.

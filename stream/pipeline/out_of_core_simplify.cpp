@@ -3,6 +3,7 @@
 #include "stream/pipeline/out_of_core_simplify.h"
 
 #include "stream/pipeline/in_core_simplify.h"
+#include "stream/pipeline/out_of_core_finish.h"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -759,7 +760,16 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     auto first = GaussSphere::create(options.spheres.front());
     if (!first) return first.status();
   }
-  auto partition = partition_for_chunks(input_path, read, options.partition, options.memory, options.sampler, options.threads);
+  PartitionOptions partition_options = options.partition;
+  // A target may take the chunked finish, whose pieces are a chunk's owned faces: chunks small
+  // enough for a thread's share of the budget (the output does not depend on the chunks).
+  if (options.auto_frequency && options.finish.any() && partition_options.max_chunk_faces == 0) {
+    const std::uint32_t rings = required_overlap_rings(options.sampler.smooth_iterations);
+    partition_options.max_chunk_faces =
+        std::min(sample_pass_chunk_faces(options.memory, options.threads, rings),
+                 chunked_finish_chunk_faces(options.memory, options.threads));
+  }
+  auto partition = partition_for_chunks(input_path, read, partition_options, options.memory, options.sampler, options.threads);
   if (!partition) return partition.status();
   OutOfCoreSimplify base;
   record_partition(*partition, base);
@@ -813,11 +823,44 @@ format::Status simplify_input(Partition& partition, const OutOfCoreSimplifyOptio
   const std::uint64_t need = input_finish_memory_estimate(partition.faces);
   out.finish_memory_estimate = need;
   const std::uint64_t limit = options.memory_explicit ? options.memory.bytes() : options.memory_ceiling;
-  if (limit > 0 && need > limit) {
-    return too_large_for_budget("to collapse the input itself (" + std::to_string(partition.faces) + " faces)", need,
-                                limit, options.memory_explicit);
-  }
   const auto start = Clock::now();
+  if (limit > 0 && need > limit) {
+    // Too large to hold whole: the chunked finish, piece by piece within the budget.
+    ChunkedFinishOptions chunked;
+    chunked.finish = out.finish_options;
+    chunked.threads = options.threads;
+    chunked.memory = options.memory_explicit ? options.memory : MemoryBudget::of(limit);
+    if (options.progress)
+      chunked.progress = [&](const char* pass, std::size_t done_pieces, std::size_t total) {
+        options.progress(pass, done_pieces, total, partition.faces);
+      };
+    auto finished = chunked_finish(partition, chunked);
+    if (!finished) return finished.status();
+    FinishResult r;
+    r.approximation_faces = finished->input_faces;
+    r.collapses = finished->collapses;
+    r.refused = finished->refused;
+    r.estimated_error = finished->estimated_error;
+    const std::uint64_t target = out.finish_options.target_faces;
+    r.reached_target = target == 0 || finished->mesh.triangles.size() <= target;
+    r.stopped_by = r.reached_target ? (target == 0 && finished->over_error > 0 ? "max_error" : "target")
+                                    : finished->over_error > 0 ? "max_error" : "topology";
+    r.seconds_quadrics = finished->seconds_round_one;
+    r.seconds_decimate = finished->seconds_round_two + finished->seconds_assemble;
+    out.mesh = std::move(finished->mesh);
+    out.chunked = ChunkedFinishFigures{finished->round_one_pieces, finished->round_one_faces, finished->round_two_pieces,
+                                       finished->largest_round_two_piece, finished->unheld_pieces,
+                                       finished->seconds_round_one, finished->seconds_round_two, finished->seconds_assemble};
+    out.finish = std::move(r);
+    out.seconds_mesh = seconds_since(start);
+    const auto cleanup = Clock::now();
+    partition.remove_temp();
+    out.seconds_cleanup = seconds_since(cleanup);
+    out.bytes_spilled = partition.bytes_spilled;
+    out.collapsed_input = true;
+    done = true;
+    return format::Status();
+  }
   struct OwnedFace {
     std::uint64_t id;
     format::Triangle t;  // global vertex ids

@@ -65,12 +65,20 @@ struct OutOfCoreSimplifyOptions {
   bool samples_only = false;
 };
 
+// The chunked finish's figures (out_of_core_finish.h), when it ran.
+struct ChunkedFinishFigures {
+  std::uint64_t round_one_pieces = 0, round_one_faces = 0, round_two_pieces = 0, largest_round_two_piece = 0;
+  std::uint64_t unheld_pieces = 0;
+  double seconds_round_one = 0, seconds_round_two = 0, seconds_assemble = 0;
+};
+
 struct OutOfCoreSimplify {
   Mesh mesh;  // after the finish, when there is one
   FinishOptions finish_options;        // the resolved target
   std::optional<FinishResult> finish;  // its figures (its mesh moved into `mesh`)
   std::uint64_t finish_memory_estimate = 0;  // --frequency auto: what the chosen approximation needs
   bool collapsed_input = false;  // the finish ran on the input itself, not on a Gauss approximation
+  std::optional<ChunkedFinishFigures> chunked;  // it did, piece by piece (the input did not fit whole)
   std::vector<std::uint32_t> birth;
   std::array<double, 4> rotation{};
   std::size_t chosen = 0;

@@ -1,0 +1,60 @@
+// The chunked finish (docs/finish.md, "Out of core: the chunked finish"): the quadric finish on
+// the input itself when the input is too large to collapse whole within --memory. Two rounds of
+// collapses over pieces that each fit the budget, in the manner of Wu & Kobbelt's stream
+// decimation and of clustered LOD with locked borders:
+//   round 1  each partition chunk's owned faces, cut into pieces (finish_pieces.h), collapsed to
+//            kRoundOneShare × the target's share with every vertex shared between pieces locked;
+//   round 2  what is left, grouped again into pieces of cells of a grid shifted against the
+//            partition's, so that round 1's locked borders lie inside them; each collapsed to its
+//            share of the target, with only the vertices the new pieces share locked.
+// A vertex of round 2 belongs to the piece of its cell, a face to the piece of its lowest-id
+// corner (the partition's rule), so that a piece that owns a vertex reads every round-1 piece
+// holding it, and knows its faces, its whole quadric and whether it is shared.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+
+#include "format/status.h"
+#include "stream/core/memory_budget.h"
+#include "stream/core/mesh.h"
+#include "stream/finish/quadric_finish.h"
+#include "stream/partition/chunk_partition.h"
+
+namespace gaussmesh::stream {
+
+// Round 1 collapses each piece to this many times its share of the face target, so that round
+// 2 has room to place the rest where the error is least.
+inline constexpr double kRoundOneShare = 2;
+// A piece's working set per face at its peak (OpenMesh, the quadrics, the queue, the records);
+// a chunk file's, per face, while its pieces are cut.
+inline constexpr std::uint64_t kPieceBytesPerFace = 400;
+inline constexpr std::uint64_t kChunkFileBytesPerFace = 80;
+
+// The partition chunk size for a run that may take the chunked finish: one chunk's owned faces
+// in one piece within a thread's share of the budget.
+std::uint64_t chunked_finish_chunk_faces(const MemoryBudget& budget, std::uint32_t threads);
+
+struct ChunkedFinishOptions {
+  FinishOptions finish;
+  std::uint32_t threads = 1;
+  MemoryBudget memory;
+  std::function<void(const char*, std::size_t, std::size_t)> progress;  // (round, pieces done, pieces)
+};
+
+struct ChunkedFinish {
+  Mesh mesh;
+  std::uint64_t collapses = 0, refused = 0, over_error = 0;
+  double estimated_error = 0;  // input units
+  std::uint64_t input_faces = 0;               // the owned faces without a repeated corner
+  std::uint64_t round_one_pieces = 0, round_one_faces = 0;  // pieces, and faces left after round 1
+  std::uint64_t round_two_pieces = 0, largest_round_two_piece = 0;
+  std::uint64_t unheld_pieces = 0;  // pieces OpenMesh could not hold (not a manifold), left as they were
+  double seconds_round_one = 0, seconds_round_two = 0, seconds_assemble = 0;
+};
+
+// Both rounds over the chunks of `partition` (at least two overlap rings), and the output mesh
+// gathered from round 2's pieces. Temporary files go in partition.dir.
+format::Result<ChunkedFinish> chunked_finish(const Partition& partition, const ChunkedFinishOptions& options);
+
+}  // namespace gaussmesh::stream
