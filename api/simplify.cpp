@@ -141,14 +141,12 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   if (result->finish_memory_estimate > 0) report["finish_memory_estimate_bytes"] = result->finish_memory_estimate;
   if (result->chunked) {
     const auto& c = *result->chunked;
-    report["chunked_finish"] = {{"round_one_pieces", c.round_one_pieces},
-                                {"round_one_faces", c.round_one_faces},
-                                {"round_two_pieces", c.round_two_pieces},
-                                {"largest_round_two_piece", c.largest_round_two_piece},
+    report["chunked_finish"] = {{"round_pieces", c.round_pieces},
+                                {"round_faces", c.round_faces},
+                                {"round_seconds", c.seconds_rounds},
+                                {"largest_piece", c.largest_piece},
                                 {"unheld_pieces", c.unheld_pieces},
-                                {"seconds", {{"round_one", c.seconds_round_one},
-                                             {"round_two", c.seconds_round_two},
-                                             {"assemble", c.seconds_assemble}}}};
+                                {"assemble_seconds", c.seconds_assemble}};
   }
   report["threads"] = options.threads;
   report["chunks"] = result->chunks;

@@ -23,30 +23,22 @@
 namespace gaussmesh::stream {
 namespace {
 
-constexpr std::uint32_t kPieceVertexRecordKind = 0x56464D47u;   // "GMFV"
-constexpr std::uint32_t kPieceFaceRecordKind = 0x46464D47u;     // "GMFF"
-constexpr std::uint32_t kOutputVertexRecordKind = 0x564F4D47u;  // "GMOV"
-constexpr std::uint32_t kOutputFaceRecordKind = 0x464F4D47u;    // "GMOF"
+constexpr std::uint32_t kPieceVertexRecordKind = 0x56464D47u;  // "GMFV"
+constexpr std::uint32_t kPieceFaceRecordKind = 0x46464D47u;    // "GMFF"
 
-// Round 1's survivors: input id, position, quadric.
+// A round's survivors: input id, position, quadric, and whether the piece owns the vertex (it
+// holds the vertex's whole quadric; a piece that does not holds only what the vertex absorbed
+// there, so that the copies add up to the whole).
 struct PieceVertexRecord {
   std::uint32_t id;
   float x, y, z;
   std::int64_t q[11];
+  std::uint32_t owned, unused;
 };
 struct PieceFaceRecord {
   std::uint32_t id[3];
 };
-// Round 2's: each piece's own vertices, and its faces with the piece owning each corner.
-struct OutputVertexRecord {
-  std::uint32_t id;
-  float x, y, z;
-};
-struct OutputFaceRecord {
-  std::uint32_t owner[3], id[3];
-};
-static_assert(sizeof(PieceVertexRecord) == 104 && sizeof(PieceFaceRecord) == 12);
-static_assert(sizeof(OutputVertexRecord) == 16 && sizeof(OutputFaceRecord) == 24);
+static_assert(sizeof(PieceVertexRecord) == 112 && sizeof(PieceFaceRecord) == 12);
 
 constexpr std::uint64_t kReserve = std::uint64_t{20} << 20;
 constexpr std::uint64_t kMinPieceFaces = 4096;
@@ -66,19 +58,19 @@ std::uint64_t spread21(std::uint64_t x) {
   return x;
 }
 
-// Round 2's cells: the partition's halved on every axis and moved by a third of a half cell, so
-// that no face of one lies on a face of a partition cell or of its split cells (at dyadic
-// fractions of a cell): round 1's locked borders follow those. Codes are Morton codes.
+// The cells of round r ≥ 2: the partition's, moved by a fraction of a cell on every axis
+// (round_offset), so that the new pieces' borders lie away from the last round's, which follow
+// the previous grid's cell faces. Codes are Morton codes.
 class ShiftedGrid {
  public:
-  explicit ShiftedGrid(const Partition::OwnerMap& m) {
+  ShiftedGrid(const Partition::OwnerMap& m, double offset) : offset_(offset) {
     for (int a = 0; a < 3; ++a) lo_[a] = m.lo[a], scale_[a] = m.scale[a], last_[a] = m.n[a];
   }
   std::uint64_t code(const format::Vec3f& p) const {
     const double x[3] = {p.x, p.y, p.z};
     std::uint64_t c = 0;
     for (int a = 0; a < 3; ++a) {
-      double t = (x[a] - lo_[a]) * scale_[a] + 0.5;
+      double t = (x[a] - lo_[a]) * scale_[a] + offset_;
       if (!(t >= 0)) t = 0;  // NaN too
       if (t > last_[a]) t = last_[a];
       c |= spread21(std::uint64_t(t)) << a;
@@ -87,8 +79,15 @@ class ShiftedGrid {
   }
 
  private:
-  double lo_[3], scale_[3], last_[3];
+  double offset_, lo_[3], scale_[3], last_[3];
 };
+
+// Round r's shift: half a cell, then a quarter and three quarters, and so on between the
+// earlier ones, so that each round's borders lie between the last round's.
+double round_offset(int round) {
+  static constexpr double kOffsets[] = {0, 0, 0.5, 0.25, 0.75, 0.125, 0.625, 0.375, 0.875};
+  return kOffsets[std::min<std::size_t>(std::size_t(round), std::size(kOffsets) - 1)];
+}
 
 template <class R>
 format::Result<format::RecordSegment> write_segment(format::RecordSegmentFile& file, std::uint32_t kind,
@@ -123,12 +122,20 @@ format::Status damaged(const std::string& path, const std::string& what) {
   return format::Status::error(format::Code::kBadInput, path, what);
 }
 
-// Round 1's output of one piece.
+// One piece's output of a round.
 struct Unit {
-  std::uint32_t chunk = 0, piece = 0;
   std::uint32_t file = 0;
   format::RecordSegment vertices, faces;
-  std::vector<std::uint64_t> codes;  // its vertices' cells, ascending, distinct
+  std::vector<std::uint64_t> codes;  // its vertices' cells in the next round's grid, ascending, distinct
+};
+
+// A round's output: its pieces (in a fixed order), and the faces whose lowest corner lies in each
+// cell of the next round's grid.
+struct RoundOutput {
+  std::unique_ptr<format::RecordSegmentPool> pool;
+  std::vector<Unit> units;
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> histogram;
+  std::uint64_t faces = 0;
 };
 
 struct Totals {
@@ -186,6 +193,191 @@ std::uint64_t faces_at_locked(const Piece& piece) {
   return n;
 }
 
+// Writes one piece's survivors as a unit of its round: owned[v] says whether the piece owns
+// survivor v; `absorbed_from` holds, for the vertices it does not own, the quadric they came in
+// with, so that only what they absorbed is written. Their cells are taken in `next`.
+format::Result<Unit> write_unit(format::RecordSegmentPool::Lease& lease, const Piece& piece,
+                                const std::vector<std::uint8_t>& owned, const std::vector<PieceVertex>& absorbed_from,
+                                const ShiftedGrid& next, std::vector<std::pair<std::uint64_t, std::uint64_t>>& counts) {
+  Unit unit;
+  unit.file = lease.index();
+  std::vector<PieceVertexRecord> vs(piece.vertices.size());
+  for (std::size_t v = 0; v < vs.size(); ++v) {
+    const PieceVertex& pv = piece.vertices[v];
+    FixedQuadric q = pv.quadric;
+    if (!owned[v]) {
+      auto it = std::lower_bound(absorbed_from.begin(), absorbed_from.end(), pv.id,
+                                 [](const PieceVertex& a, std::uint32_t id) { return a.id < id; });
+      if (it != absorbed_from.end() && it->id == pv.id)
+        for (int i = 0; i < 11; ++i) q.q[i] = std::int64_t(std::uint64_t(q.q[i]) - std::uint64_t(it->quadric.q[i]));
+    }
+    vs[v] = {pv.id, pv.position.x, pv.position.y, pv.position.z, {}, owned[v], 0};
+    std::memcpy(vs[v].q, q.q.data(), sizeof(vs[v].q));
+    unit.codes.push_back(next.code(pv.position));
+  }
+  std::vector<PieceFaceRecord> fs(piece.faces.size());
+  std::vector<std::uint64_t> face_codes(fs.size());
+  for (std::size_t f = 0; f < fs.size(); ++f) {
+    const auto& t = piece.faces[f].v;
+    for (int k = 0; k < 3; ++k) fs[f].id[k] = piece.vertices[t[k]].id;
+    face_codes[f] = unit.codes[std::min({t[0], t[1], t[2]})];  // vertices ascend by id
+  }
+  auto vseg = write_segment<PieceVertexRecord>(lease.file(), kPieceVertexRecordKind, vs);
+  if (!vseg) return vseg.status();
+  auto fseg = write_segment<PieceFaceRecord>(lease.file(), kPieceFaceRecordKind, fs);
+  if (!fseg) return fseg.status();
+  unit.vertices = *vseg, unit.faces = *fseg;
+  std::sort(unit.codes.begin(), unit.codes.end());
+  unit.codes.erase(std::unique(unit.codes.begin(), unit.codes.end()), unit.codes.end());
+  std::sort(face_codes.begin(), face_codes.end());
+  for (auto code : face_codes) {
+    if (counts.empty() || counts.back().first != code) counts.push_back({code, 0});
+    ++counts.back().second;
+  }
+  return unit;
+}
+
+// A round's plan: the cells of its grid in Morton order, filled greedily into pieces of at most
+// max_faces faces (a cell alone may hold more); piece k begins at code starts[k].
+struct Plan {
+  std::vector<std::uint64_t> starts, faces, before;  // before: faces of the pieces ahead of k
+  std::vector<std::vector<std::uint32_t>> reads;     // the last round's units each piece reads
+  std::uint32_t piece_of_code(std::uint64_t code) const {
+    return std::uint32_t(std::upper_bound(starts.begin(), starts.end(), code) - starts.begin() - 1);
+  }
+};
+
+Plan plan_round(RoundOutput& last, std::uint64_t max_faces) {
+  Plan plan;
+  auto& histogram = last.histogram;
+  std::sort(histogram.begin(), histogram.end());
+  std::uint64_t filled = 0;
+  for (std::size_t i = 0; i < histogram.size();) {
+    const std::uint64_t code = histogram[i].first;
+    std::uint64_t count = 0;
+    for (; i < histogram.size() && histogram[i].first == code; ++i) count += histogram[i].second;
+    if (plan.starts.empty() || (filled > 0 && filled + count > max_faces)) {
+      plan.starts.push_back(plan.starts.empty() ? 0 : code);
+      plan.faces.push_back(0);
+      filled = 0;
+    }
+    filled += count;
+    plan.faces.back() += count;
+  }
+  std::vector<std::pair<std::uint64_t, std::uint64_t>>().swap(histogram);
+  if (plan.starts.empty()) plan.starts.push_back(0), plan.faces.push_back(0);
+  plan.before.assign(plan.starts.size() + 1, 0);
+  for (std::size_t k = 0; k < plan.starts.size(); ++k) plan.before[k + 1] = plan.before[k] + plan.faces[k];
+  // A piece reads every unit holding a vertex of its cells: so the owner of a vertex sees every
+  // copy of it, and every face around it.
+  plan.reads.resize(plan.starts.size());
+  for (std::size_t j = 0; j < last.units.size(); ++j) {
+    std::uint32_t previous = UINT32_MAX;
+    for (auto code : last.units[j].codes) {
+      const std::uint32_t k = plan.piece_of_code(code);
+      if (k != previous) plan.reads[k].push_back(std::uint32_t(j)), previous = k;
+    }
+    std::vector<std::uint64_t>().swap(last.units[j].codes);
+  }
+  return plan;
+}
+
+// Piece k of a round from the last round's units it reads: the faces whose lowest corner it
+// owns, their corners, and every vertex it owns; a vertex is locked unless the piece owns it and
+// every face around it. owned[v] and `absorbed_from` (the quadrics of the vertices it does not
+// own, as they came in) are for write_unit.
+format::Status build_piece(const RoundOutput& last, const Plan& plan, const ShiftedGrid& grid, std::size_t k, Piece& piece,
+                           std::vector<std::uint8_t>& owned, std::vector<PieceVertex>& absorbed_from) {
+  struct Held {
+    PieceVertexRecord record;
+    std::uint8_t owned, shared;
+  };
+  std::vector<Held> held;
+  std::vector<PieceFaceRecord> faces, fs;
+  std::vector<PieceVertexRecord> vs;
+  std::vector<std::uint32_t> owner;
+  std::vector<std::uint8_t> take, shared;
+  for (std::uint32_t j : plan.reads[k]) {
+    const Unit& unit = last.units[j];
+    const std::string path = last.pool->path(unit.file);
+    GM_RETURN_IF_ERROR(read_segment(path, kPieceVertexRecordKind, unit.vertices, vs));
+    GM_RETURN_IF_ERROR(read_segment(path, kPieceFaceRecordKind, unit.faces, fs));
+    owner.resize(vs.size());
+    for (std::size_t v = 0; v < vs.size(); ++v) {
+      if (v > 0 && vs[v].id <= vs[v - 1].id) return damaged(path, "finish vertices out of order");
+      owner[v] = plan.piece_of_code(grid.code({vs[v].x, vs[v].y, vs[v].z}));
+    }
+    take.assign(vs.size(), 0);
+    shared.assign(vs.size(), 0);
+    auto index_of = [&](std::uint32_t id) -> std::int64_t {
+      auto it = std::lower_bound(vs.begin(), vs.end(), id, [](const PieceVertexRecord& r, std::uint32_t x) { return r.id < x; });
+      return it != vs.end() && it->id == id ? it - vs.begin() : -1;
+    };
+    for (const auto& f : fs) {
+      std::int64_t i[3];
+      for (int c = 0; c < 3; ++c)
+        if ((i[c] = index_of(f.id[c])) < 0) return damaged(path, "a finish face names a vertex its piece lacks");
+      if (owner[std::min({i[0], i[1], i[2]})] == k) {
+        faces.push_back(f);
+        for (int c = 0; c < 3; ++c) take[i[c]] = 1;
+      } else {
+        for (int c = 0; c < 3; ++c)
+          if (owner[i[c]] == k) shared[i[c]] = 1;
+      }
+    }
+    for (std::size_t v = 0; v < vs.size(); ++v) {
+      const bool own = owner[v] == k;
+      if (take[v] || own) held.push_back({vs[v], std::uint8_t(own), shared[v]});
+    }
+  }
+  // One vertex per id: the quadrics of its copies summed, the shared flags joined.
+  std::stable_sort(held.begin(), held.end(), [](const Held& a, const Held& b) { return a.record.id < b.record.id; });
+  piece = Piece{};
+  owned.clear();
+  absorbed_from.clear();
+  for (std::size_t i = 0; i < held.size();) {
+    const PieceVertexRecord& r = held[i].record;
+    PieceVertex v;
+    v.id = r.id;
+    v.position = {r.x, r.y, r.z};
+    std::uint8_t shares = held[i].shared;
+    std::memcpy(v.quadric.q.data(), r.q, sizeof(r.q));
+    std::size_t e = i + 1;
+    for (; e < held.size() && held[e].record.id == r.id; ++e) {
+      const PieceVertexRecord& o = held[e].record;
+      if (std::memcmp(&o.x, &r.x, 3 * sizeof(float)) != 0)
+        return format::Status::error(format::Code::kProcessing, "finish", "a shared vertex moved");
+      FixedQuadric q;
+      std::memcpy(q.q.data(), o.q, sizeof(o.q));
+      v.quadric += q;
+      shares |= held[e].shared;
+    }
+    v.locked = !held[i].owned || shares;
+    piece.vertices.push_back(v);
+    owned.push_back(held[i].owned);
+    if (!held[i].owned) absorbed_from.push_back(v);
+    i = e;
+  }
+  std::vector<Held>().swap(held);
+  piece.faces.reserve(faces.size());
+  auto local = [&](std::uint32_t id) {
+    return std::uint32_t(std::lower_bound(piece.vertices.begin(), piece.vertices.end(), id,
+                                          [](const PieceVertex& p, std::uint32_t x) { return p.id < x; }) -
+                         piece.vertices.begin());
+  };
+  for (const auto& f : faces) {
+    format::Triangle t{{local(f.id[0]), local(f.id[1]), local(f.id[2])}};
+    while (t.v[0] > t.v[1] || t.v[0] > t.v[2]) t = {{t.v[1], t.v[2], t.v[0]}};  // lowest first, same turn
+    piece.faces.push_back(t);
+  }
+  std::sort(piece.faces.begin(), piece.faces.end(), [](const format::Triangle& a, const format::Triangle& b) {
+    return std::lexicographical_compare(a.v, a.v + 3, b.v, b.v + 3);
+  });
+  if (piece.faces.size() != plan.faces[k])
+    return format::Status::error(format::Code::kProcessing, "finish", "a piece has other faces than planned");
+  return format::Status();
+}
+
 }  // namespace
 
 std::uint64_t chunked_finish_chunk_faces(const MemoryBudget& budget, std::uint32_t threads) {
@@ -203,70 +395,50 @@ format::Result<ChunkedFinish> chunked_finish(const Partition& partition, const C
   frame.scale = diagonal > 0 ? diagonal : 1;
   const double max_error = finish.max_error / kMaxErrorMargin / frame.scale;
   const std::uint64_t share = thread_share(options.memory, options.threads);
-  const ShiftedGrid grid(partition.owner_map);
+  const std::uint64_t target = finish.target_faces;
 
   // Round 1: every chunk's pieces, collapsed to kRoundOneShare × their share of the target.
   auto start = Clock::now();
   const double round_one_ratio =
-      finish.target_faces > 0 ? std::min(1.0, kRoundOneShare * double(finish.target_faces) / double(std::max<std::uint64_t>(partition.faces, 1)))
-                              : 1.0;
-  format::RecordSegmentPool pool_one(partition.dir + "/finish-1-");
-  std::vector<Unit> units;
-  std::vector<std::pair<std::uint64_t, std::uint64_t>> histogram;  // (cell, faces whose lowest corner is in it)
-  std::mutex units_mutex;
-  Totals one;
+      target > 0 ? std::min(1.0, kRoundOneShare * double(target) / double(std::max<std::uint64_t>(partition.faces, 1))) : 1.0;
+  RoundOutput last;
+  last.pool = std::make_unique<format::RecordSegmentPool>(partition.dir + "/finish-1-");
+  struct Numbered {
+    std::uint64_t chunk, piece;
+    Unit unit;
+  };
+  std::vector<Numbered> numbered;
+  std::mutex mutex;
+  Totals totals;
+  ShiftedGrid next(partition.owner_map, round_offset(2));
   const format::Status round_one = for_each_chunk(
       partition, options.threads,
       [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace&) {
         const std::uint64_t load = kChunkFileBytesPerFace * chunk.triangles.size();
         const std::uint64_t max_piece = std::max(kMinPieceFaces, (share > load ? share - load : 0) / kPieceBytesPerFace);
         std::vector<Piece> pieces = chunk_pieces(chunk, frame, max_piece);
-        format::RecordSegmentPool::Lease lease(pool_one);
+        format::RecordSegmentPool::Lease lease(*last.pool);
         GM_RETURN_IF_ERROR(lease.status());
         for (std::size_t p = 0; p < pieces.size(); ++p) {
           const std::uint64_t faces_in = pieces[p].faces.size();
           DecimationOptions d;
           d.max_error = max_error;
-          // The share of the faces free to go: faces at a locked vertex stay for round 2, and
-          // counting them in the share would take their number out of the piece's inside.
-          if (finish.target_faces > 0) {
+          // The share of the faces free to go: faces at a locked vertex stay for the next round,
+          // and counting them in the share would take their number out of the piece's inside.
+          if (target > 0) {
             const std::uint64_t at_locked = faces_at_locked(pieces[p]);
             d.target_faces = at_locked + std::max<std::uint64_t>(1, std::uint64_t(std::ceil(round_one_ratio * double(faces_in - at_locked))));
           }
           PieceResult r = decimate_piece(std::move(pieces[p]), frame, d);
-          one.add(r, faces_in);
-          std::vector<PieceVertexRecord> vs(r.piece.vertices.size());
-          Unit unit;
-          unit.chunk = std::uint32_t(c), unit.piece = std::uint32_t(p), unit.file = lease.index();
-          for (std::size_t v = 0; v < vs.size(); ++v) {
-            const PieceVertex& pv = r.piece.vertices[v];
-            vs[v].id = pv.id, vs[v].x = pv.position.x, vs[v].y = pv.position.y, vs[v].z = pv.position.z;
-            std::memcpy(vs[v].q, pv.quadric.q.data(), sizeof(vs[v].q));
-            unit.codes.push_back(grid.code(pv.position));
-          }
-          std::vector<PieceFaceRecord> fs(r.piece.faces.size());
-          std::vector<std::uint64_t> face_codes(fs.size());
-          for (std::size_t f = 0; f < fs.size(); ++f) {
-            const auto& t = r.piece.faces[f].v;
-            for (int k = 0; k < 3; ++k) fs[f].id[k] = r.piece.vertices[t[k]].id;
-            face_codes[f] = unit.codes[std::min({t[0], t[1], t[2]})];  // vertices ascend by id
-          }
-          auto vseg = write_segment<PieceVertexRecord>(lease.file(), kPieceVertexRecordKind, vs);
-          if (!vseg) return vseg.status();
-          auto fseg = write_segment<PieceFaceRecord>(lease.file(), kPieceFaceRecordKind, fs);
-          if (!fseg) return fseg.status();
-          unit.vertices = *vseg, unit.faces = *fseg;
-          std::sort(unit.codes.begin(), unit.codes.end());
-          unit.codes.erase(std::unique(unit.codes.begin(), unit.codes.end()), unit.codes.end());
-          std::sort(face_codes.begin(), face_codes.end());
+          totals.add(r, faces_in);
+          // Round 1's copies of a shared vertex are each its own faces' part of the quadric.
+          std::vector<std::uint8_t> owned(r.piece.vertices.size(), 1);
           std::vector<std::pair<std::uint64_t, std::uint64_t>> counts;
-          for (auto code : face_codes) {
-            if (counts.empty() || counts.back().first != code) counts.push_back({code, 0});
-            ++counts.back().second;
-          }
-          std::lock_guard lock(units_mutex);
-          units.push_back(std::move(unit));
-          histogram.insert(histogram.end(), counts.begin(), counts.end());
+          auto unit = write_unit(lease, r.piece, owned, {}, next, counts);
+          if (!unit) return unit.status();
+          std::lock_guard lock(mutex);
+          numbered.push_back({c, p, std::move(unit).value()});
+          last.histogram.insert(last.histogram.end(), counts.begin(), counts.end());
         }
         return format::Status();
       },
@@ -275,258 +447,155 @@ format::Result<ChunkedFinish> chunked_finish(const Partition& partition, const C
       },
       options.memory);
   if (!round_one) return round_one;
-  out.input_faces = one.input_faces;
-  out.round_one_pieces = units.size();
-  out.round_one_faces = one.faces;
-  out.collapses = one.collapses, out.refused = one.refused, out.over_error = one.over_error, out.unheld_pieces = one.unheld;
-  out.estimated_error = one.error;
-  out.seconds_round_one = seconds_since(start);
+  std::sort(numbered.begin(), numbered.end(),
+            [](const Numbered& a, const Numbered& b) { return a.chunk != b.chunk ? a.chunk < b.chunk : a.piece < b.piece; });
+  for (auto& n : numbered) last.units.push_back(std::move(n.unit));
+  std::vector<Numbered>().swap(numbered);
+  last.faces = totals.faces;
+  out.input_faces = totals.input_faces;
+  out.round_faces.push_back(last.faces);
+  out.round_pieces.push_back(last.units.size());
+  out.seconds_rounds.push_back(seconds_since(start));
   release_free_memory();
 
-  // The plan of round 2: cells in Morton order, filled greedily into pieces of at most
-  // max_faces faces (a cell alone may hold more).
-  start = Clock::now();
-  std::sort(units.begin(), units.end(),
-            [](const Unit& a, const Unit& b) { return a.chunk != b.chunk ? a.chunk < b.chunk : a.piece < b.piece; });
-  std::sort(histogram.begin(), histogram.end());
+  // Rounds 2, 3, …: pieces of a shifted grid, until the target is met or a round gains little.
   const std::uint64_t max_faces = std::max(kMinPieceFaces, share / kPieceBytesPerFace);
-  std::vector<std::uint64_t> starts, piece_faces;
-  std::uint64_t filled = 0;
-  for (std::size_t i = 0; i < histogram.size();) {
-    const std::uint64_t code = histogram[i].first;
-    std::uint64_t count = 0;
-    for (; i < histogram.size() && histogram[i].first == code; ++i) count += histogram[i].second;
-    if (starts.empty() || (filled > 0 && filled + count > max_faces)) {
-      starts.push_back(starts.empty() ? 0 : code);
-      piece_faces.push_back(0);
-      filled = 0;
+  Plan plan;
+  std::unique_ptr<ShiftedGrid> grid;
+  for (int round = 2;; ++round) {
+    start = Clock::now();
+    grid = std::make_unique<ShiftedGrid>(next);
+    next = ShiftedGrid(partition.owner_map, round_offset(round + 1));
+    plan = plan_round(last, max_faces);
+    const std::size_t pieces = plan.starts.size();
+    out.largest_piece = std::max(out.largest_piece, *std::max_element(plan.faces.begin(), plan.faces.end()));
+    const std::uint64_t total = plan.before[pieces];
+    // The faces at locked vertices stay; the rest of the target is shared among the other faces
+    // in proportion, as in round 1: so both are counted first.
+    std::vector<std::uint64_t> locked_faces(pieces, 0), free_before(pieces + 1, 0);
+    const bool by_share = target > 0 && total > target;
+    if (by_share) {
+      const format::Status counted = parallel_pieces(
+          pieces, options.threads,
+          [&](std::size_t k) -> format::Status {
+            Piece piece;
+            std::vector<std::uint8_t> owned;
+            std::vector<PieceVertex> absorbed_from;
+            GM_RETURN_IF_ERROR(build_piece(last, plan, *grid, k, piece, owned, absorbed_from));
+            locked_faces[k] = faces_at_locked(piece);
+            return format::Status();
+          },
+          [&](std::size_t) {});
+      if (!counted) return counted;
     }
-    filled += count;
-    piece_faces.back() += count;
-  }
-  std::vector<std::pair<std::uint64_t, std::uint64_t>>().swap(histogram);
-  if (starts.empty()) starts.push_back(0), piece_faces.push_back(0);
-  const std::size_t pieces_two = starts.size();
-  auto piece_of_code = [&](std::uint64_t code) {
-    return std::uint32_t(std::upper_bound(starts.begin(), starts.end(), code) - starts.begin() - 1);
-  };
-  auto piece_of = [&](const format::Vec3f& p) { return piece_of_code(grid.code(p)); };
-  // Which round-1 pieces each round-2 piece reads: those holding a vertex of its cells.
-  std::vector<std::vector<std::uint32_t>> reads(pieces_two);
-  for (std::size_t j = 0; j < units.size(); ++j) {
-    std::uint32_t last = UINT32_MAX;
-    for (auto code : units[j].codes) {
-      const std::uint32_t k = piece_of_code(code);
-      if (k != last) reads[k].push_back(std::uint32_t(j)), last = k;
+    std::uint64_t all_locked = 0;
+    for (std::size_t k = 0; k < pieces; ++k) {
+      all_locked += locked_faces[k];
+      free_before[k + 1] = free_before[k] + (plan.faces[k] - locked_faces[k]);
     }
-    std::vector<std::uint64_t>().swap(units[j].codes);
-  }
-  std::vector<std::uint64_t> before(pieces_two + 1, 0);
-  for (std::size_t k = 0; k < pieces_two; ++k) before[k + 1] = before[k] + piece_faces[k];
-  out.round_two_pieces = pieces_two;
-  out.largest_round_two_piece = *std::max_element(piece_faces.begin(), piece_faces.end());
-
-  // Round 2.
-  format::RecordSegmentPool pool_two(partition.dir + "/finish-2-");
-  struct Output {
-    std::uint32_t file = 0;
-    format::RecordSegment vertices, faces;
-  };
-  std::vector<Output> outputs(pieces_two);
-  Totals two;
-  const std::uint64_t total = before[pieces_two];
-  // Round 2's piece k from the round-1 pieces it reads.
-  auto build = [&](std::size_t k, Piece& piece) -> format::Status {
-    struct Held {
-      PieceVertexRecord record;
-      std::uint8_t owned, shared;
-    };
-    std::vector<Held> held;
-    std::vector<PieceFaceRecord> faces;
-    std::vector<PieceVertexRecord> vs;
-    std::vector<PieceFaceRecord> fs;
-    std::vector<std::uint32_t> owner;
-    std::vector<std::uint8_t> take, shared;
-    for (std::uint32_t j : reads[k]) {
-      const Unit& unit = units[j];
-      const std::string path = pool_one.path(unit.file);
-      GM_RETURN_IF_ERROR(read_segment(path, kPieceVertexRecordKind, unit.vertices, vs));
-      GM_RETURN_IF_ERROR(read_segment(path, kPieceFaceRecordKind, unit.faces, fs));
-      owner.resize(vs.size());
-      for (std::size_t v = 0; v < vs.size(); ++v) {
-        if (v > 0 && vs[v].id <= vs[v - 1].id) return damaged(path, "finish vertices out of order");
-        owner[v] = piece_of({vs[v].x, vs[v].y, vs[v].z});
-      }
-      take.assign(vs.size(), 0);
-      shared.assign(vs.size(), 0);
-      auto index_of = [&](std::uint32_t id) -> std::int64_t {
-        auto it = std::lower_bound(vs.begin(), vs.end(), id, [](const PieceVertexRecord& r, std::uint32_t x) { return r.id < x; });
-        return it != vs.end() && it->id == id ? it - vs.begin() : -1;
-      };
-      for (const auto& f : fs) {
-        std::int64_t i[3];
-        for (int c = 0; c < 3; ++c)
-          if ((i[c] = index_of(f.id[c])) < 0) return damaged(path, "a finish face names a vertex its piece lacks");
-        const std::int64_t lowest = std::min({i[0], i[1], i[2]});
-        if (owner[lowest] == k) {
-          faces.push_back(f);
-          for (int c = 0; c < 3; ++c) take[i[c]] = 1;
-        } else {
-          for (int c = 0; c < 3; ++c)
-            if (owner[i[c]] == k) shared[i[c]] = 1;
-        }
-      }
-      for (std::size_t v = 0; v < vs.size(); ++v) {
-        const bool own = owner[v] == k;
-        if (take[v] || own) held.push_back({vs[v], std::uint8_t(own), shared[v]});
-      }
-    }
-    // One vertex per id: the quadrics of its copies summed (a vertex round 1 shared has a
-    // part in each piece that held it), the shared flags joined.
-    std::stable_sort(held.begin(), held.end(), [](const Held& a, const Held& b) { return a.record.id < b.record.id; });
-    std::vector<std::uint8_t> owned;
-    for (std::size_t i = 0; i < held.size();) {
-      const PieceVertexRecord& r = held[i].record;
-      PieceVertex v;
-      v.id = r.id;
-      v.position = {r.x, r.y, r.z};
-      std::uint8_t own = held[i].owned, shares = held[i].shared;
-      std::memcpy(v.quadric.q.data(), r.q, sizeof(r.q));
-      std::size_t e = i + 1;
-      for (; e < held.size() && held[e].record.id == r.id; ++e) {
-        const PieceVertexRecord& o = held[e].record;
-        if (std::memcmp(&o.x, &r.x, 3 * sizeof(float)) != 0)
-          return format::Status::error(format::Code::kProcessing, "finish", "a shared vertex moved in round 1");
-        FixedQuadric q;
-        std::memcpy(q.q.data(), o.q, sizeof(o.q));
-        v.quadric += q;
-        shares |= held[e].shared;
-      }
-      v.locked = !own || shares;
-      piece.vertices.push_back(v);
-      owned.push_back(own);
-      i = e;
-    }
-    std::vector<Held>().swap(held);
-    piece.faces.reserve(faces.size());
-    auto local = [&](std::uint32_t id) {
-      return std::uint32_t(std::lower_bound(piece.vertices.begin(), piece.vertices.end(), id,
-                                            [](const PieceVertex& p, std::uint32_t x) { return p.id < x; }) -
-                           piece.vertices.begin());
-    };
-    for (const auto& f : faces) {
-      format::Triangle t{{local(f.id[0]), local(f.id[1]), local(f.id[2])}};
-      while (t.v[0] > t.v[1] || t.v[0] > t.v[2]) t = {{t.v[1], t.v[2], t.v[0]}};  // lowest first, same turn
-      piece.faces.push_back(t);
-    }
-    std::vector<PieceFaceRecord>().swap(faces);
-    std::sort(piece.faces.begin(), piece.faces.end(),
-              [](const format::Triangle& a, const format::Triangle& b) { return std::lexicographical_compare(a.v, a.v + 3, b.v, b.v + 3); });
-    if (piece.faces.size() != piece_faces[k])
-      return format::Status::error(format::Code::kProcessing, "finish", "a round-2 piece has other faces than planned");
-    return format::Status();
-  };
-  // The faces at locked vertices stay; the rest of the target is shared among the others in
-  // proportion (as in round 1), so a count of both comes first.
-  std::vector<std::uint64_t> locked_faces(pieces_two, 0), free_before(pieces_two + 1, 0);
-  if (finish.target_faces > 0 && before[pieces_two] > finish.target_faces) {
-    const format::Status counted = parallel_pieces(
-        pieces_two, options.threads,
+    // When the locked faces take more than half the target, this round cannot place the target
+    // well: it takes the free faces to kRoundOneShare × the target's density, as round 1 did,
+    // and leaves the rest to the next round, whose borders lie elsewhere.
+    const double ratio = target > 0 ? std::min(1.0, kRoundOneShare * double(target) / double(std::max<std::uint64_t>(total, 1))) : 1;
+    const bool last_squeeze = 2 * all_locked <= target || ratio >= 1 || round >= kMaxRounds;
+    RoundOutput now;
+    now.pool = std::make_unique<format::RecordSegmentPool>(partition.dir + "/finish-" + std::to_string(round) + "-");
+    now.units.resize(pieces);
+    std::vector<std::vector<std::pair<std::uint64_t, std::uint64_t>>> counts(pieces);
+    Totals round_totals;
+    const format::Status done = parallel_pieces(
+        pieces, options.threads,
         [&](std::size_t k) -> format::Status {
           Piece piece;
-          GM_RETURN_IF_ERROR(build(k, piece));
-          locked_faces[k] = faces_at_locked(piece);
+          std::vector<std::uint8_t> owned;
+          std::vector<PieceVertex> absorbed_from;
+          GM_RETURN_IF_ERROR(build_piece(last, plan, *grid, k, piece, owned, absorbed_from));
+          const std::uint64_t faces_in = piece.faces.size();
+          DecimationOptions d;
+          d.max_error = max_error;
+          if (by_share && !last_squeeze) {
+            d.target_faces = locked_faces[k] + std::max<std::uint64_t>(
+                1, std::uint64_t(std::ceil(ratio * double(faces_in - locked_faces[k]))));
+          } else if (by_share) {
+            const std::uint64_t left = target > all_locked ? target - all_locked : 0;
+            const std::uint64_t free_total = free_before[pieces];
+            d.target_faces = std::max<std::uint64_t>(
+                1, locked_faces[k] + (free_total > 0 ? share_of(left, free_before[k], faces_in - locked_faces[k], free_total) : 0));
+          } else if (target > 0) {
+            d.target_faces = faces_in;  // the target is met: this round only gathers the pieces
+          }
+          std::vector<std::uint32_t> ids;
+          for (const auto& v : piece.vertices) ids.push_back(v.id);
+          PieceResult r = decimate_piece(std::move(piece), frame, d);
+          round_totals.add(r, faces_in);
+          // Survivors keep their ownership (a free one is owned; it may have moved out of its cell).
+          std::vector<std::uint8_t> own(r.piece.vertices.size());
+          for (std::size_t v = 0; v < own.size(); ++v)
+            own[v] = owned[std::size_t(std::lower_bound(ids.begin(), ids.end(), r.piece.vertices[v].id) - ids.begin())];
+          format::RecordSegmentPool::Lease lease(*now.pool);
+          GM_RETURN_IF_ERROR(lease.status());
+          auto unit = write_unit(lease, r.piece, own, absorbed_from, next, counts[k]);
+          if (!unit) return unit.status();
+          now.units[k] = std::move(unit).value();
           return format::Status();
         },
-        [&](std::size_t done) {
-          if (options.progress) options.progress("finish round 2 locks", done, pieces_two);
+        [&](std::size_t n) {
+          if (options.progress) options.progress("finish round", n, pieces);
         });
-    if (!counted) return counted;
+    if (!done) return done;
+    for (auto& c : counts) now.histogram.insert(now.histogram.end(), c.begin(), c.end());
+    now.faces = round_totals.faces;
+    totals.collapses += round_totals.collapses, totals.refused += round_totals.refused;
+    totals.over_error += round_totals.over_error, totals.unheld += round_totals.unheld;
+    totals.error = std::max(totals.error, round_totals.error);
+    const std::uint64_t before_round = last.faces;
+    last = std::move(now);
+    out.round_faces.push_back(last.faces);
+    out.round_pieces.push_back(pieces);
+    out.seconds_rounds.push_back(seconds_since(start));
+    release_free_memory();
+    // Stop once the target is met, when a round removed under 1 % of what it had, or at the
+    // last round.
+    if ((target > 0 && last.faces <= target) || (!by_share && target > 0) || last.faces * 100 > before_round * 99 ||
+        round >= kMaxRounds)
+      break;
   }
-  std::uint64_t all_locked = 0;
-  for (std::size_t k = 0; k < pieces_two; ++k) {
-    all_locked += locked_faces[k];
-    free_before[k + 1] = free_before[k] + (piece_faces[k] - locked_faces[k]);
-  }
-  const format::Status round_two = parallel_pieces(
-      pieces_two, options.threads,
-      [&](std::size_t k) -> format::Status {
-        Piece piece;
-        GM_RETURN_IF_ERROR(build(k, piece));
-        const std::uint64_t faces_in = piece.faces.size();
-        DecimationOptions d;
-        d.max_error = max_error;
-        if (finish.target_faces > 0 && total > finish.target_faces) {
-          const std::uint64_t left = finish.target_faces > all_locked ? finish.target_faces - all_locked : 0;
-          const std::uint64_t free_total = free_before[pieces_two];
-          d.target_faces = locked_faces[k] + (free_total > 0 ? share_of(left, free_before[k], faces_in - locked_faces[k], free_total) : 0);
-          d.target_faces = std::max<std::uint64_t>(d.target_faces, 1);
-        }
-        PieceResult r = decimate_piece(std::move(piece), frame, d);
-        if (getenv("GM_DEBUG")) fprintf(stderr, "r2 piece %zu: in %llu locked %llu target %llu out %zu collapses %llu refused %llu\n", k, (unsigned long long)faces_in, (unsigned long long)locked_faces[k], (unsigned long long)d.target_faces, r.piece.faces.size(), (unsigned long long)r.collapses, (unsigned long long)r.refused);
-        two.add(r, faces_in);
-        std::vector<OutputVertexRecord> ov;
-        std::vector<std::uint32_t> corner_owner(r.piece.vertices.size());
-        for (std::size_t v = 0; v < r.piece.vertices.size(); ++v) {
-          const PieceVertex& pv = r.piece.vertices[v];
-          corner_owner[v] = pv.locked ? piece_of(pv.position) : std::uint32_t(k);
-          if (corner_owner[v] == k) ov.push_back({pv.id, pv.position.x, pv.position.y, pv.position.z});
-        }
-        std::vector<OutputFaceRecord> of(r.piece.faces.size());
-        for (std::size_t f = 0; f < of.size(); ++f)
-          for (int c = 0; c < 3; ++c) {
-            const std::uint32_t v = r.piece.faces[f].v[c];
-            of[f].owner[c] = corner_owner[v], of[f].id[c] = r.piece.vertices[v].id;
-          }
-        format::RecordSegmentPool::Lease lease(pool_two);
-        GM_RETURN_IF_ERROR(lease.status());
-        auto vseg = write_segment<OutputVertexRecord>(lease.file(), kOutputVertexRecordKind, ov);
-        if (!vseg) return vseg.status();
-        auto fseg = write_segment<OutputFaceRecord>(lease.file(), kOutputFaceRecordKind, of);
-        if (!fseg) return fseg.status();
-        outputs[k] = {lease.index(), *vseg, *fseg};
-        return format::Status();
-      },
-      [&](std::size_t done) {
-        if (options.progress) options.progress("finish round 2", done, pieces_two);
-      });
-  if (!round_two) return round_two;
-  out.collapses += two.collapses, out.refused += two.refused, out.over_error += two.over_error;
-  out.unheld_pieces += two.unheld;
-  out.estimated_error = std::max(out.estimated_error, two.error) * frame.scale;
-  out.seconds_round_two = seconds_since(start);
-  release_free_memory();
+  out.collapses = totals.collapses, out.refused = totals.refused, out.over_error = totals.over_error;
+  out.unheld_pieces = totals.unheld;
+  out.estimated_error = totals.error * frame.scale;
 
-  // The output: every round-2 piece's own vertices in piece order, then the faces.
+  // The output: each vertex once, from the unit that owns it, in unit order; then the faces.
   start = Clock::now();
-  std::vector<std::vector<std::uint32_t>> ids(pieces_two);
-  std::vector<std::uint64_t> offset(pieces_two + 1, 0);
-  std::vector<OutputVertexRecord> ov;
-  std::vector<OutputFaceRecord> of;
-  for (std::size_t k = 0; k < pieces_two; ++k) {
-    const std::string path = pool_two.path(outputs[k].file);
-    GM_RETURN_IF_ERROR(read_segment(path, kOutputVertexRecordKind, outputs[k].vertices, ov));
-    for (const auto& v : ov) {
-      ids[k].push_back(v.id);
-      out.mesh.positions.push_back({v.x, v.y, v.z});
-    }
-    offset[k + 1] = offset[k] + ov.size();
+  const std::size_t pieces = last.units.size();
+  std::vector<std::vector<std::uint32_t>> ids(pieces);
+  std::vector<std::uint64_t> offset(pieces + 1, 0);
+  std::vector<PieceVertexRecord> vs;
+  std::vector<PieceFaceRecord> fs;
+  for (std::size_t k = 0; k < pieces; ++k) {
+    const std::string path = last.pool->path(last.units[k].file);
+    GM_RETURN_IF_ERROR(read_segment(path, kPieceVertexRecordKind, last.units[k].vertices, vs));
+    for (const auto& v : vs)
+      if (v.owned) ids[k].push_back(v.id), out.mesh.positions.push_back({v.x, v.y, v.z});
+    offset[k + 1] = offset[k] + ids[k].size();
   }
-  if (offset[pieces_two] > UINT32_MAX) return format::Status::error(format::Code::kProcessing, "finish", "over 2^32 output vertices");
-  out.mesh.triangles.reserve(two.faces);
-  for (std::size_t k = 0; k < pieces_two; ++k) {
-    const std::string path = pool_two.path(outputs[k].file);
-    GM_RETURN_IF_ERROR(read_segment(path, kOutputFaceRecordKind, outputs[k].faces, of));
-    for (const auto& f : of) {
+  if (offset[pieces] > UINT32_MAX) return format::Status::error(format::Code::kProcessing, "finish", "over 2^32 output vertices");
+  out.mesh.triangles.reserve(last.faces);
+  for (std::size_t k = 0; k < pieces; ++k) {
+    const std::string path = last.pool->path(last.units[k].file);
+    GM_RETURN_IF_ERROR(read_segment(path, kPieceVertexRecordKind, last.units[k].vertices, vs));
+    GM_RETURN_IF_ERROR(read_segment(path, kPieceFaceRecordKind, last.units[k].faces, fs));
+    for (const auto& f : fs) {
       format::Triangle t;
       for (int c = 0; c < 3; ++c) {
-        const std::uint32_t o = f.owner[c];
-        if (o >= pieces_two) return damaged(path, "a finish face names a piece that does not exist");
+        auto it = std::lower_bound(vs.begin(), vs.end(), f.id[c], [](const PieceVertexRecord& r, std::uint32_t x) { return r.id < x; });
+        if (it == vs.end() || it->id != f.id[c]) return damaged(path, "a finish face names a vertex its piece lacks");
+        // A corner this unit does not own is locked, so still where its owner's cell says.
+        const std::size_t o = it->owned ? k : plan.piece_of_code(grid->code({it->x, it->y, it->z}));
         const auto& list = ids[o];
-        auto it = std::lower_bound(list.begin(), list.end(), f.id[c]);
-        if (it == list.end() || *it != f.id[c])
+        auto at = std::lower_bound(list.begin(), list.end(), f.id[c]);
+        if (at == list.end() || *at != f.id[c])
           return format::Status::error(format::Code::kProcessing, "finish", "a corner's owner did not keep it");
-        t.v[c] = std::uint32_t(offset[o] + std::uint64_t(it - list.begin()));
+        t.v[c] = std::uint32_t(offset[o] + std::uint64_t(at - list.begin()));
       }
       out.mesh.triangles.push_back(t);
     }

@@ -14,6 +14,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <vector>
 
 #include "format/status.h"
 #include "stream/core/memory_budget.h"
@@ -42,15 +43,21 @@ struct ChunkedFinishOptions {
   std::function<void(const char*, std::size_t, std::size_t)> progress;  // (round, pieces done, pieces)
 };
 
+// Rounds after the first stop once the target is met, when one removes under 1 % of the faces
+// it had, or after this many.
+inline constexpr int kMaxRounds = 6;
+
 struct ChunkedFinish {
   Mesh mesh;
   std::uint64_t collapses = 0, refused = 0, over_error = 0;
   double estimated_error = 0;  // input units
-  std::uint64_t input_faces = 0;               // the owned faces without a repeated corner
-  std::uint64_t round_one_pieces = 0, round_one_faces = 0;  // pieces, and faces left after round 1
-  std::uint64_t round_two_pieces = 0, largest_round_two_piece = 0;
+  std::uint64_t input_faces = 0;  // the owned faces without a repeated corner
+  // Per round: its pieces, the faces left after it, its seconds.
+  std::vector<std::uint64_t> round_pieces, round_faces;
+  std::vector<double> seconds_rounds;
+  std::uint64_t largest_piece = 0;  // faces of the largest piece after round 1
   std::uint64_t unheld_pieces = 0;  // pieces OpenMesh could not hold (not a manifold), left as they were
-  double seconds_round_one = 0, seconds_round_two = 0, seconds_assemble = 0;
+  double seconds_assemble = 0;
 };
 
 // Both rounds over the chunks of `partition` (at least two overlap rings), and the output mesh

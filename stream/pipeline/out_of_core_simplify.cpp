@@ -845,12 +845,12 @@ format::Status simplify_input(Partition& partition, const OutOfCoreSimplifyOptio
     r.reached_target = target == 0 || finished->mesh.triangles.size() <= target;
     r.stopped_by = r.reached_target ? (target == 0 && finished->over_error > 0 ? "max_error" : "target")
                                     : finished->over_error > 0 ? "max_error" : "topology";
-    r.seconds_quadrics = finished->seconds_round_one;
-    r.seconds_decimate = finished->seconds_round_two + finished->seconds_assemble;
+    r.seconds_quadrics = finished->seconds_rounds.front();
+    for (std::size_t i = 1; i < finished->seconds_rounds.size(); ++i) r.seconds_decimate += finished->seconds_rounds[i];
+    r.seconds_decimate += finished->seconds_assemble;
     out.mesh = std::move(finished->mesh);
-    out.chunked = ChunkedFinishFigures{finished->round_one_pieces, finished->round_one_faces, finished->round_two_pieces,
-                                       finished->largest_round_two_piece, finished->unheld_pieces,
-                                       finished->seconds_round_one, finished->seconds_round_two, finished->seconds_assemble};
+    out.chunked = ChunkedFinishFigures{finished->round_pieces, finished->round_faces, finished->seconds_rounds,
+                                       finished->largest_piece, finished->unheld_pieces, finished->seconds_assemble};
     out.finish = std::move(r);
     out.seconds_mesh = seconds_since(start);
     const auto cleanup = Clock::now();

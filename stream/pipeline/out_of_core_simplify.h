@@ -67,9 +67,10 @@ struct OutOfCoreSimplifyOptions {
 
 // The chunked finish's figures (out_of_core_finish.h), when it ran.
 struct ChunkedFinishFigures {
-  std::uint64_t round_one_pieces = 0, round_one_faces = 0, round_two_pieces = 0, largest_round_two_piece = 0;
-  std::uint64_t unheld_pieces = 0;
-  double seconds_round_one = 0, seconds_round_two = 0, seconds_assemble = 0;
+  std::vector<std::uint64_t> round_pieces, round_faces;  // per round: pieces, faces left after it
+  std::vector<double> seconds_rounds;
+  std::uint64_t largest_piece = 0, unheld_pieces = 0;
+  double seconds_assemble = 0;
 };
 
 struct OutOfCoreSimplify {
