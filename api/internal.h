@@ -51,6 +51,11 @@ bool has_extension(const std::string& path, const std::string& extension);
 
 // Writes `mesh` to `sink`; returns the bytes written (0 for a memory sink).
 Result<std::uint64_t> write_mesh(const Sink& sink, MeshView mesh, const DracoOptions& draco);
+// The same for a mesh delivered in parts (the chunked finish's output): PLY and OBJ stream it;
+// Draco and a memory sink need it whole, gathered first, and are refused (kResources, one line)
+// when that would pass `memory_limit` bytes (0: no limit).
+Result<std::uint64_t> write_mesh_parts(const Sink& sink, format::MeshParts& mesh, const DracoOptions& draco,
+                                       std::uint64_t memory_limit);
 
 // The engine for a job that has no streaming form (the Voronoi mesher, the patch mesh): in core,
 // unless it is forced out of core, or an explicit budget under the automatic engine is smaller

@@ -46,6 +46,12 @@ Json common_report(const Source& source, const Sink& sink, const SimplifyOptions
   report["guards"] = result.polygon.guards;
   report["output_vertices"] = result.mesh.positions.size();
   report["output_faces"] = result.mesh.triangles.size();
+  if constexpr (requires { result.parts; }) {
+    if (result.parts) {
+      report["output_vertices"] = result.parts->vertex_count();
+      report["output_faces"] = result.parts->face_count();
+    }
+  }
   report["output_bytes"] = bytes;
   report["qp"] = o.draco.quantization_bits;
   report["cl"] = o.draco.compression_level;
@@ -110,17 +116,21 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   auto result = stream::simplify_out_of_core(api::stream_path(source), api::read_options(source), options);
   if (!result) return result.status();
   if (result->faces == 0) return no_faces(source, result->vertices);
-  if (result->mesh.triangles.empty()) return empty_approximation(source);
+  const std::uint64_t output_faces = result->parts ? result->parts->face_count() : result->mesh.triangles.size();
+  const std::uint64_t output_vertices = result->parts ? result->parts->vertex_count() : result->mesh.positions.size();
+  if (output_faces == 0) return empty_approximation(source);
   auto t = Clock::now();
-  auto bytes = api::write_mesh(sink, result->mesh.view(), o.draco);
+  auto bytes = result->parts ? api::write_mesh_parts(sink, *result->parts, o.draco,
+                                                     options.memory_explicit ? options.memory.bytes() : 0)
+                             : api::write_mesh(sink, result->mesh.view(), o.draco);
   if (!bytes) return bytes.status();
   const double seconds_write = seconds_since(t);
 
   SimplifyStats stats;
   stats.input_vertices = result->vertices;
   stats.input_faces = result->faces;
-  stats.output_vertices = result->mesh.positions.size();
-  stats.output_faces = result->mesh.triangles.size();
+  stats.output_vertices = output_vertices;
+  stats.output_faces = output_faces;
   stats.output_bytes = *bytes;
   stats.samples = result->samples;
   stats.out_of_core = true;
@@ -131,6 +141,9 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
 
   Json report = common_report(source, sink, o, result->vertices, result->faces, spheres[result->chosen], sampler,
                               *result, result->chosen, *bytes);
+  t = Clock::now();
+  result->parts.reset();  // and its temporary files
+  result->seconds_cleanup += seconds_since(t);
   finish_report(report, result->finish_options, result->finish, stats);
   if (result->finish) report["approximation"] = result->collapsed_input ? "input" : "gauss";
   report["merged_patches"] = result->merged_patches;
@@ -145,8 +158,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
                                 {"round_faces", c.round_faces},
                                 {"round_seconds", c.seconds_rounds},
                                 {"largest_piece", c.largest_piece},
-                                {"unheld_pieces", c.unheld_pieces},
-                                {"assemble_seconds", c.seconds_assemble}};
+                                {"unheld_pieces", c.unheld_pieces}};
   }
   report["threads"] = options.threads;
   report["chunks"] = result->chunks;

@@ -193,6 +193,49 @@ Result<std::uint64_t> write_mesh(const Sink& sink, MeshView mesh, const DracoOpt
   return (*out)->bytes_written();
 }
 
+// Gathering a mesh costs its arrays (12 B a vertex, 12 B a face, about half as many vertices as
+// faces); Draco's encoder about 80 B a face more (measured on 1M faces: docs/finish.md).
+constexpr std::uint64_t kGatheredBytesPerFace = 18;
+constexpr std::uint64_t kDracoBytesPerFace = 80;
+constexpr std::uint64_t kProcessBytes = std::uint64_t{20} << 20;  // the process itself
+
+Result<std::uint64_t> write_mesh_parts(const Sink& sink, format::MeshParts& mesh, const DracoOptions& draco,
+                                       std::uint64_t memory_limit) {
+  const OutputFormat kind = sink.kind == Sink::Kind::kMemory ? OutputFormat::kAuto : sink.resolved_format();
+  if (sink.kind != Sink::Kind::kMemory && kind != OutputFormat::kAuto && kind != OutputFormat::kDraco) {
+    auto out = format::OutputFile::create(sink.kind == Sink::Kind::kFile ? sink.path : "-", kind != OutputFormat::kObj && kind != OutputFormat::kPlyAscii);
+    if (!out) return out.status();
+    Status status = kind == OutputFormat::kObj
+                        ? format::write_obj_parts(**out, mesh)
+                        : format::write_ply_parts(**out, mesh, kind == OutputFormat::kPlyBinary, {"written by gaussmesh"});
+    GM_RETURN_IF_ERROR(status);
+    GM_RETURN_IF_ERROR((*out)->commit());
+    return (*out)->bytes_written();
+  }
+  const bool draco_output = sink.kind != Sink::Kind::kMemory;
+  const std::uint64_t need =
+      mesh.face_count() * (kGatheredBytesPerFace + (draco_output ? kDracoBytesPerFace : 0)) + kProcessBytes;
+  if (memory_limit > 0 && need > memory_limit) {
+    return Status::error(Code::kResources, "--memory",
+                         std::string("the output's ") + std::to_string(mesh.face_count()) + " faces need about " +
+                             std::to_string(need >> 20) + " MiB " + (draco_output ? "to encode as Draco" : "in memory") +
+                             ", above the budget of " + std::to_string(memory_limit >> 20) +
+                             " MiB: write PLY or OBJ (streamed), raise --memory or lower the target");
+  }
+  Mesh whole;
+  whole.positions.reserve(mesh.vertex_count());
+  whole.triangles.reserve(mesh.face_count());
+  GM_RETURN_IF_ERROR(mesh.vertices([&](std::span<const format::Vec3f> b) {
+    whole.positions.insert(whole.positions.end(), b.begin(), b.end());
+    return Status();
+  }));
+  GM_RETURN_IF_ERROR(mesh.faces([&](std::span<const format::Triangle> b) {
+    whole.triangles.insert(whole.triangles.end(), b.begin(), b.end());
+    return Status();
+  }));
+  return write_mesh(sink, whole.view(), draco);
+}
+
 Status check_not_a_terminal(const Source& source, const char* job) {
   if (source.kind == Source::Kind::kStandardInput && ::isatty(0)) {
     return Status::error(Code::kUsage, job, "no input file, and standard input is a terminal");

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <string>
 #include <variant>
@@ -41,5 +42,23 @@ struct DracoWriteOptions {
 };
 // Edgebreaker-encoded Draco mesh. (draco_writer.cpp)
 Status write_draco(OutputFile& out, MeshView mesh, const DracoWriteOptions& options);
+
+// A mesh too large to hold, delivered in parts: its counts first, then its vertices in order,
+// then its faces, each through a callback in batches (a batch is valid only during the call).
+class MeshParts {
+ public:
+  virtual ~MeshParts() = default;
+  virtual std::uint64_t vertex_count() const = 0;
+  virtual std::uint64_t face_count() const = 0;
+  virtual Status vertices(const std::function<Status(std::span<const Vec3f>)>& batch) = 0;
+  virtual Status faces(const std::function<Status(std::span<const Triangle>)>& batch) = 0;
+};
+
+// PLY (binary little-endian or ascii, positions and faces only) and OBJ from parts, in memory
+// that does not grow with the mesh. A part that delivers other counts than it declared, or an
+// index past the vertices, is kProcessing (and the caller does not commit the file). Draco
+// encodes a whole mesh: it has no such writer. (mesh_parts_writer.cpp)
+Status write_ply_parts(OutputFile& out, MeshParts& mesh, bool binary, const std::vector<std::string>& comments);
+Status write_obj_parts(OutputFile& out, MeshParts& mesh);
 
 }  // namespace gaussmesh::format

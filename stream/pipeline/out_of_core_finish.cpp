@@ -126,6 +126,7 @@ format::Status damaged(const std::string& path, const std::string& what) {
 struct Unit {
   std::uint32_t file = 0;
   format::RecordSegment vertices, faces;
+  std::uint64_t owned = 0;  // survivors it owns (each vertex is owned by one unit of a round)
   std::vector<std::uint64_t> codes;  // its vertices' cells in the next round's grid, ascending, distinct
 };
 
@@ -212,6 +213,7 @@ format::Result<Unit> write_unit(format::RecordSegmentPool::Lease& lease, const P
         for (int i = 0; i < 11; ++i) q.q[i] = std::int64_t(std::uint64_t(q.q[i]) - std::uint64_t(it->quadric.q[i]));
     }
     vs[v] = {pv.id, pv.position.x, pv.position.y, pv.position.z, {}, owned[v], 0};
+    unit.owned += owned[v];
     std::memcpy(vs[v].q, q.q.data(), sizeof(vs[v].q));
     unit.codes.push_back(next.code(pv.position));
   }
@@ -378,7 +380,124 @@ format::Status build_piece(const RoundOutput& last, const Plan& plan, const Shif
   return format::Status();
 }
 
+
 }  // namespace
+
+// The last round's units, its plan and its grid: what the output is read from.
+struct ChunkedOutput::Rounds {
+  RoundOutput last;
+  Plan plan;
+  ShiftedGrid grid;
+};
+
+ChunkedOutput::ChunkedOutput(std::unique_ptr<Rounds> rounds, std::uint64_t vertices, std::string ids_prefix)
+    : rounds_(std::move(rounds)), vertices_(vertices), ids_(std::make_unique<format::RecordSegmentPool>(std::move(ids_prefix))) {}
+ChunkedOutput::~ChunkedOutput() = default;
+
+std::uint64_t ChunkedOutput::face_count() const { return rounds_->last.faces; }
+
+namespace {
+constexpr std::uint32_t kOwnedIdRecordKind = 0x44494D47u;  // "GMID"
+// Batches handed to a writer: about 1 MiB of positions or faces.
+constexpr std::size_t kBatch = std::size_t{1} << 16;
+}  // namespace
+
+format::Status ChunkedOutput::vertices(const std::function<format::Status(std::span<const format::Vec3f>)>& batch) {
+  const RoundOutput& last = rounds_->last;
+  std::vector<PieceVertexRecord> vs;
+  std::vector<format::Vec3f> positions;
+  std::vector<std::uint32_t> ids;
+  format::RecordSegmentPool::Lease lease(*ids_);
+  GM_RETURN_IF_ERROR(lease.status());
+  id_segments_.assign(last.units.size(), {});
+  offsets_.assign(last.units.size() + 1, 0);
+  for (std::size_t k = 0; k < last.units.size(); ++k) {
+    const Unit& unit = last.units[k];
+    GM_RETURN_IF_ERROR(read_segment(last.pool->path(unit.file), kPieceVertexRecordKind, unit.vertices, vs));
+    ids.clear();
+    for (const auto& v : vs) {
+      if (!v.owned) continue;
+      ids.push_back(v.id);
+      positions.push_back({v.x, v.y, v.z});
+      if (positions.size() == kBatch) {
+        GM_RETURN_IF_ERROR(batch(positions));
+        positions.clear();
+      }
+    }
+    auto segment = write_segment<std::uint32_t>(lease.file(), kOwnedIdRecordKind, ids);
+    if (!segment) return segment.status();
+    id_segments_[k] = *segment;
+    ids_file_ = lease.index();
+    offsets_[k + 1] = offsets_[k] + ids.size();
+  }
+  if (!positions.empty()) GM_RETURN_IF_ERROR(batch(positions));
+  if (offsets_.back() != vertices_)
+    return format::Status::error(format::Code::kProcessing, "finish", "the units own other vertices than counted");
+  return format::Status();
+}
+
+format::Status ChunkedOutput::faces(const std::function<format::Status(std::span<const format::Triangle>)>& batch) {
+  const RoundOutput& last = rounds_->last;
+  if (offsets_.size() != last.units.size() + 1)
+    return format::Status::error(format::Code::kProcessing, "finish", "faces asked for before the vertices");
+  // The owned ids of the units the faces' corners belong to, the most recent kCachedUnits of
+  // them: corners lie in the unit or its neighbours, which come near it in unit order.
+  constexpr std::size_t kCachedUnits = 64;
+  std::vector<std::pair<std::uint32_t, std::vector<std::uint32_t>>> cache;
+  std::uint64_t clock = 0;
+  std::vector<std::uint64_t> used;
+  auto ids_of = [&](std::uint32_t unit) -> format::Result<const std::vector<std::uint32_t>*> {
+    for (std::size_t i = 0; i < cache.size(); ++i)
+      if (cache[i].first == unit) {
+        used[i] = ++clock;
+        return &cache[i].second;
+      }
+    std::size_t slot = cache.size();
+    if (cache.size() < kCachedUnits) {
+      cache.push_back({unit, {}});
+      used.push_back(0);
+    } else {
+      slot = std::size_t(std::min_element(used.begin(), used.end()) - used.begin());
+      cache[slot].first = unit;
+    }
+    used[slot] = ++clock;
+    GM_RETURN_IF_ERROR(read_segment(ids_->path(ids_file_), kOwnedIdRecordKind, id_segments_[unit], cache[slot].second));
+    return &cache[slot].second;
+  };
+  std::vector<PieceVertexRecord> vs;
+  std::vector<PieceFaceRecord> fs;
+  std::vector<format::Triangle> triangles;
+  for (std::size_t k = 0; k < last.units.size(); ++k) {
+    const Unit& unit = last.units[k];
+    const std::string path = last.pool->path(unit.file);
+    GM_RETURN_IF_ERROR(read_segment(path, kPieceVertexRecordKind, unit.vertices, vs));
+    GM_RETURN_IF_ERROR(read_segment(path, kPieceFaceRecordKind, unit.faces, fs));
+    for (const auto& f : fs) {
+      format::Triangle t;
+      for (int c = 0; c < 3; ++c) {
+        auto it = std::lower_bound(vs.begin(), vs.end(), f.id[c], [](const PieceVertexRecord& r, std::uint32_t x) { return r.id < x; });
+        if (it == vs.end() || it->id != f.id[c]) return damaged(path, "a finish face names a vertex its piece lacks");
+        // A corner this unit does not own is locked, so still where its owner's cell says.
+        const std::uint32_t o = it->owned ? std::uint32_t(k) : rounds_->plan.piece_of_code(rounds_->grid.code({it->x, it->y, it->z}));
+        if (o >= last.units.size()) return damaged(path, "a finish corner's owner does not exist");
+        auto list = ids_of(o);
+        if (!list) return list.status();
+        auto at = std::lower_bound((*list)->begin(), (*list)->end(), f.id[c]);
+        if (at == (*list)->end() || *at != f.id[c])
+          return format::Status::error(format::Code::kProcessing, "finish", "a corner's owner did not keep it");
+        t.v[c] = std::uint32_t(offsets_[o] + std::uint64_t(at - (*list)->begin()));
+      }
+      triangles.push_back(t);
+      if (triangles.size() == kBatch) {
+        GM_RETURN_IF_ERROR(batch(triangles));
+        triangles.clear();
+      }
+    }
+  }
+  if (!triangles.empty()) GM_RETURN_IF_ERROR(batch(triangles));
+  return format::Status();
+}
+
 
 std::uint64_t chunked_finish_chunk_faces(const MemoryBudget& budget, std::uint32_t threads) {
   // A chunk owns about 3/4 of its file's faces (the rest is the overlap).
@@ -564,43 +683,11 @@ format::Result<ChunkedFinish> chunked_finish(const Partition& partition, const C
   out.unheld_pieces = totals.unheld;
   out.estimated_error = totals.error * frame.scale;
 
-  // The output: each vertex once, from the unit that owns it, in unit order; then the faces.
-  start = Clock::now();
-  const std::size_t pieces = last.units.size();
-  std::vector<std::vector<std::uint32_t>> ids(pieces);
-  std::vector<std::uint64_t> offset(pieces + 1, 0);
-  std::vector<PieceVertexRecord> vs;
-  std::vector<PieceFaceRecord> fs;
-  for (std::size_t k = 0; k < pieces; ++k) {
-    const std::string path = last.pool->path(last.units[k].file);
-    GM_RETURN_IF_ERROR(read_segment(path, kPieceVertexRecordKind, last.units[k].vertices, vs));
-    for (const auto& v : vs)
-      if (v.owned) ids[k].push_back(v.id), out.mesh.positions.push_back({v.x, v.y, v.z});
-    offset[k + 1] = offset[k] + ids[k].size();
-  }
-  if (offset[pieces] > UINT32_MAX) return format::Status::error(format::Code::kProcessing, "finish", "over 2^32 output vertices");
-  out.mesh.triangles.reserve(last.faces);
-  for (std::size_t k = 0; k < pieces; ++k) {
-    const std::string path = last.pool->path(last.units[k].file);
-    GM_RETURN_IF_ERROR(read_segment(path, kPieceVertexRecordKind, last.units[k].vertices, vs));
-    GM_RETURN_IF_ERROR(read_segment(path, kPieceFaceRecordKind, last.units[k].faces, fs));
-    for (const auto& f : fs) {
-      format::Triangle t;
-      for (int c = 0; c < 3; ++c) {
-        auto it = std::lower_bound(vs.begin(), vs.end(), f.id[c], [](const PieceVertexRecord& r, std::uint32_t x) { return r.id < x; });
-        if (it == vs.end() || it->id != f.id[c]) return damaged(path, "a finish face names a vertex its piece lacks");
-        // A corner this unit does not own is locked, so still where its owner's cell says.
-        const std::size_t o = it->owned ? k : plan.piece_of_code(grid->code({it->x, it->y, it->z}));
-        const auto& list = ids[o];
-        auto at = std::lower_bound(list.begin(), list.end(), f.id[c]);
-        if (at == list.end() || *at != f.id[c])
-          return format::Status::error(format::Code::kProcessing, "finish", "a corner's owner did not keep it");
-        t.v[c] = std::uint32_t(offset[o] + std::uint64_t(at - list.begin()));
-      }
-      out.mesh.triangles.push_back(t);
-    }
-  }
-  out.seconds_assemble = seconds_since(start);
+  std::uint64_t vertices = 0;
+  for (const auto& unit : last.units) vertices += unit.owned;
+  out.output = std::make_unique<ChunkedOutput>(std::make_unique<ChunkedOutput::Rounds>(ChunkedOutput::Rounds{std::move(last), std::move(plan), *grid}),
+                                               vertices, partition.dir + "/finish-ids-");
+
   return out;
 }
 

@@ -14,8 +14,13 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
+#include <span>
+#include <string>
 #include <vector>
 
+#include "format/mesh_writer.h"
+#include "format/record_file.h"
 #include "format/status.h"
 #include "stream/core/memory_budget.h"
 #include "stream/core/mesh.h"
@@ -47,8 +52,34 @@ struct ChunkedFinishOptions {
 // it had, or after this many.
 inline constexpr int kMaxRounds = 6;
 
+// The output of the chunked finish, read back from the last round's files (each vertex from the
+// piece that owns it, in piece order; then each piece's faces) without holding the mesh: a
+// writer streams it (format::write_ply_parts), or gathers it into memory. vertices() comes
+// before faces(), once each. The files live in the partition's directory: own() keeps it until
+// the output is destroyed.
+class ChunkedOutput : public format::MeshParts {
+ public:
+  struct Rounds;
+  ChunkedOutput(std::unique_ptr<Rounds> rounds, std::uint64_t vertices, std::string ids_prefix);
+  ~ChunkedOutput() override;
+  std::uint64_t vertex_count() const override { return vertices_; }
+  std::uint64_t face_count() const override;
+  format::Status vertices(const std::function<format::Status(std::span<const format::Vec3f>)>& batch) override;
+  format::Status faces(const std::function<format::Status(std::span<const format::Triangle>)>& batch) override;
+  void own(Partition partition) { partition_ = std::move(partition); }
+
+ private:
+  Partition partition_;  // declared first, so that its directory goes last
+  std::unique_ptr<Rounds> rounds_;
+  std::uint64_t vertices_ = 0;
+  std::unique_ptr<format::RecordSegmentPool> ids_;  // each unit's owned ids, written by vertices()
+  std::vector<format::RecordSegment> id_segments_;
+  std::uint32_t ids_file_ = 0;
+  std::vector<std::uint64_t> offsets_;  // output index of each unit's first owned vertex
+};
+
 struct ChunkedFinish {
-  Mesh mesh;
+  std::unique_ptr<ChunkedOutput> output;
   std::uint64_t collapses = 0, refused = 0, over_error = 0;
   double estimated_error = 0;  // input units
   std::uint64_t input_faces = 0;  // the owned faces without a repeated corner
@@ -57,11 +88,10 @@ struct ChunkedFinish {
   std::vector<double> seconds_rounds;
   std::uint64_t largest_piece = 0;  // faces of the largest piece after round 1
   std::uint64_t unheld_pieces = 0;  // pieces OpenMesh could not hold (not a manifold), left as they were
-  double seconds_assemble = 0;
 };
 
-// Both rounds over the chunks of `partition` (at least two overlap rings), and the output mesh
-// gathered from round 2's pieces. Temporary files go in partition.dir.
+// The rounds over the chunks of `partition` (at least two overlap rings); the output stays in
+// files in partition.dir, read through ChunkedFinish::output.
 format::Result<ChunkedFinish> chunked_finish(const Partition& partition, const ChunkedFinishOptions& options);
 
 }  // namespace gaussmesh::stream

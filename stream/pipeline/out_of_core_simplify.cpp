@@ -824,7 +824,7 @@ format::Status simplify_input(Partition& partition, const OutOfCoreSimplifyOptio
   out.finish_memory_estimate = need;
   const std::uint64_t limit = options.memory_explicit ? options.memory.bytes() : options.memory_ceiling;
   const auto start = Clock::now();
-  if (limit > 0 && need > limit) {
+  if ((limit > 0 && need > limit) || options.always_chunked_finish) {
     // Too large to hold whole: the chunked finish, piece by piece within the budget.
     ChunkedFinishOptions chunked;
     chunked.finish = out.finish_options;
@@ -842,21 +842,19 @@ format::Status simplify_input(Partition& partition, const OutOfCoreSimplifyOptio
     r.refused = finished->refused;
     r.estimated_error = finished->estimated_error;
     const std::uint64_t target = out.finish_options.target_faces;
-    r.reached_target = target == 0 || finished->mesh.triangles.size() <= target;
+    r.reached_target = target == 0 || finished->output->face_count() <= target;
     r.stopped_by = r.reached_target ? (target == 0 && finished->over_error > 0 ? "max_error" : "target")
                                     : finished->over_error > 0 ? "max_error" : "topology";
     r.seconds_quadrics = finished->seconds_rounds.front();
     for (std::size_t i = 1; i < finished->seconds_rounds.size(); ++i) r.seconds_decimate += finished->seconds_rounds[i];
-    r.seconds_decimate += finished->seconds_assemble;
-    out.mesh = std::move(finished->mesh);
     out.chunked = ChunkedFinishFigures{finished->round_pieces, finished->round_faces, finished->seconds_rounds,
-                                       finished->largest_piece, finished->unheld_pieces, finished->seconds_assemble};
+                                       finished->largest_piece, finished->unheld_pieces};
     out.finish = std::move(r);
     out.seconds_mesh = seconds_since(start);
-    const auto cleanup = Clock::now();
-    partition.remove_temp();
-    out.seconds_cleanup = seconds_since(cleanup);
     out.bytes_spilled = partition.bytes_spilled;
+    // The output is read from the temporary directory when it is written: it goes with it.
+    finished->output->own(std::move(partition));
+    out.parts = std::move(finished->output);
     out.collapsed_input = true;
     done = true;
     return format::Status();

@@ -23,11 +23,13 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "format/mesh_reader.h"
+#include "format/mesh_writer.h"
 #include "format/status.h"
 #include "stream/core/gauss_sphere.h"
 #include "stream/core/memory_budget.h"
@@ -56,6 +58,9 @@ struct OutOfCoreSimplifyOptions {
   // take what it needs (finish_memory_estimate).
   bool memory_explicit = false;
   std::uint64_t memory_ceiling = 0;  // how far the automatic budget may grow for the finish (0: no limit)
+  // Collapse the input chunk by chunk (stream/pipeline/out_of_core_finish.h) even when it would fit
+  // whole: tests set it to exercise the chunked finish on small inputs.
+  bool always_chunked_finish = false;
   SamplerOptions sampler;
   // (pass name, chunks done, chunks, input faces) after each chunk.
   std::function<void(const char*, std::size_t, std::size_t, std::uint64_t)> progress;
@@ -70,11 +75,12 @@ struct ChunkedFinishFigures {
   std::vector<std::uint64_t> round_pieces, round_faces;  // per round: pieces, faces left after it
   std::vector<double> seconds_rounds;
   std::uint64_t largest_piece = 0, unheld_pieces = 0;
-  double seconds_assemble = 0;
 };
 
 struct OutOfCoreSimplify {
-  Mesh mesh;  // after the finish, when there is one
+  Mesh mesh;  // after the finish, when there is one; empty when `parts` holds the output
+  // The chunked finish's output, read from temporary files as it is written (it holds them).
+  std::shared_ptr<format::MeshParts> parts;
   FinishOptions finish_options;        // the resolved target
   std::optional<FinishResult> finish;  // its figures (its mesh moved into `mesh`)
   std::uint64_t finish_memory_estimate = 0;  // --frequency auto: what the chosen approximation needs
