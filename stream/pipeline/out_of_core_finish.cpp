@@ -40,11 +40,15 @@ struct PieceFaceRecord {
 };
 static_assert(sizeof(PieceVertexRecord) == 112 && sizeof(PieceFaceRecord) == 12);
 
-constexpr std::uint64_t kReserve = std::uint64_t{20} << 20;
 constexpr std::uint64_t kMinPieceFaces = 4096;
 
-std::uint64_t thread_share(const MemoryBudget& budget, std::uint32_t threads) {
-  const std::uint64_t whole = budget.is_limited() ? budget.after_reserve(kReserve) : std::uint64_t{256} << 20;
+// A thread's share of the budget for its pieces: what the process keeps from the earlier passes
+// (kept_memory_estimate) set aside, then an even split; a quarter of the budget at least.
+std::uint64_t thread_share(const MemoryBudget& budget, std::uint32_t threads, std::uint64_t input_faces) {
+  const std::uint64_t kept = kept_memory_estimate(input_faces);
+  const std::uint64_t whole = !budget.is_limited() ? std::uint64_t{256} << 20
+                              : budget.bytes() > kept + budget.bytes() / 4 ? budget.bytes() - kept
+                                                                          : budget.bytes() / 4;
   return whole / std::max<std::uint32_t>(threads, 1);
 }
 
@@ -231,6 +235,7 @@ format::Result<Unit> write_unit(format::RecordSegmentPool::Lease& lease, const P
   unit.vertices = *vseg, unit.faces = *fseg;
   std::sort(unit.codes.begin(), unit.codes.end());
   unit.codes.erase(std::unique(unit.codes.begin(), unit.codes.end()), unit.codes.end());
+  unit.codes.shrink_to_fit();  // kept for every unit of the round: a few cells, not a vertex each
   std::sort(face_codes.begin(), face_codes.end());
   for (auto code : face_codes) {
     if (counts.empty() || counts.back().first != code) counts.push_back({code, 0});
@@ -502,7 +507,8 @@ format::Status ChunkedOutput::faces(const std::function<format::Status(std::span
 std::uint64_t chunked_finish_chunk_faces(const MemoryBudget& budget, std::uint32_t threads) {
   // A chunk owns about 3/4 of its file's faces (the rest is the overlap).
   const std::uint64_t per_face = kChunkFileBytesPerFace + kPieceBytesPerFace * 3 / 4;
-  return std::max<std::uint64_t>(thread_share(budget, threads) / per_face, kMinPieceFaces);
+  // The input's size is not known yet: the most the process keeps, whatever the size.
+  return std::max<std::uint64_t>(thread_share(budget, threads, std::uint64_t{1} << 40) / per_face, kMinPieceFaces);
 }
 
 format::Result<ChunkedFinish> chunked_finish(const Partition& partition, const ChunkedFinishOptions& options) {
@@ -513,7 +519,7 @@ format::Result<ChunkedFinish> chunked_finish(const Partition& partition, const C
   const double diagonal = diagonal_of(partition.lo, partition.hi);
   frame.scale = diagonal > 0 ? diagonal : 1;
   const double max_error = finish.max_error / kMaxErrorMargin / frame.scale;
-  const std::uint64_t share = thread_share(options.memory, options.threads);
+  const std::uint64_t share = thread_share(options.memory, options.threads, partition.faces);
   const std::uint64_t target = finish.target_faces;
 
   // Round 1: every chunk's pieces, collapsed to kRoundOneShare × their share of the target.
