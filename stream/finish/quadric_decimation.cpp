@@ -96,7 +96,7 @@ class EdgeHeap {
 class Decimator {
  public:
   Decimator(QMesh& mesh, std::vector<Quadric> quadrics, std::span<const std::uint8_t> locked)
-      : m_(mesh), q_(std::move(quadrics)), heap_(mesh.n_edges()), locked_(locked) {
+      : m_(mesh), q_(std::move(quadrics)), heap_(mesh.n_edges()), locked_(locked), stamp_(mesh.n_vertices(), 0) {
     target_.resize(m_.n_edges());
   }
   const std::vector<Quadric>& quadrics() const { return q_; }
@@ -158,6 +158,35 @@ class Decimator {
     return true;
   }
 
+  // OpenMesh's link condition for collapsing h (from → to), as TriConnectivity::is_collapse_ok
+  // states it, with its one-ring test on a stamp array of our own: the library's own version
+  // spent most of its time looking up its status property.
+  bool link_ok(QMesh::HalfedgeHandle v0v1) {
+    const auto v1v0 = m_.opposite_halfedge_handle(v0v1);
+    const auto v0 = m_.to_vertex_handle(v1v0), v1 = m_.to_vertex_handle(v0v1);
+    const bool v0v1_boundary = m_.is_boundary(v0v1), v1v0_boundary = m_.is_boundary(v1v0);
+    QMesh::VertexHandle vl, vr;
+    // The edges v1-vl and vl-v0 must not both be boundary edges; nor v0-vr and vr-v1.
+    if (!v0v1_boundary) {
+      const auto h1 = m_.next_halfedge_handle(v0v1), h2 = m_.next_halfedge_handle(h1);
+      vl = m_.to_vertex_handle(h1);
+      if (m_.is_boundary(m_.opposite_halfedge_handle(h1)) && m_.is_boundary(m_.opposite_halfedge_handle(h2))) return false;
+    }
+    if (!v1v0_boundary) {
+      const auto h1 = m_.next_halfedge_handle(v1v0), h2 = m_.next_halfedge_handle(h1);
+      vr = m_.to_vertex_handle(h1);
+      if (m_.is_boundary(m_.opposite_halfedge_handle(h1)) && m_.is_boundary(m_.opposite_halfedge_handle(h2))) return false;
+    }
+    if (vl == vr) return false;  // equal, or both invalid
+    // The one-rings of v0 and v1 meet only at vl and vr.
+    if (++epoch_ == 0) std::fill(stamp_.begin(), stamp_.end(), 0), epoch_ = 1;
+    for (auto w : m_.vv_range(v1)) stamp_[w.idx()] = epoch_;
+    for (auto w : m_.vv_range(v0))
+      if (stamp_[w.idx()] == epoch_ && w != vl && w != vr) return false;
+    // An edge between two boundary vertices must be a boundary edge.
+    return !(m_.is_boundary(v0) && m_.is_boundary(v1) && !v0v1_boundary && !v1v0_boundary);
+  }
+
   // Collapsing free vertex a onto locked b (h: a → b) joins every neighbour of a to b. A locked
   // neighbour may already be joined to b by faces this mesh does not hold (another piece's), and
   // the link condition cannot see those: so no locked neighbour of a but b and the two vertices
@@ -214,13 +243,13 @@ class Decimator {
       }
       if (locked(m_.from_vertex_handle(h)) || locked(m_.to_vertex_handle(h))) {
         if (locked(m_.from_vertex_handle(h))) h = m_.halfedge_handle(e, 1);  // the locked end is kept
-        if (!m_.is_collapse_ok(h) || !locked_neighbours_ok(h)) {
+        if (!link_ok(h) || !locked_neighbours_ok(h)) {
           ++r.refused;
           continue;
         }
-      } else if (!m_.is_collapse_ok(h)) {
+      } else if (!link_ok(h)) {
         h = m_.halfedge_handle(e, 1);
-        if (!m_.is_collapse_ok(h)) {
+        if (!link_ok(h)) {
           ++r.refused;
           continue;
         }
@@ -249,6 +278,8 @@ class Decimator {
   std::vector<Vec3d> target_;
   EdgeHeap heap_;
   std::span<const std::uint8_t> locked_;
+  std::vector<std::uint32_t> stamp_;  // link_ok's one-ring marks
+  std::uint32_t epoch_ = 0;
   bool relaxed_ = false;
 };
 
