@@ -54,6 +54,8 @@ Result<std::uint64_t> write_mesh(const Sink& sink, MeshView mesh, const DracoOpt
 // The same for a mesh delivered in parts (the chunked finish's output): PLY and OBJ stream it;
 // Draco and a memory sink need it whole, gathered first, and are refused (kResources, one line)
 // when that would pass `memory_limit` bytes (0: no limit).
+// What write_mesh_parts holds a face of the output when the sink needs the mesh whole (0: it streams).
+std::uint64_t whole_output_bytes_per_face(const Sink& sink);
 Result<std::uint64_t> write_mesh_parts(const Sink& sink, format::MeshParts& mesh, const DracoOptions& draco,
                                        std::uint64_t memory_limit);
 

@@ -107,6 +107,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   options.auto_frequency = o.sampling.frequency == kAutoFrequency;
   options.memory_explicit = o.resources.memory_bytes != 0;
   options.memory_ceiling = api::physical_memory() / 4;  // as far as the automatic budget may grow
+  options.whole_output_bytes_per_face = api::whole_output_bytes_per_face(sink);
   if (o.resources.progress) {
     const ProgressFn& progress = o.resources.progress;
     options.progress = [&progress](const char* pass, std::size_t done, std::size_t total, std::uint64_t faces) {

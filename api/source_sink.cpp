@@ -199,6 +199,12 @@ constexpr std::uint64_t kGatheredBytesPerFace = 18;
 constexpr std::uint64_t kDracoBytesPerFace = 80;
 constexpr std::uint64_t kProcessBytes = std::uint64_t{20} << 20;  // the process itself
 
+std::uint64_t whole_output_bytes_per_face(const Sink& sink) {
+  if (sink.kind == Sink::Kind::kMemory) return kGatheredBytesPerFace;
+  const OutputFormat kind = sink.resolved_format();
+  return kind == OutputFormat::kAuto || kind == OutputFormat::kDraco ? kGatheredBytesPerFace + kDracoBytesPerFace : 0;
+}
+
 Result<std::uint64_t> write_mesh_parts(const Sink& sink, format::MeshParts& mesh, const DracoOptions& draco,
                                        std::uint64_t memory_limit) {
   const OutputFormat kind = sink.kind == Sink::Kind::kMemory ? OutputFormat::kAuto : sink.resolved_format();
@@ -212,13 +218,12 @@ Result<std::uint64_t> write_mesh_parts(const Sink& sink, format::MeshParts& mesh
     GM_RETURN_IF_ERROR((*out)->commit());
     return (*out)->bytes_written();
   }
-  const bool draco_output = sink.kind != Sink::Kind::kMemory;
   const std::uint64_t need =
-      mesh.face_count() * (kGatheredBytesPerFace + (draco_output ? kDracoBytesPerFace : 0)) + kProcessBytes;
+      mesh.face_count() * whole_output_bytes_per_face(sink) + kProcessBytes;
   if (memory_limit > 0 && need > memory_limit) {
     return Status::error(Code::kResources, "--memory",
                          std::string("the output's ") + std::to_string(mesh.face_count()) + " faces need about " +
-                             std::to_string(need >> 20) + " MiB " + (draco_output ? "to encode as Draco" : "in memory") +
+                             std::to_string(need >> 20) + " MiB to write in this format" +
                              ", above the budget of " + std::to_string(memory_limit >> 20) +
                              " MiB: write PLY or OBJ (streamed), raise --memory or lower the target");
   }

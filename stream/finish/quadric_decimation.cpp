@@ -95,11 +95,24 @@ class EdgeHeap {
 
 class Decimator {
  public:
-  Decimator(QMesh& mesh, std::vector<Quadric> quadrics, std::span<const std::uint8_t> locked)
-      : m_(mesh), q_(std::move(quadrics)), heap_(mesh.n_edges()), locked_(locked), stamp_(mesh.n_vertices(), 0) {
+  Decimator(QMesh& mesh, std::vector<Quadric> quadrics, std::span<const std::uint8_t> locked, const QuadricFrame& frame,
+            std::span<const Vec3f> input)
+      : m_(mesh), q_(std::move(quadrics)), heap_(mesh.n_edges()), locked_(locked), stamp_(mesh.n_vertices(), 0),
+        frame_(frame), position_(input.begin(), input.end()) {
     target_.resize(m_.n_edges());
   }
   const std::vector<Quadric>& quadrics() const { return q_; }
+  // Each vertex's output position: its input's, or where its last collapse put it.
+  const std::vector<Vec3f>& positions() const { return position_; }
+
+  // x moved to the nearest point the output can hold (float input coordinates), so that the
+  // geometry tests see the faces as they will be written: a face thin enough to lose its area
+  // to that rounding is refused, not written.
+  Vec3d to_output(const Vec3d& x, Vec3f& out) const {
+    out = {float(frame_.origin.x + x[0] * frame_.scale), float(frame_.origin.y + x[1] * frame_.scale),
+           float(frame_.origin.z + x[2] * frame_.scale)};
+    return to_om(frame_.to_frame(out.x, out.y, out.z));
+  }
 
   bool locked(QMesh::VertexHandle v) const { return !locked_.empty() && locked_[v.idx()]; }
 
@@ -232,7 +245,8 @@ class Decimator {
       heap_.pop();  // made or refused, it comes back only when a neighbour's collapse re-queues it
       const QMesh::EdgeHandle e(int(c.edge));
       if (m_.status(e).deleted()) continue;
-      const Vec3d x = target_[c.edge];
+      Vec3f written;
+      const Vec3d x = to_output(target_[c.edge], written);
       auto h = m_.halfedge_handle(e, 0);
       Quadric q = q_[m_.from_vertex_handle(h).idx()];
       q += q_[m_.to_vertex_handle(h).idx()];
@@ -262,6 +276,7 @@ class Decimator {
       const auto kept = m_.to_vertex_handle(h);
       m_.collapse(h);
       m_.set_point(kept, x);
+      position_[kept.idx()] = written;
       q_[kept.idx()] = q;
       faces -= boundary ? 1 : 2;
       ++r.collapses;
@@ -280,6 +295,8 @@ class Decimator {
   std::span<const std::uint8_t> locked_;
   std::vector<std::uint32_t> stamp_;  // link_ok's one-ring marks
   std::uint32_t epoch_ = 0;
+  const QuadricFrame& frame_;
+  std::vector<Vec3f> position_;
   bool relaxed_ = false;
 };
 
@@ -346,7 +363,7 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
     quadrics[mesh.to_vertex_handle(h).idx()] += c;
   }
 
-  Decimator decimator(mesh, std::move(quadrics), options.locked);
+  Decimator decimator(mesh, std::move(quadrics), options.locked, frame, approximation.positions);
   DecimationResult result = decimator.run(options, approximation.triangles.size());
   // Each vertex's index before the garbage collection, which moves vertices into the holes.
   OpenMesh::VPropHandleT<int> source;
@@ -357,12 +374,10 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
   result.source.reserve(mesh.n_vertices());
   result.quadrics.reserve(mesh.n_vertices());
   for (auto v : mesh.vertices()) {
-    const Vec3d& p = mesh.point(v);
     const int from = mesh.property(source, v);
     result.source.push_back(std::uint32_t(from));
     result.quadrics.push_back(decimator.quadrics()[from]);
-    result.mesh.positions.push_back({float(frame.origin.x + p[0] * frame.scale), float(frame.origin.y + p[1] * frame.scale),
-                                     float(frame.origin.z + p[2] * frame.scale)});
+    result.mesh.positions.push_back(decimator.positions()[from]);
   }
   result.mesh.triangles.reserve(mesh.n_faces());
   for (auto f : mesh.faces()) {

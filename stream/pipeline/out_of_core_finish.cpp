@@ -42,14 +42,18 @@ static_assert(sizeof(PieceVertexRecord) == 112 && sizeof(PieceFaceRecord) == 12)
 
 constexpr std::uint64_t kMinPieceFaces = 4096;
 
-// A thread's share of the budget for its pieces: what the process keeps from the earlier passes
-// (kept_memory_estimate) set aside, then an even split; a quarter of the budget at least.
-std::uint64_t thread_share(const MemoryBudget& budget, std::uint32_t threads, std::uint64_t input_faces) {
+// A piece's share of the budget: what the process keeps from the earlier passes
+// (kept_memory_estimate) set aside (a quarter of the budget at least is left), then split among
+// kPiecesInFlight pieces. Not by --threads: the pieces, and so the output, depend on the budget
+// only; more threads than kPiecesInFlight do not add pieces in flight.
+constexpr std::uint32_t kPiecesInFlight = 2;
+
+std::uint64_t piece_share(const MemoryBudget& budget, std::uint64_t input_faces) {
   const std::uint64_t kept = kept_memory_estimate(input_faces);
   const std::uint64_t whole = !budget.is_limited() ? std::uint64_t{256} << 20
                               : budget.bytes() > kept + budget.bytes() / 4 ? budget.bytes() - kept
                                                                           : budget.bytes() / 4;
-  return whole / std::max<std::uint32_t>(threads, 1);
+  return whole / kPiecesInFlight;
 }
 
 std::uint64_t spread21(std::uint64_t x) {
@@ -504,11 +508,11 @@ format::Status ChunkedOutput::faces(const std::function<format::Status(std::span
 }
 
 
-std::uint64_t chunked_finish_chunk_faces(const MemoryBudget& budget, std::uint32_t threads) {
+std::uint64_t chunked_finish_chunk_faces(const MemoryBudget& budget) {
   // A chunk owns about 3/4 of its file's faces (the rest is the overlap).
   const std::uint64_t per_face = kChunkFileBytesPerFace + kPieceBytesPerFace * 3 / 4;
   // The input's size is not known yet: the most the process keeps, whatever the size.
-  return std::max<std::uint64_t>(thread_share(budget, threads, std::uint64_t{1} << 40) / per_face, kMinPieceFaces);
+  return std::max<std::uint64_t>(piece_share(budget, std::uint64_t{1} << 40) / per_face, kMinPieceFaces);
 }
 
 format::Result<ChunkedFinish> chunked_finish(const Partition& partition, const ChunkedFinishOptions& options) {
@@ -519,7 +523,8 @@ format::Result<ChunkedFinish> chunked_finish(const Partition& partition, const C
   const double diagonal = diagonal_of(partition.lo, partition.hi);
   frame.scale = diagonal > 0 ? diagonal : 1;
   const double max_error = finish.max_error / kMaxErrorMargin / frame.scale;
-  const std::uint64_t share = thread_share(options.memory, options.threads, partition.faces);
+  const std::uint64_t share = piece_share(options.memory, partition.faces);
+  const std::uint32_t threads = std::min(options.threads, kPiecesInFlight);
   const std::uint64_t target = finish.target_faces;
 
   // Round 1: every chunk's pieces, collapsed to kRoundOneShare × their share of the target.
@@ -537,7 +542,7 @@ format::Result<ChunkedFinish> chunked_finish(const Partition& partition, const C
   Totals totals;
   ShiftedGrid next(partition.owner_map, round_offset(2));
   const format::Status round_one = for_each_chunk(
-      partition, options.threads,
+      partition, threads,
       [&](std::size_t c, const ChunkMesh& chunk, ChunkSamplerWorkspace&) {
         const std::uint64_t load = kChunkFileBytesPerFace * chunk.triangles.size();
         const std::uint64_t max_piece = std::max(kMinPieceFaces, (share > load ? share - load : 0) / kPieceBytesPerFace);
@@ -601,7 +606,7 @@ format::Result<ChunkedFinish> chunked_finish(const Partition& partition, const C
     const bool by_share = target > 0 && total > target;
     if (by_share) {
       const format::Status counted = parallel_pieces(
-          pieces, options.threads,
+          pieces, threads,
           [&](std::size_t k) -> format::Status {
             Piece piece;
             std::vector<std::uint8_t> owned;
@@ -629,7 +634,7 @@ format::Result<ChunkedFinish> chunked_finish(const Partition& partition, const C
     std::vector<std::vector<std::pair<std::uint64_t, std::uint64_t>>> counts(pieces);
     Totals round_totals;
     const format::Status done = parallel_pieces(
-        pieces, options.threads,
+        pieces, threads,
         [&](std::size_t k) -> format::Status {
           Piece piece;
           std::vector<std::uint8_t> owned;

@@ -39,7 +39,7 @@ inline constexpr std::uint64_t kChunkFileBytesPerFace = 80;
 
 // The partition chunk size for a run that may take the chunked finish: one chunk's owned faces
 // in one piece within a thread's share of the budget.
-std::uint64_t chunked_finish_chunk_faces(const MemoryBudget& budget, std::uint32_t threads);
+std::uint64_t chunked_finish_chunk_faces(const MemoryBudget& budget);
 
 struct ChunkedFinishOptions {
   FinishOptions finish;

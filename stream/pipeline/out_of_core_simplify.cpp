@@ -767,7 +767,7 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     const std::uint32_t rings = required_overlap_rings(options.sampler.smooth_iterations);
     partition_options.max_chunk_faces =
         std::min(sample_pass_chunk_faces(options.memory, options.threads, rings),
-                 chunked_finish_chunk_faces(options.memory, options.threads));
+                 chunked_finish_chunk_faces(options.memory));
   }
   auto partition = partition_for_chunks(input_path, read, partition_options, options.memory, options.sampler, options.threads);
   if (!partition) return partition.status();
@@ -783,6 +783,16 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   if (options.auto_frequency && options.finish.any()) {
     OutOfCoreSimplifyOptions resolved = options;
     resolved.min_samples = finish_min_samples(base.finish_options, partition->faces);
+    // A Gauss approximation the target needs that would not fit the budget: the chunked finish
+    // on the input itself instead, which fits any budget.
+    const std::uint64_t limit = options.memory_explicit ? options.memory.bytes() : options.memory_ceiling;
+    if (limit > 0 && finish_memory_estimate(resolved.min_samples, 1, partition->faces) > limit) {
+      OutOfCoreSimplifyOptions chunked = options;
+      chunked.always_chunked_finish = true;
+      bool done = false;
+      GM_RETURN_IF_ERROR(simplify_input(*partition, chunked, base, done));
+      if (done) return base;
+    }
     resolved.auto_frequency = false;
     if (ladder) return simplify_ladder(*partition, resolved, std::move(base));
     return simplify_sampled(*partition, spheres, resolved, std::move(base));
@@ -826,6 +836,15 @@ format::Status simplify_input(Partition& partition, const OutOfCoreSimplifyOptio
   const auto start = Clock::now();
   if ((limit > 0 && need > limit) || options.always_chunked_finish) {
     // Too large to hold whole: the chunked finish, piece by piece within the budget.
+    const std::uint64_t whole_output =
+        out.finish_options.target_faces * options.whole_output_bytes_per_face + (std::uint64_t{20} << 20);  // and the process
+    if (options.memory_explicit && options.whole_output_bytes_per_face > 0 && whole_output > limit) {
+      return format::Status::error(
+          format::Code::kResources, "--memory",
+          "the output's " + std::to_string(out.finish_options.target_faces) + " faces need about " +
+              std::to_string(whole_output >> 20) + " MiB to write in this format, above the budget of " +
+              std::to_string(limit >> 20) + " MiB: write PLY or OBJ (streamed), raise --memory or lower the target");
+    }
     ChunkedFinishOptions chunked;
     chunked.finish = out.finish_options;
     chunked.threads = options.threads;

@@ -61,6 +61,10 @@ struct OutOfCoreSimplifyOptions {
   // Collapse the input chunk by chunk (stream/pipeline/out_of_core_finish.h) even when it would fit
   // whole: tests set it to exercise the chunked finish on small inputs.
   bool always_chunked_finish = false;
+  // What the output costs a face when its writer needs it whole (Draco, a memory sink; 0 when it
+  // streams): with an explicit budget a chunked finish whose target would not fit is refused
+  // before it starts, not after.
+  std::uint64_t whole_output_bytes_per_face = 0;
   SamplerOptions sampler;
   // (pass name, chunks done, chunks, input faces) after each chunk.
   std::function<void(const char*, std::size_t, std::size_t, std::uint64_t)> progress;

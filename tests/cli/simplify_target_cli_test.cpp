@@ -85,8 +85,8 @@ TEST(SimplifyTargetCli, InCoreOutOfCoreAndPipeGiveTheSameBytes) {
     for (const std::string target : {"--ratio 0.1", "--target-faces 300 --max-error 1%"}) {
       SCOPED_TRACE(std::string(name) + " " + target);
       ASSERT_EQ(run_command(binary() + " simplify " + in + " " + target + " -o " + q(dir.file("a.drc"))).exit_code, 0);
-      // 64M: under 16M the finer approximations some of these targets need are refused (the
-      // next test).
+      // 64M: under 16M some of these targets take the chunked finish, whose output follows the
+      // chunks (the next test).
       const auto ooc = run_command(binary() + " simplify " + in + " " + target + " -o " + q(dir.file("b.drc")) +
                                    " --memory 64M --engine out-of-core --tmp " + q(tmp.path().string()));
       ASSERT_EQ(ooc.exit_code, 0) << ooc.err;
@@ -104,24 +104,45 @@ TEST(SimplifyTargetCli, InCoreOutOfCoreAndPipeGiveTheSameBytes) {
   }
 }
 
-TEST(SimplifyTargetCli, AnApproximationAboveAnExplicitBudgetIsRefused) {
+TEST(SimplifyTargetCli, AnInputAboveTheBudgetIsCollapsedInChunksAndDracoOfItRefused) {
   ScratchDir dir, tmp;
-  // mech-holes-shark at 50 % needs G at frequency 64 and ~9,400 faces: more than 16 MiB.
-  const std::string in = q(fixture("real/mech-holes-shark.off")), out = dir.file("o.drc");
-  auto run = run_command(binary() + " simplify " + in + " --ratio 0.5 --memory 16M --tmp " + q(tmp.path().string()) +
-                         " -o " + q(out));
-  EXPECT_EQ(run.exit_code, 5) << run.err;
-  EXPECT_NE(run.err.find("raise --memory or lower the target"), std::string::npos) << run.err;
-  EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
-  EXPECT_FALSE(std::filesystem::exists(out));
+  // mech-holes-shark at 50 %: collapsing it whole needs more than 16 MiB, so the chunked finish.
+  const std::string in = q(fixture("real/mech-holes-shark.off"));
+  const std::string common = " simplify " + in + " --ratio 0.5 --memory 16M --tmp " + q(tmp.path().string());
+  // Draco needs the whole output in memory, more than 16 MiB here: refused before any collapse.
+  const std::string drc = dir.file("o.drc");
+  auto refused = run_command(binary() + common + " -o " + q(drc));
+  EXPECT_EQ(refused.exit_code, 5) << refused.err;
+  EXPECT_NE(refused.err.find("write PLY or OBJ (streamed), raise --memory or lower the target"), std::string::npos)
+      << refused.err;
+  EXPECT_EQ(std::count(refused.err.begin(), refused.err.end(), '\n'), 1) << refused.err;
+  EXPECT_FALSE(std::filesystem::exists(drc));
   EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
-  // Without --memory the automatic budget takes what the approximation needs.
+  // PLY streams: the same job runs, within the budget's pieces, and leaves nothing behind.
+  const std::string ply = dir.file("o.ply"), report = dir.file("r.json");
+  auto streamed = run_command(binary() + common + " -o " + q(ply) + " --report " + q(report));
+  ASSERT_EQ(streamed.exit_code, 0) << streamed.err;
+  const auto json = nlohmann::json::parse(read_file(report));
+  EXPECT_EQ(json["approximation"], "input");
+  ASSERT_TRUE(json.contains("chunked_finish"));
+  EXPECT_GE(json["chunked_finish"]["round_pieces"].size(), 2u);
+  EXPECT_EQ(json["stopped_by"], "target");
+  EXPECT_LE(json["output_faces"].get<long>(), json["target_faces"].get<long>());
+  EXPECT_GE(json["output_faces"].get<double>(), 0.99 * json["target_faces"].get<double>() - 1);
+  const stream::MeshTopology before = topology_of(fixture("real/mech-holes-shark.off")), after = topology_of(ply);
+  EXPECT_EQ(after.faces, json["output_faces"].get<std::size_t>());
+  EXPECT_TRUE(after.is_manifold());
+  EXPECT_EQ(after.boundary_loops, before.boundary_loops);
+  EXPECT_EQ(after.genus, before.genus);
+  EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
+  // Without --memory the automatic budget holds the input whole, and Draco is written.
   auto automatic = run_command("cat " + in + " | " + binary() + " simplify - --input-format off --ratio 0.5 --tmp " +
-                               q(tmp.path().string()) + " -o " + q(out) + " --report " + q(dir.file("r.json")));
+                               q(tmp.path().string()) + " -o " + q(drc) + " --report " + q(dir.file("a.json")));
   EXPECT_EQ(automatic.exit_code, 0) << automatic.err;
-  const auto json = nlohmann::json::parse(read_file(dir.file("r.json")));
-  EXPECT_EQ(json["out_of_core"], true);
-  EXPECT_GT(json["finish_memory_estimate_bytes"].get<double>(), 16.0 * (1 << 20));  // above what 16M would allow
+  const auto whole = nlohmann::json::parse(read_file(dir.file("a.json")));
+  EXPECT_EQ(whole["out_of_core"], true);
+  EXPECT_FALSE(whole.contains("chunked_finish"));
+  EXPECT_GT(whole["finish_memory_estimate_bytes"].get<double>(), 16.0 * (1 << 20));  // above what 16M would allow
 }
 
 TEST(SimplifyTargetCli, ANonManifoldInputIsFinishedFromItsGaussApproximation) {
