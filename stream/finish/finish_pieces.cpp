@@ -38,6 +38,7 @@ PieceResult decimate_piece(Piece piece, const QuadricFrame& frame, DecimationOpt
   mesh.triangles = piece.faces;
   options.locked = locked;
   options.boundary_constraints = false;
+  options.relax_turn_limit = false;
   auto decimated = decimate(mesh.view(), std::move(quadrics), frame, options);
   if (!decimated) {  // not a manifold OpenMesh can hold: the piece stays as it is
     r.manifold = false;

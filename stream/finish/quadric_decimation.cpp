@@ -236,7 +236,7 @@ class Decimator {
       if (heap_.empty()) {
         // Short of the face target with every remaining collapse refused: once more with the
         // turn limit relaxed to "no flipped face", then the topology is what stops it.
-        if (relaxed_ || options.target_faces == 0) break;
+        if (relaxed_ || options.target_faces == 0 || !options.relax_turn_limit) break;
         relaxed_ = true;
         for (auto e : m_.edges()) push(e);
         continue;

@@ -37,6 +37,10 @@ struct DecimationOptions {
   // Add constraint planes along the boundary edges; false when the quadrics already hold them
   // (the chunked finish adds them where it knows an edge is on the input's boundary).
   bool boundary_constraints = true;
+  // Short of the target with every collapse refused, allow turns up to kRelaxedTurnDegrees for
+  // the rest. The chunked finish does not: a piece short of its share leaves the rest to the
+  // next round or to the other pieces rather than fold its faces.
+  bool relax_turn_limit = true;
 };
 
 struct DecimationResult {

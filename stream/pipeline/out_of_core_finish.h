@@ -31,7 +31,7 @@ namespace gaussmesh::stream {
 
 // Round 1 collapses each piece to this many times its share of the face target, so that round
 // 2 has room to place the rest where the error is least.
-inline constexpr double kRoundOneShare = 2;
+inline constexpr double kRoundOneShare = 4;
 // A piece's working set per face at its peak (OpenMesh, the quadrics, the queue, the records);
 // a chunk file's, per face, while its pieces are cut.
 inline constexpr std::uint64_t kPieceBytesPerFace = 400;
