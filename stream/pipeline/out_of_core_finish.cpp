@@ -623,11 +623,12 @@ format::Result<ChunkedFinish> chunked_finish(const Partition& partition, const C
       all_locked += locked_faces[k];
       free_before[k + 1] = free_before[k] + (plan.faces[k] - locked_faces[k]);
     }
-    // When the locked faces take more than half the target, this round cannot place the target
-    // well: it takes the free faces to kRoundOneShare × the target's density, as round 1 did,
-    // and leaves the rest to the next round, whose borders lie elsewhere.
-    const double ratio = target > 0 ? std::min(1.0, kRoundOneShare * double(target) / double(std::max<std::uint64_t>(total, 1))) : 1;
-    const bool last_squeeze = 2 * all_locked <= target || ratio >= 1 || round >= kMaxRounds;
+    // When the locked faces of round 2 take more than half the target, it cannot place the
+    // target well: it takes the free faces to half round 1's density and leaves the rest to round
+    // 3, whose borders lie elsewhere. From round 3 on every round aims at the target.
+    const double ratio =
+        target > 0 ? std::min(1.0, kRoundOneShare / 2 * double(target) / double(std::max<std::uint64_t>(total, 1))) : 1;
+    const bool last_squeeze = 2 * all_locked <= target || ratio >= 1 || round >= 3;
     RoundOutput now;
     now.pool = std::make_unique<format::RecordSegmentPool>(partition.dir + "/finish-" + std::to_string(round) + "-");
     now.units.resize(pieces);
