@@ -1,15 +1,16 @@
 // The chunked finish (docs/finish.md, "Out of core: the chunked finish"): the quadric finish on
-// the input itself when the input is too large to collapse whole within --memory. Two rounds of
+// the input itself when the input is too large to collapse whole within --memory. Rounds of
 // collapses over pieces that each fit the budget, in the manner of Wu & Kobbelt's stream
 // decimation and of clustered LOD with locked borders:
-//   round 1  each partition chunk's owned faces, cut into pieces (finish_pieces.h), collapsed to
-//            kRoundOneShare × the target's share with every vertex shared between pieces locked;
-//   round 2  what is left, grouped again into pieces of cells of a grid shifted against the
-//            partition's, so that round 1's locked borders lie inside them; each collapsed to its
-//            share of the target, with only the vertices the new pieces share locked.
-// A vertex of round 2 belongs to the piece of its cell, a face to the piece of its lowest-id
-// corner (the partition's rule), so that a piece that owns a vertex reads every round-1 piece
-// holding it, and knows its faces, its whole quadric and whether it is shared.
+//   round 1     each partition chunk's owned faces, cut into pieces (finish_pieces.h), collapsed
+//               to kRoundOneShare × the target's share with every vertex shared between pieces
+//               locked;
+//   round 2, …  what is left, grouped again into pieces of cells of a grid shifted against the
+//               last round's, so that its locked borders lie inside them; each collapsed to its
+//               share of the target, with only the vertices the new pieces share locked.
+// A vertex of a round belongs to the piece of its cell, a face to the piece of its lowest-id
+// corner (the partition's rule), so that a piece that owns a vertex reads every piece of the
+// last round holding it, and knows its faces, its whole quadric and whether it is shared.
 #pragma once
 
 #include <cstdint>
