@@ -56,6 +56,14 @@ Status index_past(const OutputFile& out, std::uint64_t face, VertexIndex v, std:
                            std::to_string(vertices));
 }
 
+// Checks one more face against the declared counts, and counts it.
+Status count_face(const OutputFile& out, const Triangle& t, std::uint64_t& faces, std::uint64_t nv, std::uint64_t nf) {
+  for (VertexIndex v : t.v)
+    if (v >= nv) return index_past(out, faces, v, nv);
+  if (++faces > nf) return miscount(out, "faces", faces, nf);
+  return Status();
+}
+
 }  // namespace
 
 Status write_ply_parts(OutputFile& out, MeshParts& mesh, bool binary, const std::vector<std::string>& comments) {
@@ -91,9 +99,7 @@ Status write_ply_parts(OutputFile& out, MeshParts& mesh, bool binary, const std:
   if (vertices != nv) return miscount(out, "vertices", vertices, nv);
   GM_RETURN_IF_ERROR(mesh.faces([&](std::span<const Triangle> batch) -> Status {
     for (const Triangle& t : batch) {
-      for (VertexIndex v : t.v)
-        if (v >= nv) return index_past(out, faces, v, nv);
-      if (++faces > nf) return miscount(out, "faces", faces, nf);
+      GM_RETURN_IF_ERROR(count_face(out, t, faces, nv, nf));
       GM_RETURN_IF_ERROR(buffer.room());
       if (binary) {
         buffer.put(std::uint8_t{3});
@@ -131,9 +137,7 @@ Status write_obj_parts(OutputFile& out, MeshParts& mesh) {
   if (vertices != nv) return miscount(out, "vertices", vertices, nv);
   GM_RETURN_IF_ERROR(mesh.faces([&](std::span<const Triangle> batch) -> Status {
     for (const Triangle& t : batch) {
-      for (VertexIndex v : t.v)
-        if (v >= nv) return index_past(out, faces, v, nv);
-      if (++faces > nf) return miscount(out, "faces", faces, nf);
+      GM_RETURN_IF_ERROR(count_face(out, t, faces, nv, nf));
       GM_RETURN_IF_ERROR(buffer.room());
       char* c = buffer.at();
       *c++ = 'f';
