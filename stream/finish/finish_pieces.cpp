@@ -40,7 +40,7 @@ PieceResult decimate_piece(Piece piece, const QuadricFrame& frame, DecimationOpt
   options.boundary_constraints = false;
   options.relax_turn_limit = false;
   auto decimated = decimate(mesh.view(), std::move(quadrics), frame, options);
-  if (!decimated) {  // not a manifold OpenMesh can hold: the piece stays as it is
+  if (!decimated) {  // not an oriented manifold (CollapseMesh::build): the piece stays as it is
     r.manifold = false;
     r.piece = std::move(piece);
     return r;

@@ -31,7 +31,7 @@ struct PieceResult {
   Piece piece;  // what is left: survivors in ascending id; a locked vertex keeps its input bits
   std::uint64_t collapses = 0, refused = 0, over_error = 0;
   double estimated_error = 0;  // frame units
-  bool manifold = true;        // false: OpenMesh could not hold it, and it is returned as it was
+  bool manifold = true;        // false: not an oriented manifold, returned as it was
 };
 
 // Collapses `piece` (quadrics and positions in `frame`) as `options` asks; options.locked is set

@@ -1,6 +1,6 @@
 #include "stream/finish/quadric_decimation.h"
 
-#include "stream/core/openmesh_include.h"
+#include "stream/finish/collapse_mesh.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,18 +8,15 @@
 namespace gaussmesh::stream {
 namespace {
 
-struct Traits : public OpenMesh::DefaultTraits {
-  typedef OpenMesh::Vec3d Point;
-  VertexAttributes(OpenMesh::Attributes::Status);
-  EdgeAttributes(OpenMesh::Attributes::Status);
-  HalfedgeAttributes(OpenMesh::Attributes::Status | OpenMesh::Attributes::PrevHalfedge);
-  FaceAttributes(OpenMesh::Attributes::Status);
-};
-using QMesh = OpenMesh::TriMesh_ArrayKernelT<Traits>;
-using OpenMesh::Vec3d;
-
-Vec3dq to_q(const Vec3d& p) { return {p[0], p[1], p[2]}; }
-Vec3d to_om(const Vec3dq& p) { return Vec3d(p.x, p.y, p.z); }
+Vec3dq add(const Vec3dq& a, const Vec3dq& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+Vec3dq sub(const Vec3dq& a, const Vec3dq& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+Vec3dq scale(const Vec3dq& a, double s) { return {a.x * s, a.y * s, a.z * s}; }
+Vec3dq cross(const Vec3dq& a, const Vec3dq& b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+double dot(const Vec3dq& a, const Vec3dq& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+double norm2(const Vec3dq& a) { return dot(a, a); }
+double norm(const Vec3dq& a) { return std::sqrt(norm2(a)); }
 
 struct Candidate {
   double cost;
@@ -95,11 +92,11 @@ class EdgeHeap {
 
 class Decimator {
  public:
-  Decimator(QMesh& mesh, std::vector<Quadric> quadrics, std::span<const std::uint8_t> locked, const QuadricFrame& frame,
-            std::span<const Vec3f> input)
-      : m_(mesh), q_(std::move(quadrics)), heap_(mesh.n_edges()), locked_(locked), stamp_(mesh.n_vertices(), 0),
-        frame_(frame), position_(input.begin(), input.end()) {
-    target_.resize(m_.n_edges());
+  Decimator(CollapseMesh& mesh, std::vector<Vec3dq> points, std::vector<Quadric> quadrics,
+            std::span<const std::uint8_t> locked, const QuadricFrame& frame, std::span<const Vec3f> input)
+      : m_(mesh), p_(std::move(points)), q_(std::move(quadrics)), heap_(mesh.edge_count()), locked_(locked),
+        stamp_(mesh.vertex_count(), 0), frame_(frame), position_(input.begin(), input.end()) {
+    target_.resize(m_.edge_count());
   }
   const std::vector<Quadric>& quadrics() const { return q_; }
   // Each vertex's output position: its input's, or where its last collapse put it.
@@ -108,189 +105,149 @@ class Decimator {
   // x moved to the nearest point the output can hold (float input coordinates), so that the
   // geometry tests see the faces as they will be written: a face thin enough to lose its area
   // to that rounding is refused, not written.
-  Vec3d to_output(const Vec3d& x, Vec3f& out) const {
-    out = {float(frame_.origin.x + x[0] * frame_.scale), float(frame_.origin.y + x[1] * frame_.scale),
-           float(frame_.origin.z + x[2] * frame_.scale)};
-    return to_om(frame_.to_frame(out.x, out.y, out.z));
+  Vec3dq to_output(const Vec3dq& x, Vec3f& out) const {
+    out = {float(frame_.origin.x + x.x * frame_.scale), float(frame_.origin.y + x.y * frame_.scale),
+           float(frame_.origin.z + x.z * frame_.scale)};
+    return frame_.to_frame(out.x, out.y, out.z);
   }
 
-  bool locked(QMesh::VertexHandle v) const { return !locked_.empty() && locked_[v.idx()]; }
+  bool locked(std::uint32_t v) const { return !locked_.empty() && locked_[v]; }
 
   // The placement and cost of collapsing edge e.
-  bool evaluate(QMesh::EdgeHandle e, Vec3d& x, double& cost) const {
-    const auto h = m_.halfedge_handle(e, 0);
-    const auto v0 = m_.from_vertex_handle(h), v1 = m_.to_vertex_handle(h);
-    Quadric q = q_[v0.idx()];
-    q += q_[v1.idx()];
-    const Vec3d p0 = m_.point(v0), p1 = m_.point(v1), mid = (p0 + p1) * 0.5;
+  bool evaluate(std::uint32_t e, Vec3dq& x, double& cost) const {
+    const std::uint32_t v0 = m_.edge(e).v[0], v1 = m_.edge(e).v[1];
+    Quadric q = q_[v0];
+    q += q_[v1];
+    const Vec3dq p0 = p_[v0], p1 = p_[v1], mid = scale(add(p0, p1), 0.5);
     if (locked(v0) || locked(v1)) {  // onto the locked end, if only one is
       if (locked(v0) && locked(v1)) return false;
       x = locked(v0) ? p0 : p1;
-      cost = q.error(to_q(x));
+      cost = q.error(x);
       return std::isfinite(cost);
     }
     Vec3dq best;
-    const double length = (p1 - p0).norm();
+    const double length = norm(sub(p1, p0));
     // The minimiser, unless it lies far from the edge (an ill-conditioned quadric).
-    if (!q.minimiser(best) || (to_om(best) - mid).norm() > 2 * length) {
-      best = to_q(mid);
+    if (!q.minimiser(best) || norm(sub(best, mid)) > 2 * length) {
+      best = mid;
       double e_best = q.error(best);
-      for (const Vec3d& c : {p0, p1}) {
-        const double ec = q.error(to_q(c));
-        if (ec < e_best) e_best = ec, best = to_q(c);
+      for (const Vec3dq& c : {p0, p1}) {
+        const double ec = q.error(c);
+        if (ec < e_best) e_best = ec, best = c;
       }
     }
-    x = to_om(best);
+    x = best;
     cost = q.error(best);
     return std::isfinite(cost);
   }
 
-  // Whether moving the faces around v0 and v1 (not those on edge h) to x keeps them facing the
-  // same way and non-degenerate.
-  bool geometry_ok(QMesh::HalfedgeHandle h, const Vec3d& x) const {
-    const auto v0 = m_.from_vertex_handle(h), v1 = m_.to_vertex_handle(h);
-    const double cos_limit = std::cos((relaxed_ ? kRelaxedTurnDegrees : kMaxTurnDegrees) * M_PI / 180.0);
-    for (auto v : {v0, v1}) {
+  // Whether moving the faces around `from` and `to` (not those on their edge) to x keeps them
+  // facing the same way and non-degenerate.
+  bool geometry_ok(std::uint32_t from, std::uint32_t to, const Vec3dq& x) {
+    const double cos_limit = relaxed_ ? cos_relaxed_ : cos_strict_;
+    bool ok = true;
+    for (const std::uint32_t v : {from, to}) {
       // Every face here holds v; those holding both ends vanish with the edge.
-      for (auto f : m_.vf_range(v)) {
-        QMesh::VertexHandle vs[3];
-        int k = 0, ends = 0;
-        for (auto fv : m_.fv_range(f)) vs[k++] = fv;
-        for (int i = 0; i < 3; ++i) ends += vs[i] == v0 || vs[i] == v1;
-        if (ends == 2) continue;
-        Vec3d p[3];
-        for (int i = 0; i < 3; ++i) p[i] = vs[i] == v0 || vs[i] == v1 ? x : m_.point(vs[i]);
-        const Vec3d old_n = (m_.point(vs[1]) - m_.point(vs[0])) % (m_.point(vs[2]) - m_.point(vs[0]));
-        const Vec3d new_n = (p[1] - p[0]) % (p[2] - p[0]);
-        const double old_len = old_n.norm(), new_len = new_n.norm();
-        const double e2 = (p[1] - p[0]).sqrnorm() + (p[2] - p[1]).sqrnorm() + (p[0] - p[2]).sqrnorm();
-        if (!(new_len > 1e-8 * e2)) return false;  // degenerate (aspect ratio over ~10^8)
-        if (old_len > 0 && (old_n | new_n) < cos_limit * old_len * new_len) return false;
-      }
-    }
-    return true;
-  }
-
-  // OpenMesh's link condition for collapsing h (from → to), as TriConnectivity::is_collapse_ok
-  // states it, with its one-ring test on a stamp array of our own: the library's own version
-  // spent most of its time looking up its status property.
-  bool link_ok(QMesh::HalfedgeHandle v0v1) {
-    const auto v1v0 = m_.opposite_halfedge_handle(v0v1);
-    const auto v0 = m_.to_vertex_handle(v1v0), v1 = m_.to_vertex_handle(v0v1);
-    const bool v0v1_boundary = m_.is_boundary(v0v1), v1v0_boundary = m_.is_boundary(v1v0);
-    QMesh::VertexHandle vl, vr;
-    // The edges v1-vl and vl-v0 must not both be boundary edges; nor v0-vr and vr-v1.
-    if (!v0v1_boundary) {
-      const auto h1 = m_.next_halfedge_handle(v0v1), h2 = m_.next_halfedge_handle(h1);
-      vl = m_.to_vertex_handle(h1);
-      if (m_.is_boundary(m_.opposite_halfedge_handle(h1)) && m_.is_boundary(m_.opposite_halfedge_handle(h2))) return false;
-    }
-    if (!v1v0_boundary) {
-      const auto h1 = m_.next_halfedge_handle(v1v0), h2 = m_.next_halfedge_handle(h1);
-      vr = m_.to_vertex_handle(h1);
-      if (m_.is_boundary(m_.opposite_halfedge_handle(h1)) && m_.is_boundary(m_.opposite_halfedge_handle(h2))) return false;
-    }
-    if (vl == vr) return false;  // equal, or both invalid
-    // The one-rings of v0 and v1 meet only at vl and vr.
-    if (++epoch_ == 0) std::fill(stamp_.begin(), stamp_.end(), 0), epoch_ = 1;
-    for (auto w : m_.vv_range(v1)) stamp_[w.idx()] = epoch_;
-    for (auto w : m_.vv_range(v0))
-      if (stamp_[w.idx()] == epoch_ && w != vl && w != vr) return false;
-    // An edge between two boundary vertices must be a boundary edge.
-    return !(m_.is_boundary(v0) && m_.is_boundary(v1) && !v0v1_boundary && !v1v0_boundary);
-  }
-
-  // Collapsing free vertex a onto locked b (h: a → b) joins every neighbour of a to b. A locked
-  // neighbour may already be joined to b by faces this mesh does not hold (another piece's), and
-  // the link condition cannot see those: so no locked neighbour of a but b and the two vertices
-  // across the edge, whose joins to b are this mesh's own.
-  bool locked_neighbours_ok(QMesh::HalfedgeHandle h) const {
-    const auto a = m_.from_vertex_handle(h), b = m_.to_vertex_handle(h);
-    QMesh::VertexHandle across[2];
-    int n = 0;
-    if (!m_.is_boundary(h)) across[n++] = m_.to_vertex_handle(m_.next_halfedge_handle(h));
-    const auto o = m_.opposite_halfedge_handle(h);
-    if (!m_.is_boundary(o)) across[n++] = m_.to_vertex_handle(m_.next_halfedge_handle(o));
-    for (auto w : m_.vv_range(a)) {
-      if (w == b || !locked(w)) continue;
-      bool ok = false;
-      for (int i = 0; i < n; ++i) ok = ok || across[i] == w;
+      m_.for_each_face(v, [&](std::uint32_t f) {
+        if (!ok) return;
+        const auto& t = m_.face(f);
+        Vec3dq old_p[3], p[3];
+        int ends = 0;
+        for (int i = 0; i < 3; ++i) {
+          const bool end = t.v[i] == from || t.v[i] == to;
+          ends += end;
+          old_p[i] = p_[t.v[i]];
+          p[i] = end ? x : old_p[i];
+        }
+        if (ends == 2) return;
+        const Vec3dq old_n = cross(sub(old_p[1], old_p[0]), sub(old_p[2], old_p[0]));
+        const Vec3dq new_n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
+        const double old_len = norm(old_n), new_len = norm(new_n);
+        const double e2 = norm2(sub(p[1], p[0])) + norm2(sub(p[2], p[1])) + norm2(sub(p[0], p[2]));
+        if (!(new_len > 1e-8 * e2)) ok = false;  // degenerate (aspect ratio over ~10^8)
+        else if (old_len > 0 && dot(old_n, new_n) < cos_limit * old_len * new_len) ok = false;
+      });
       if (!ok) return false;
     }
     return true;
   }
 
-  void push(QMesh::EdgeHandle e) {
-    if (m_.status(e).deleted()) return;
-    Vec3d x;
+  // Collapsing free vertex a onto locked b joins every neighbour of a to b. A locked neighbour
+  // may already be joined to b by faces this mesh does not hold (another piece's), and the link
+  // condition cannot see those: so no locked neighbour of a but b and the two vertices across
+  // the edge, whose joins to b are this mesh's own.
+  bool locked_neighbours_ok(std::uint32_t a, std::uint32_t b, const CollapseMesh::Across& across) {
+    bool ok = true;
+    m_.for_each_edge(a, [&](std::uint32_t, std::uint32_t w) {
+      if (w != b && locked(w) && w != across.vertex[0] && w != across.vertex[1]) ok = false;
+    });
+    return ok;
+  }
+
+  void push(std::uint32_t e) {
+    Vec3dq x;
     double cost;
     if (!evaluate(e, x, cost)) return;
-    target_[e.idx()] = x;
-    heap_.set(std::uint32_t(e.idx()), cost);
+    target_[e] = x;
+    heap_.set(e, cost);
+  }
+  void push_all() {
+    for (std::uint32_t e = 0; e < m_.edge_count(); ++e)
+      if (m_.edge_alive(e)) push(e);
   }
 
   DecimationResult run(const DecimationOptions& options, std::uint64_t faces) {
     DecimationResult r;
-    for (auto e : m_.edges()) push(e);
+    push_all();
     while (options.target_faces == 0 || faces > options.target_faces) {
       if (heap_.empty()) {
         // Short of the face target with every remaining collapse refused: once more with the
         // turn limit relaxed to "no flipped face", then the topology is what stops it.
         if (relaxed_ || options.target_faces == 0 || !options.relax_turn_limit) break;
         relaxed_ = true;
-        for (auto e : m_.edges()) push(e);
+        push_all();
         continue;
       }
       const Candidate c = heap_.top();
       heap_.pop();  // made or refused, it comes back only when a neighbour's collapse re-queues it
-      const QMesh::EdgeHandle e(int(c.edge));
-      if (m_.status(e).deleted()) continue;
+      if (!m_.edge_alive(c.edge)) continue;
       Vec3f written;
-      const Vec3d x = to_output(target_[c.edge], written);
-      auto h = m_.halfedge_handle(e, 0);
-      Quadric q = q_[m_.from_vertex_handle(h).idx()];
-      q += q_[m_.to_vertex_handle(h).idx()];
-      const double error = decimation_error(q, to_q(x));
+      const Vec3dq x = to_output(target_[c.edge], written);
+      const std::uint32_t v0 = m_.edge(c.edge).v[0], v1 = m_.edge(c.edge).v[1];
+      Quadric q = q_[v0];
+      q += q_[v1];
+      const double error = decimation_error(q, x);
       if (error > options.max_error) {  // it stays until a neighbour's collapse re-queues it
         ++r.over_error;
         continue;
       }
-      if (locked(m_.from_vertex_handle(h)) || locked(m_.to_vertex_handle(h))) {
-        if (locked(m_.from_vertex_handle(h))) h = m_.halfedge_handle(e, 1);  // the locked end is kept
-        if (!link_ok(h) || !locked_neighbours_ok(h)) {
-          ++r.refused;
-          continue;
-        }
-      } else if (!link_ok(h)) {
-        h = m_.halfedge_handle(e, 1);
-        if (!link_ok(h)) {
-          ++r.refused;
-          continue;
-        }
-      }
-      if (!geometry_ok(h, x)) {
+      // The kept vertex: the locked end if there is one, else the lower id (survivors keep the
+      // order of their ids).
+      const std::uint32_t to = locked(v0) ? v0 : locked(v1) ? v1 : std::min(v0, v1);
+      const std::uint32_t from = to == v0 ? v1 : v0;
+      CollapseMesh::Across across;
+      if (!m_.link_ok(from, to, stamp_, epoch_, across) || (locked(to) && !locked_neighbours_ok(from, to, across)) ||
+          !geometry_ok(from, to, x)) {
         ++r.refused;
         continue;
       }
-      const bool boundary = m_.is_boundary(e);
-      const auto kept = m_.to_vertex_handle(h);
-      m_.collapse(h);
-      m_.set_point(kept, x);
-      position_[kept.idx()] = written;
-      q_[kept.idx()] = q;
-      faces -= boundary ? 1 : 2;
+      faces -= std::uint64_t(m_.collapse(from, to));
+      p_[to] = x;
+      position_[to] = written;
+      q_[to] = q;
       ++r.collapses;
       r.estimated_error = std::max(r.estimated_error, error);
-      for (auto ve : m_.ve_range(kept)) push(ve);
+      m_.for_each_edge(to, [&](std::uint32_t e, std::uint32_t) { push(e); });
     }
     r.reached_target = options.target_faces == 0 || faces <= options.target_faces;
     return r;
   }
 
  private:
-  QMesh& m_;
+  CollapseMesh& m_;
+  std::vector<Vec3dq> p_;  // positions in the frame
   std::vector<Quadric> q_;
-  std::vector<Vec3d> target_;
+  std::vector<Vec3dq> target_;
   EdgeHeap heap_;
   std::span<const std::uint8_t> locked_;
   std::vector<std::uint32_t> stamp_;  // link_ok's one-ring marks
@@ -298,6 +255,8 @@ class Decimator {
   const QuadricFrame& frame_;
   std::vector<Vec3f> position_;
   bool relaxed_ = false;
+  const double cos_strict_ = std::cos(kMaxTurnDegrees * M_PI / 180.0);
+  const double cos_relaxed_ = std::cos(kRelaxedTurnDegrees * M_PI / 180.0);
 };
 
 }  // namespace
@@ -307,12 +266,11 @@ double decimation_error(const Quadric& q, const Vec3dq& p) {
 }
 
 Quadric boundary_constraint(const Vec3dq& a, const Vec3dq& b, const Vec3dq& n) {
-  const Vec3d pa = to_om(a), pb = to_om(b);
-  Vec3d m = (pb - pa) % to_om(n);
-  const double length = m.norm();
+  Vec3dq m = cross(sub(b, a), n);
+  const double length = norm(m);
   if (!(length > 0)) return Quadric{};
-  m /= length;
-  Quadric c = Quadric::plane(to_q(m), -(m | pa), kBoundaryWeight * (pb - pa).sqrnorm());
+  m = scale(m, 1 / length);
+  Quadric c = Quadric::plane(m, -dot(m, a), kBoundaryWeight * norm2(sub(b, a)));
   c.weight = 0;
   return c;
 }
@@ -333,58 +291,45 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
       (!options.locked.empty() && options.locked.size() != approximation.positions.size())) {
     return format::Status::error(format::Code::kProcessing, "finish", "one quadric per vertex expected");
   }
-  // A face OpenMesh refuses is our error to report (below), not a line of its own on stderr.
-  omerr().disable();
-  QMesh mesh;
-  mesh.reserve(approximation.positions.size(), 3 * approximation.triangles.size() / 2,
-               approximation.triangles.size());
-  for (const auto& p : approximation.positions) mesh.add_vertex(to_om(frame.to_frame(p.x, p.y, p.z)));
-  for (const auto& t : approximation.triangles) {
-    const auto f = mesh.add_face(QMesh::VertexHandle(int(t.v[0])), QMesh::VertexHandle(int(t.v[1])),
-                                 QMesh::VertexHandle(int(t.v[2])));
-    if (!f.is_valid()) {
-      return format::Status::error(format::Code::kProcessing, "finish",
-                                   "the approximation is not an oriented manifold (face " +
-                                       std::to_string(&t - approximation.triangles.data()) + ")");
+  std::string problem;
+  auto built = CollapseMesh::build(approximation.positions.size(), approximation.triangles, problem);
+  if (!built) {
+    return format::Status::error(format::Code::kProcessing, "finish",
+                                 "the approximation is not an oriented manifold (" + problem + ")");
+  }
+  CollapseMesh& mesh = *built;
+  std::vector<Vec3dq> points;
+  points.reserve(approximation.positions.size());
+  for (const auto& p : approximation.positions) points.push_back(frame.to_frame(p.x, p.y, p.z));
+  // Boundary constraints: a plane through each boundary edge, at right angles to its face (an
+  // edge runs v[0] → v[1] in its face).
+  if (options.boundary_constraints) {
+    for (std::uint32_t e = 0; e < mesh.edge_count(); ++e) {
+      if (!mesh.is_boundary_edge(e)) continue;
+      const std::uint32_t v0 = mesh.edge(e).v[0], v1 = mesh.edge(e).v[1];
+      const std::uint32_t o = mesh.across(v0, v1).vertex[0];
+      const Vec3dq n = cross(sub(points[v1], points[v0]), sub(points[o], points[v0]));
+      const Quadric c = boundary_constraint(points[v0], points[v1], n);
+      quadrics[v0] += c;
+      quadrics[v1] += c;
     }
   }
-  // Boundary constraints: a plane through each boundary edge, at right angles to its face.
-  for (auto e : mesh.edges()) {
-    if (!options.boundary_constraints || !mesh.is_boundary(e)) continue;
-    auto h = mesh.halfedge_handle(e, 0);
-    if (mesh.is_boundary(h)) h = mesh.opposite_halfedge_handle(h);
-    const auto f = mesh.face_handle(h);
-    const Vec3d a = mesh.point(mesh.from_vertex_handle(h)), b = mesh.point(mesh.to_vertex_handle(h));
-    Vec3d fv[3];
-    int k = 0;
-    for (auto v : mesh.fv_range(f)) fv[k++] = mesh.point(v);
-    const Quadric c = boundary_constraint(to_q(a), to_q(b), to_q((fv[1] - fv[0]) % (fv[2] - fv[0])));
-    quadrics[mesh.from_vertex_handle(h).idx()] += c;
-    quadrics[mesh.to_vertex_handle(h).idx()] += c;
-  }
 
-  Decimator decimator(mesh, std::move(quadrics), options.locked, frame, approximation.positions);
+  Decimator decimator(mesh, std::move(points), std::move(quadrics), options.locked, frame, approximation.positions);
   DecimationResult result = decimator.run(options, approximation.triangles.size());
-  // Each vertex's index before the garbage collection, which moves vertices into the holes.
-  OpenMesh::VPropHandleT<int> source;
-  mesh.add_property(source);
-  for (auto v : mesh.vertices()) mesh.property(source, v) = v.idx();
-  mesh.garbage_collection();
-  result.mesh.positions.reserve(mesh.n_vertices());
-  result.source.reserve(mesh.n_vertices());
-  result.quadrics.reserve(mesh.n_vertices());
-  for (auto v : mesh.vertices()) {
-    const int from = mesh.property(source, v);
-    result.source.push_back(std::uint32_t(from));
-    result.quadrics.push_back(decimator.quadrics()[from]);
-    result.mesh.positions.push_back(decimator.positions()[from]);
+  // Survivors in id order, then the live faces in order.
+  std::vector<std::uint32_t> index(mesh.vertex_count(), CollapseMesh::kNone);
+  for (std::uint32_t v = 0; v < mesh.vertex_count(); ++v) {
+    if (!mesh.vertex_alive(v)) continue;
+    index[v] = std::uint32_t(result.mesh.positions.size());
+    result.source.push_back(v);
+    result.quadrics.push_back(decimator.quadrics()[v]);
+    result.mesh.positions.push_back(decimator.positions()[v]);
   }
-  result.mesh.triangles.reserve(mesh.n_faces());
-  for (auto f : mesh.faces()) {
-    format::Triangle t;
-    int k = 0;
-    for (auto v : mesh.fv_range(f)) t.v[k++] = std::uint32_t(v.idx());
-    result.mesh.triangles.push_back(t);
+  for (std::uint32_t f = 0; f < mesh.face_count(); ++f) {
+    if (!mesh.face_alive(f)) continue;
+    const auto& t = mesh.face(f);
+    result.mesh.triangles.push_back({{index[t.v[0]], index[t.v[1]], index[t.v[2]]}});
   }
   return result;
 }

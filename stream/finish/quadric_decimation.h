@@ -3,14 +3,15 @@
 // face target or the error bound is reached.
 //
 // Every collapse keeps the topology guarantee of the approximation: it passes the link
-// condition (OpenMesh's is_collapse_ok), so a closed manifold of genus g stays one; it flips no
+// condition (collapse_mesh.h), so a closed manifold of genus g stays one; it flips no
 // remaining face (a face may turn by at most kMaxTurnDegrees, or kRelaxedTurnDegrees when the
 // target cannot be reached otherwise) and makes none degenerate. The kept
 // vertex moves to the point that minimises the summed quadric (the samples are then no longer
 // input vertices), or to the better endpoint or the midpoint when the quadric cannot place it.
 // Boundary edges carry constraint planes at right angles to the surface, so rims stay in place.
 // Deterministic: collapses go in (cost, edge id) order on data that is the same bits in and out
-// of core.
+// of core; an edge's id is its place in the order of first appearance in the faces, and a
+// collapse keeps the end with the lower id (or the locked one).
 #pragma once
 
 #include <cstdint>
@@ -71,7 +72,7 @@ inline constexpr double kBoundaryWeight = 1;
 Quadric boundary_constraint(const Vec3dq& a, const Vec3dq& b, const Vec3dq& n);
 
 // `sums` holds one fixed-point quadric per vertex of `approximation`, in `frame`.
-// Errors: kProcessing when the approximation is not an oriented manifold OpenMesh can hold.
+// Errors: kProcessing when the approximation is not an oriented manifold (CollapseMesh::build).
 format::Result<DecimationResult> decimate(MeshView approximation, const std::vector<FixedQuadric>& sums,
                                           const QuadricFrame& frame, const DecimationOptions& options);
 // The same with the quadrics in double form.

@@ -92,7 +92,7 @@ struct FinishResult {
 // Targets above kFinishInputShare of the input's faces (with the oversampling, what would need
 // G at frequency 32 or more), and error bounds, collapse the input itself rather than a Gauss
 // approximation: finer Gauss approximations cost more than the input's own collapses and are
-// further off (docs/finish.md, "The approximation"). Only for an input OpenMesh can hold (an
+// further off (docs/finish.md, "The approximation"). Only for an input the collapses can hold (an
 // oriented manifold once faces with a repeated corner are left out); else the Gauss one.
 inline constexpr double kFinishInputShare = 0.02;
 bool finish_collapses_input(const FinishOptions& options, std::uint64_t input_faces);

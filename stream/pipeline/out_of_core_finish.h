@@ -33,7 +33,7 @@ namespace gaussmesh::stream {
 // Round 1 collapses each piece to this many times its share of the face target, so that round
 // 2 has room to place the rest where the error is least.
 inline constexpr double kRoundOneShare = 4;
-// A piece's working set per face at its peak (OpenMesh, the quadrics, the queue, the records);
+// A piece's working set per face at its peak (the collapse mesh, the quadrics, the queue, the records);
 // a chunk file's, per face, while its pieces are cut.
 inline constexpr std::uint64_t kPieceBytesPerFace = 400;
 inline constexpr std::uint64_t kChunkFileBytesPerFace = 80;
@@ -88,7 +88,7 @@ struct ChunkedFinish {
   std::vector<std::uint64_t> round_pieces, round_faces;
   std::vector<double> seconds_rounds;
   std::uint64_t largest_piece = 0;  // faces of the largest piece after round 1
-  std::uint64_t unheld_pieces = 0;  // pieces OpenMesh could not hold (not a manifold), left as they were
+  std::uint64_t unheld_pieces = 0;  // pieces that are not oriented manifolds, left as they were
 };
 
 // The rounds over the chunks of `partition` (at least two overlap rings); the output stays in
