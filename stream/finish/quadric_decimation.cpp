@@ -221,8 +221,8 @@ class Decimator {
         ++r.over_error;
         continue;
       }
-      // The kept vertex: the locked end if there is one, else the lower id (survivors keep the
-      // order of their ids).
+      // The kept vertex: the locked end if there is one, else the one that appears first in the
+      // faces.
       const std::uint32_t to = locked(v0) ? v0 : locked(v1) ? v1 : std::min(v0, v1);
       const std::uint32_t from = to == v0 ? v1 : v0;
       CollapseMesh::Across across;
@@ -259,6 +259,50 @@ class Decimator {
   const double cos_relaxed_ = std::cos(kRelaxedTurnDegrees * M_PI / 180.0);
 };
 
+// Spreads the low 21 bits of x to every third bit.
+std::uint64_t spread21(std::uint64_t x) {
+  x &= 0x1fffff;
+  x = (x | (x << 32)) & 0x1f00000000ffffULL;
+  x = (x | (x << 16)) & 0x1f0000ff0000ffULL;
+  x = (x | (x << 8)) & 0x100f00f00f00f00fULL;
+  x = (x | (x << 4)) & 0x10c30c30c30c30c3ULL;
+  x = (x | (x << 2)) & 0x1249249249249249ULL;
+  return x;
+}
+
+// The vertices in Morton order of their positions over their bounding box (ties, and positions
+// that are not finite, by id).
+std::vector<std::uint32_t> spatial_order(std::span<const Vec3f> positions) {
+  float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  bool first = true;
+  for (const auto& p : positions) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
+    const float c[3] = {p.x, p.y, p.z};
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = first ? c[a] : std::min(lo[a], c[a]);
+      hi[a] = first ? c[a] : std::max(hi[a], c[a]);
+    }
+    first = false;
+  }
+  const double extent = std::max({double(hi[0]) - lo[0], double(hi[1]) - lo[1], double(hi[2]) - lo[2]});
+  const double scale = extent > 0 ? double((1u << 21) - 1) / extent : 0;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keys(positions.size());
+  for (std::uint32_t v = 0; v < positions.size(); ++v) {
+    const auto& p = positions[v];
+    std::uint64_t code = ~std::uint64_t{0};
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) {
+      const float c[3] = {p.x, p.y, p.z};
+      code = 0;
+      for (int a = 0; a < 3; ++a) code |= spread21(std::uint64_t((double(c[a]) - lo[a]) * scale)) << a;
+    }
+    keys[v] = {code, v};
+  }
+  std::sort(keys.begin(), keys.end());
+  std::vector<std::uint32_t> order(positions.size());
+  for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = keys[i].second;
+  return order;
+}
+
 }  // namespace
 
 double decimation_error(const Quadric& q, const Vec3dq& p) {
@@ -291,16 +335,55 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
       (!options.locked.empty() && options.locked.size() != approximation.positions.size())) {
     return format::Status::error(format::Code::kProcessing, "finish", "one quadric per vertex expected");
   }
+  // The collapses work on a copy in spatial order: vertices by the Morton code of their position,
+  // faces by their corners' new numbers. Neighbours then sit close in memory whatever the
+  // input's order, and a shuffled copy of the same mesh collapses the same way.
+  const std::size_t n = approximation.positions.size();
+  std::vector<std::uint32_t> order = spatial_order(approximation.positions), rank(n);
+  for (std::uint32_t i = 0; i < n; ++i) rank[order[i]] = i;
+  const std::size_t nf = approximation.triangles.size();
+  std::vector<std::uint32_t> face_order(nf);
+  std::vector<format::Triangle> faces(nf);
+  {
+    // Each face from its lowest new number on (the same orientation), sorted by its three.
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> keys(nf);
+    for (std::uint32_t f = 0; f < nf; ++f) {
+      const auto& t = approximation.triangles[f];
+      std::uint32_t r[3];
+      for (int k = 0; k < 3; ++k) r[k] = t.v[k] < n ? rank[t.v[k]] : CollapseMesh::kNone;
+      const int first = r[0] <= r[1] && r[0] <= r[2] ? 0 : r[1] <= r[2] ? 1 : 2;
+      faces[f] = {{r[first], r[(first + 1) % 3], r[(first + 2) % 3]}};
+      keys[f] = {(std::uint64_t(faces[f].v[0]) << 32) | std::max(faces[f].v[1], faces[f].v[2]),
+                 (std::uint64_t(std::min(faces[f].v[1], faces[f].v[2])) << 32) | f};
+    }
+    std::sort(keys.begin(), keys.end());
+    std::vector<format::Triangle> sorted(nf);
+    for (std::uint32_t i = 0; i < nf; ++i) {
+      face_order[i] = std::uint32_t(keys[i].second);
+      sorted[i] = faces[face_order[i]];
+    }
+    faces = std::move(sorted);
+  }
   std::string problem;
-  auto built = CollapseMesh::build(approximation.positions.size(), approximation.triangles, problem);
+  auto built = CollapseMesh::build(n, faces, problem);
   if (!built) {
     return format::Status::error(format::Code::kProcessing, "finish",
                                  "the approximation is not an oriented manifold (" + problem + ")");
   }
+  faces = {};
   CollapseMesh& mesh = *built;
-  std::vector<Vec3dq> points;
-  points.reserve(approximation.positions.size());
-  for (const auto& p : approximation.positions) points.push_back(frame.to_frame(p.x, p.y, p.z));
+  std::vector<Vec3dq> points(n);
+  std::vector<Vec3f> positions(n);
+  std::vector<Quadric> ranked(n);
+  std::vector<std::uint8_t> locked(options.locked.empty() ? 0 : n);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const Vec3f& p = approximation.positions[order[i]];
+    positions[i] = p;
+    points[i] = frame.to_frame(p.x, p.y, p.z);
+    ranked[i] = quadrics[order[i]];
+    if (!locked.empty()) locked[i] = options.locked[order[i]];
+  }
+  quadrics = {};
   // Boundary constraints: a plane through each boundary edge, at right angles to its face (an
   // edge runs v[0] → v[1] in its face).
   if (options.boundary_constraints) {
@@ -308,27 +391,30 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
       if (!mesh.is_boundary_edge(e)) continue;
       const std::uint32_t v0 = mesh.edge(e).v[0], v1 = mesh.edge(e).v[1];
       const std::uint32_t o = mesh.across(v0, v1).vertex[0];
-      const Vec3dq n = cross(sub(points[v1], points[v0]), sub(points[o], points[v0]));
-      const Quadric c = boundary_constraint(points[v0], points[v1], n);
-      quadrics[v0] += c;
-      quadrics[v1] += c;
+      const Vec3dq normal = cross(sub(points[v1], points[v0]), sub(points[o], points[v0]));
+      const Quadric c = boundary_constraint(points[v0], points[v1], normal);
+      ranked[v0] += c;
+      ranked[v1] += c;
     }
   }
 
-  Decimator decimator(mesh, std::move(points), std::move(quadrics), options.locked, frame, approximation.positions);
+  Decimator decimator(mesh, std::move(points), std::move(ranked), locked, frame, positions);
   DecimationResult result = decimator.run(options, approximation.triangles.size());
-  // Survivors in id order, then the live faces in order.
-  std::vector<std::uint32_t> index(mesh.vertex_count(), CollapseMesh::kNone);
-  for (std::uint32_t v = 0; v < mesh.vertex_count(); ++v) {
-    if (!mesh.vertex_alive(v)) continue;
-    index[v] = std::uint32_t(result.mesh.positions.size());
+  // Survivors in the order of their input ids, then the live faces in the input's order.
+  std::vector<std::uint32_t> index(n, CollapseMesh::kNone);
+  for (std::uint32_t v = 0; v < n; ++v) {
+    const std::uint32_t i = rank[v];
+    if (!mesh.vertex_alive(i)) continue;
+    index[i] = std::uint32_t(result.mesh.positions.size());
     result.source.push_back(v);
-    result.quadrics.push_back(decimator.quadrics()[v]);
-    result.mesh.positions.push_back(decimator.positions()[v]);
+    result.quadrics.push_back(decimator.quadrics()[i]);
+    result.mesh.positions.push_back(decimator.positions()[i]);
   }
-  for (std::uint32_t f = 0; f < mesh.face_count(); ++f) {
-    if (!mesh.face_alive(f)) continue;
-    const auto& t = mesh.face(f);
+  std::vector<std::uint32_t> face_rank(nf);
+  for (std::uint32_t i = 0; i < nf; ++i) face_rank[face_order[i]] = i;
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    if (!mesh.face_alive(face_rank[f])) continue;
+    const auto& t = mesh.face(face_rank[f]);
     result.mesh.triangles.push_back({{index[t.v[0]], index[t.v[1]], index[t.v[2]]}});
   }
   return result;

@@ -10,8 +10,9 @@
 // input vertices), or to the better endpoint or the midpoint when the quadric cannot place it.
 // Boundary edges carry constraint planes at right angles to the surface, so rims stay in place.
 // Deterministic: collapses go in (cost, edge id) order on data that is the same bits in and out
-// of core; an edge's id is its place in the order of first appearance in the faces, and a
-// collapse keeps the end with the lower id (or the locked one).
+// of core; edges and vertices are numbered in order of first appearance in the faces, so the
+// collapses depend on the faces' order and not on the vertices' ids, and a collapse keeps the
+// end that appears first (or the locked one).
 #pragma once
 
 #include <cstdint>

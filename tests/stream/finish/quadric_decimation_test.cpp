@@ -6,7 +6,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <numeric>
 
 #include "stream/core/mesh_topology.h"
 #include "tests/support/shapes.h"
@@ -144,7 +147,7 @@ TEST(QuadricFinish, TheInputItselfIsCollapsedWhenItIsAManifold) {
   EXPECT_GE(r->mesh.triangles.size(), 598u);
   expect_same_surface_kind(torus, r->mesh);
 
-  // A fin on one edge (three faces on it): no manifold for OpenMesh, so the caller is told.
+  // A fin on one edge (three faces on it): not a manifold, so the caller is told.
   Mesh fin = torus;
   const auto& t = fin.triangles[0];
   fin.positions.push_back({0, 0, 2});
@@ -152,6 +155,44 @@ TEST(QuadricFinish, TheInputItselfIsCollapsedWhenItIsAManifold) {
   auto refused = finish_input(fin.view(), o);
   ASSERT_FALSE(refused.is_ok());
   EXPECT_EQ(refused.status().code(), format::Code::kProcessing);
+}
+
+TEST(QuadricFinish, AShuffledCopyCollapsesToTheSameSurface) {
+  // The collapses work in spatial order: vertex ids, face order and each face's first corner
+  // do not change what they make.
+  const Mesh torus = make_torus(1.0, 0.3, {.vertices = 3000, .noise = 0.001, .seed = 4});
+  Mesh shuffled;
+  const std::size_t n = torus.positions.size();
+  std::vector<std::uint32_t> to_new(n);
+  for (std::uint32_t v = 0; v < n; ++v) to_new[v] = std::uint32_t((std::uint64_t(v) * 7919) % n);  // n is not a multiple of 7919
+  shuffled.positions.resize(n);
+  for (std::uint32_t v = 0; v < n; ++v) shuffled.positions[to_new[v]] = torus.positions[v];
+  for (std::size_t i = 0; i < torus.triangles.size(); ++i) {
+    const auto& t = torus.triangles[(i * 4099) % torus.triangles.size()];
+    const int r = int(i % 3);
+    shuffled.triangles.push_back({{to_new[t.v[r]], to_new[t.v[(r + 1) % 3]], to_new[t.v[(r + 2) % 3]]}});
+  }
+  ASSERT_EQ(std::gcd(n, std::size_t{7919}), 1u);
+  ASSERT_EQ(std::gcd(torus.triangles.size(), std::size_t{4099}), 1u);
+  FinishOptions o;
+  o.target_faces = 600;
+  auto a = finish_input(torus.view(), o);
+  auto b = finish_input(shuffled.view(), o);
+  ASSERT_TRUE(a.is_ok() && b.is_ok());
+  // The same faces, as sets of corner positions.
+  const auto corners = [](const Mesh& m) {
+    std::vector<std::array<float, 9>> faces;
+    for (const auto& t : m.triangles) {
+      std::array<std::array<float, 3>, 3> c;
+      for (int k = 0; k < 3; ++k) c[k] = {m.positions[t.v[k]].x, m.positions[t.v[k]].y, m.positions[t.v[k]].z};
+      std::sort(c.begin(), c.end());
+      faces.push_back({c[0][0], c[0][1], c[0][2], c[1][0], c[1][1], c[1][2], c[2][0], c[2][1], c[2][2]});
+    }
+    std::sort(faces.begin(), faces.end());
+    return faces;
+  };
+  EXPECT_EQ(a->mesh.triangles.size(), b->mesh.triangles.size());
+  EXPECT_TRUE(corners(a->mesh) == corners(b->mesh));
 }
 
 TEST(QuadricFinish, CompactInputDropsRepeatedCornersAndUnusedVertices) {
