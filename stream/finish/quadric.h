@@ -39,6 +39,12 @@ struct Quadric {
                      2 * q[4] * p.y * p.z + q[5] * p.z * p.z + 2 * (q[6] * p.x + q[7] * p.y + q[8] * p.z) + q[9];
     return e > 0 ? e : 0;
   }
+  // E(p) / weight, the mean squared distance to the planes; E(p) when there is no weight (only
+  // constraint planes).
+  double mean_error(const Vec3dq& p) const {
+    const double e = error(p);
+    return weight > 0 ? e / weight : e;
+  }
   // The minimiser of E, when A is well conditioned (its determinant is not tiny against the cube
   // of its trace, i.e. the planes span three directions); false otherwise.
   bool minimiser(Vec3dq& out) const {

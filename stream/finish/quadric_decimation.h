@@ -8,11 +8,14 @@
 // target cannot be reached otherwise) and makes none degenerate. The kept
 // vertex moves to the point that minimises the summed quadric (the samples are then no longer
 // input vertices), or to the better endpoint or the midpoint when the quadric cannot place it.
+// A collapse costs the geometric mean of the merged region's mean squared distance there and the
+// worse of its two ends' own (quadric_decimation.cpp, collapse_cost).
 // Boundary edges carry constraint planes at right angles to the surface, so rims stay in place.
-// Deterministic: collapses go in (cost, edge id) order on data that is the same bits in and out
-// of core; edges and vertices are numbered in order of first appearance in the faces, so the
-// collapses depend on the faces' order and not on the vertices' ids, and a collapse keeps the
-// end that appears first (or the locked one).
+// Deterministic: collapses go in (cost, edge number) order on data that is the same bits in and
+// out of core. The mesh is copied in spatial order first (vertices by the Morton code of their
+// position, faces by their corners' new numbers, edges in the order the faces first meet them),
+// so the collapses depend on the surface and not on the input's vertex ids or face order; a
+// collapse keeps the end that comes first in that order (or the locked one).
 #pragma once
 
 #include <cstdint>
