@@ -29,6 +29,19 @@ double collapse_cost(const Quadric& q, const Quadric& a, const Quadric& b, const
   return std::sqrt(q.mean_error(x) * std::max(a.mean_error(x), b.mean_error(x)));
 }
 
+// The point of segment p0-p1 where q is least (q restricted to the line is a parabola in t).
+Vec3dq along_edge(const Quadric& q, const Vec3dq& p0, const Vec3dq& p1) {
+  const auto& a = q.q;
+  const Vec3dq d = sub(p1, p0);
+  const Vec3dq ad{a[0] * d.x + a[1] * d.y + a[2] * d.z, a[1] * d.x + a[3] * d.y + a[4] * d.z,
+                  a[2] * d.x + a[4] * d.y + a[5] * d.z};
+  const Vec3dq gradient{a[0] * p0.x + a[1] * p0.y + a[2] * p0.z + a[6], a[1] * p0.x + a[3] * p0.y + a[4] * p0.z + a[7],
+                        a[2] * p0.x + a[4] * p0.y + a[5] * p0.z + a[8]};
+  const double curvature = dot(d, ad);
+  if (!(curvature > 0)) return p0;
+  return add(p0, scale(d, std::clamp(-dot(gradient, d) / curvature, 0.0, 1.0)));
+}
+
 struct Candidate {
   double cost;
   std::uint32_t edge;
@@ -138,11 +151,12 @@ class Decimator {
     }
     Vec3dq best;
     const double length = norm(sub(p1, p0));
-    // The minimiser, unless it lies far from the edge (an ill-conditioned quadric).
+    // The minimiser, unless it lies far from the edge (an ill-conditioned quadric); then the
+    // best of the edge's own points: its ends, its midpoint, and the minimiser along it.
     if (!q.minimiser(best) || norm(sub(best, mid)) > 2 * length) {
       best = mid;
       double e_best = q.error(best);
-      for (const Vec3dq& c : {p0, p1}) {
+      for (const Vec3dq& c : {p0, p1, along_edge(q, p0, p1)}) {
         const double ec = q.error(c);
         if (ec < e_best) e_best = ec, best = c;
       }

@@ -7,7 +7,8 @@
 // remaining face (a face may turn by at most kMaxTurnDegrees, or kRelaxedTurnDegrees when the
 // target cannot be reached otherwise) and makes none degenerate. The kept
 // vertex moves to the point that minimises the summed quadric (the samples are then no longer
-// input vertices), or to the better endpoint or the midpoint when the quadric cannot place it.
+// input vertices), or when the quadric cannot place it to the best of the edge's ends, its
+// midpoint and its least point along the edge.
 // A collapse costs the geometric mean of the merged region's mean squared distance there and the
 // worse of its two ends' own (quadric_decimation.cpp, collapse_cost).
 // Boundary edges carry constraint planes at right angles to the surface, so rims stay in place.
