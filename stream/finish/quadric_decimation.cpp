@@ -117,9 +117,9 @@ class EdgeHeap {
 class Decimator {
  public:
   Decimator(CollapseMesh& mesh, std::vector<Vec3dq> points, std::vector<Quadric> quadrics,
-            std::span<const std::uint8_t> locked, const QuadricFrame& frame, std::span<const Vec3f> input)
+            std::span<const std::uint8_t> locked, const QuadricFrame& frame, std::vector<Vec3f> input)
       : m_(mesh), p_(std::move(points)), q_(std::move(quadrics)), heap_(mesh.edge_count()), locked_(locked),
-        stamp_(mesh.vertex_count(), 0), frame_(frame), position_(input.begin(), input.end()) {
+        stamp_(mesh.vertex_count(), 0), frame_(frame), position_(std::move(input)) {
     target_.resize(m_.edge_count());
   }
   const std::vector<Quadric>& quadrics() const { return q_; }
@@ -423,7 +423,7 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
     }
   }
 
-  Decimator decimator(mesh, std::move(points), std::move(ranked), locked, frame, positions);
+  Decimator decimator(mesh, std::move(points), std::move(ranked), locked, frame, std::move(positions));
   DecimationResult result = decimator.run(options, approximation.triangles.size());
   // Survivors in the order of their input ids, then the live faces in the input's order.
   std::vector<std::uint32_t> index(n, CollapseMesh::kNone);
