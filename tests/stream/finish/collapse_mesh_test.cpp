@@ -4,8 +4,12 @@
 
 #include <gtest/gtest.h>
 
+#include <random>
 #include <set>
 #include <vector>
+
+#include "stream/core/mesh_topology.h"
+#include "tests/support/shapes.h"
 
 namespace gaussmesh::stream {
 namespace {
@@ -171,6 +175,87 @@ TEST(CollapseMesh, AClosedFansCentreCollapsesOntoItsRim) {
   EXPECT_EQ(m.edge(m.find_edge(1, 3)).faces, 2u);
   EXPECT_EQ(m.edge(m.find_edge(1, 2)).faces, 1u);
   EXPECT_EQ(m.edge(m.find_edge(1, 5)).faces, 1u);
+}
+
+// The live faces as a mesh over the same vertices.
+Mesh live_mesh(const CollapseMesh& m, const Mesh& positions_from) {
+  Mesh out;
+  out.positions = positions_from.positions;
+  for (std::uint32_t f = 0; f < m.face_count(); ++f)
+    if (m.face_alive(f)) out.triangles.push_back(m.face(f));
+  return out;
+}
+
+// Every live edge's face count is the number of live faces that hold both its ends, and no live
+// face or edge touches a removed vertex.
+void expect_consistent(CollapseMesh& m) {
+  for (std::uint32_t e = 0; e < m.edge_count(); ++e) {
+    if (!m.edge_alive(e)) continue;
+    const auto [a, b] = m.edge(e).v;
+    ASSERT_TRUE(m.vertex_alive(a) && m.vertex_alive(b));
+    std::uint32_t holders = 0;
+    m.for_each_face(a, [&](std::uint32_t f) {
+      const auto& t = m.face(f);
+      holders += t.v[0] == b || t.v[1] == b || t.v[2] == b;
+    });
+    ASSERT_EQ(holders, m.edge(e).faces) << "edge " << a << "-" << b;
+  }
+}
+
+TEST(CollapseMesh, RandomCollapsesThatPassTheLinkConditionKeepTheTopology) {
+  // With no geometry test at all, the link condition alone keeps a closed surface of genus g one
+  // and an open one's boundary loops, collapse after collapse, down to a few dozen faces.
+  const Mesh open_sheet = [] {
+    Mesh m;
+    const int n = 20;
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) m.positions.push_back({float(i), float(j), 0});
+    auto id = [n](int i, int j) { return std::uint32_t(j * (n + 1) + i); };
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        m.triangles.push_back({{id(i, j), id(i + 1, j), id(i + 1, j + 1)}});
+        m.triangles.push_back({{id(i, j), id(i + 1, j + 1), id(i, j + 1)}});
+      }
+    return m;
+  }();
+  const std::vector<std::pair<const char*, Mesh>> inputs = {
+      {"sphere", testing::make_sphere({.vertices = 800})},
+      {"torus", testing::make_torus(1.0, 0.3, {.vertices = 800})},
+      {"genus 2", testing::make_genus2({.vertices = 1500})},
+      {"open sheet", open_sheet},
+  };
+  for (const auto& [name, input] : inputs) {
+    SCOPED_TRACE(name);
+    const auto before = compute_topology(input.view());
+    ASSERT_TRUE(before.is_ok());
+    CollapseMesh m = must_build(input.positions.size(), input.triangles);
+    std::vector<std::uint32_t> stamp(m.vertex_count(), 0);
+    std::uint32_t epoch = 0;
+    std::mt19937 rng(7);
+    std::size_t faces = input.triangles.size(), collapses = 0;
+    for (int attempt = 0; attempt < 200000 && faces > 60; ++attempt) {
+      const std::uint32_t e = std::uint32_t(rng() % m.edge_count());
+      if (!m.edge_alive(e)) continue;
+      auto [from, to] = m.edge(e).v;
+      if (rng() % 2) std::swap(from, to);
+      CollapseMesh::Across across;
+      if (!m.link_ok(from, to, stamp, epoch, across)) continue;
+      faces -= std::size_t(m.collapse(from, to));
+      if (++collapses % 97 == 0) expect_consistent(m);
+    }
+    EXPECT_LE(faces, 60u);
+    expect_consistent(m);
+    const auto after = compute_topology(live_mesh(m, input).view());
+    ASSERT_TRUE(after.is_ok());
+    EXPECT_TRUE(after->is_manifold());
+    EXPECT_TRUE(after->consistently_oriented);
+    EXPECT_EQ(after->degenerate_faces, 0u);
+    EXPECT_EQ(after->duplicate_faces, 0u);
+    EXPECT_EQ(after->genus, before->genus);
+    EXPECT_EQ(after->boundary_loops, before->boundary_loops);
+    EXPECT_EQ(after->components, before->components);
+    EXPECT_EQ(after->faces, faces);
+  }
 }
 
 }  // namespace
