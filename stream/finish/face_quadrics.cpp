@@ -7,12 +7,6 @@
 namespace gaussmesh::stream {
 namespace {
 
-Vec3dq sub(const Vec3dq& a, const Vec3dq& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-Vec3dq cross(const Vec3dq& a, const Vec3dq& b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-double dot(const Vec3dq& a, const Vec3dq& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-
 // Cells are keyed by 21 bits per axis, offset so that the frame's [-1, 2] range stays positive.
 constexpr std::int64_t kCellBias = std::int64_t{1} << 20;
 

@@ -14,6 +14,15 @@ namespace gaussmesh::stream {
 struct Vec3dq {
   double x = 0, y = 0, z = 0;
 };
+inline Vec3dq add(const Vec3dq& a, const Vec3dq& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+inline Vec3dq sub(const Vec3dq& a, const Vec3dq& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline Vec3dq scale(const Vec3dq& a, double s) { return {a.x * s, a.y * s, a.z * s}; }
+inline Vec3dq cross(const Vec3dq& a, const Vec3dq& b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+inline double dot(const Vec3dq& a, const Vec3dq& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline double norm2(const Vec3dq& a) { return dot(a, a); }
+inline double norm(const Vec3dq& a) { return std::sqrt(norm2(a)); }
 
 // E(p) = pᵀ A p + 2 bᵀ p + c, with A = Σ w n nᵀ, b = Σ w d n, c = Σ w d², for planes n·p + d = 0
 // of weight w (area); `weight` = Σ w, so E / weight is a mean squared distance.

@@ -1,5 +1,6 @@
 #include "stream/finish/quadric_decimation.h"
 
+#include "stream/core/morton.h"
 #include "stream/finish/collapse_mesh.h"
 
 #include <algorithm>
@@ -7,16 +8,6 @@
 
 namespace gaussmesh::stream {
 namespace {
-
-Vec3dq add(const Vec3dq& a, const Vec3dq& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-Vec3dq sub(const Vec3dq& a, const Vec3dq& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-Vec3dq scale(const Vec3dq& a, double s) { return {a.x * s, a.y * s, a.z * s}; }
-Vec3dq cross(const Vec3dq& a, const Vec3dq& b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-double dot(const Vec3dq& a, const Vec3dq& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-double norm2(const Vec3dq& a) { return dot(a, a); }
-double norm(const Vec3dq& a) { return std::sqrt(norm2(a)); }
 
 // The cost of moving the regions of the two ends of an edge, with quadrics a and b (q = a + b), to
 // x: the geometric mean of the merged region's mean squared distance to its planes and the worse
@@ -284,17 +275,6 @@ class Decimator {
   const double cos_relaxed_ = std::cos(kRelaxedTurnDegrees * M_PI / 180.0);
 };
 
-// Spreads the low 21 bits of x to every third bit.
-std::uint64_t spread21(std::uint64_t x) {
-  x &= 0x1fffff;
-  x = (x | (x << 32)) & 0x1f00000000ffffULL;
-  x = (x | (x << 16)) & 0x1f0000ff0000ffULL;
-  x = (x | (x << 8)) & 0x100f00f00f00f00fULL;
-  x = (x | (x << 4)) & 0x10c30c30c30c30c3ULL;
-  x = (x | (x << 2)) & 0x1249249249249249ULL;
-  return x;
-}
-
 // The vertices in Morton order of their positions over their bounding box (ties, and positions
 // that are not finite, by id).
 std::vector<std::uint32_t> spatial_order(std::span<const Vec3f> positions) {
@@ -367,7 +347,7 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
   std::vector<std::uint32_t> order = spatial_order(approximation.positions), rank(n);
   for (std::uint32_t i = 0; i < n; ++i) rank[order[i]] = i;
   const std::size_t nf = approximation.triangles.size();
-  std::vector<std::uint32_t> face_order(nf);
+  std::vector<std::uint32_t> face_rank(nf);  // per input face: its place in the copy
   std::vector<format::Triangle> faces(nf);
   {
     // Each face from its lowest new number on (the same orientation), sorted by its three.
@@ -384,8 +364,9 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
     std::sort(keys.begin(), keys.end());
     std::vector<format::Triangle> sorted(nf);
     for (std::uint32_t i = 0; i < nf; ++i) {
-      face_order[i] = std::uint32_t(keys[i].second);
-      sorted[i] = faces[face_order[i]];
+      const auto f = std::uint32_t(keys[i].second);
+      face_rank[f] = i;
+      sorted[i] = faces[f];
     }
     faces = std::move(sorted);
   }
@@ -435,8 +416,6 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
     result.quadrics.push_back(decimator.quadrics()[i]);
     result.mesh.positions.push_back(decimator.positions()[i]);
   }
-  std::vector<std::uint32_t> face_rank(nf);
-  for (std::uint32_t i = 0; i < nf; ++i) face_rank[face_order[i]] = i;
   for (std::uint32_t f = 0; f < nf; ++f) {
     if (!mesh.face_alive(face_rank[f])) continue;
     const auto& t = mesh.face(face_rank[f]);

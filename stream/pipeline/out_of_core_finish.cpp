@@ -15,6 +15,7 @@
 #include <tbb/task_arena.h>
 
 #include "format/record_file.h"
+#include "stream/core/morton.h"
 #include "stream/core/process_memory.h"
 #include "stream/core/stopwatch.h"
 #include "stream/finish/finish_pieces.h"
@@ -54,16 +55,6 @@ std::uint64_t piece_share(const MemoryBudget& budget, std::uint64_t input_faces)
                               : budget.bytes() > kept + budget.bytes() / 4 ? budget.bytes() - kept
                                                                           : budget.bytes() / 4;
   return whole / kPiecesInFlight;
-}
-
-std::uint64_t spread21(std::uint64_t x) {
-  x &= 0x1fffff;
-  x = (x | x << 32) & 0x1f00000000ffffull;
-  x = (x | x << 16) & 0x1f0000ff0000ffull;
-  x = (x | x << 8) & 0x100f00f00f00f00full;
-  x = (x | x << 4) & 0x10c30c30c30c30c3ull;
-  x = (x | x << 2) & 0x1249249249249249ull;
-  return x;
 }
 
 // The cells of round r ≥ 2: the partition's, moved by a fraction of a cell on every axis

@@ -837,4 +837,20 @@ LocalShape genus2_local_shape(const Vec3f& unrotated_point) {
   return classify_implicit(f, project_to_surface(f, stream::to_d(unrotated_point)));
 }
 
+Mesh make_wavy_sheet(int n) {
+  Mesh m;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      const float x = float(i) / float(n), y = float(j) / float(n);
+      m.positions.push_back({x, y, 0.1f * std::sin(6 * x) * std::cos(5 * y)});
+    }
+  auto id = [n](int i, int j) { return std::uint32_t(j * (n + 1) + i); };
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      m.triangles.push_back({{id(i, j), id(i + 1, j), id(i + 1, j + 1)}});
+      m.triangles.push_back({{id(i, j), id(i + 1, j + 1), id(i, j + 1)}});
+    }
+  return m;
+}
+
 }  // namespace gaussmesh::testing

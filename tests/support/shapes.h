@@ -61,6 +61,9 @@ Mesh make_dented_sphere(double dent_depth, const ShapeOptions& options);
 // by a C2 smooth minimum of their signed distances, polygonised by surface nets (vertices
 // projected onto the surface), about options.vertices vertices.
 Mesh make_genus2(const ShapeOptions& options);
+// An open sheet with one boundary loop: an n x n grid of squares over the unit square, each cut
+// into two triangles, over the height field z = 0.1 sin(6x) cos(5y).
+Mesh make_wavy_sheet(int n);
 
 // Sign structure of a surface's curvature at a point (kFlat: too close to parabolic to say).
 enum class LocalShape { kConvex, kConcave, kSaddle, kFlat };

@@ -27,23 +27,6 @@ MeshTopology topology(const Mesh& m) {
   return t.is_ok() ? *t : MeshTopology{};
 }
 
-// An open grid over a wavy height field: one boundary loop.
-Mesh wavy_sheet(int n) {
-  Mesh m;
-  for (int j = 0; j <= n; ++j)
-    for (int i = 0; i <= n; ++i) {
-      const float x = float(i) / float(n), y = float(j) / float(n);
-      m.positions.push_back({x, y, 0.1f * std::sin(6 * x) * std::cos(5 * y)});
-    }
-  auto id = [n](int i, int j) { return std::uint32_t(j * (n + 1) + i); };
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) {
-      m.triangles.push_back({{id(i, j), id(i + 1, j), id(i + 1, j + 1)}});
-      m.triangles.push_back({{id(i, j), id(i + 1, j + 1), id(i, j + 1)}});
-    }
-  return m;
-}
-
 void expect_same_surface_kind(const Mesh& in, const Mesh& out) {
   const MeshTopology a = topology(in), b = topology(out);
   EXPECT_TRUE(b.is_manifold());
@@ -66,7 +49,7 @@ std::vector<Case> cases() {
   return {{"sphere", make_sphere({.vertices = 3000})},
           {"torus", make_torus(1.0, 0.3, {.vertices = 4000, .noise = 0.001, .seed = 2})},
           {"genus2", make_genus2({.vertices = 5000})},
-          {"sheet", wavy_sheet(50)}};
+          {"sheet", testing::make_wavy_sheet(50)}};
 }
 
 TEST(QuadricFinish, MeetsTheFaceTargetAndKeepsTheTopology) {
