@@ -6,6 +6,7 @@
 #include "stream/analysis/mesh_distance.h"
 #include "stream/core/stopwatch.h"
 #include "stream/finish/quadric_finish.h"
+#include "stream/partition/spatial_order.h"
 #include "stream/pipeline/in_core_simplify.h"
 #include "stream/pipeline/out_of_core_simplify.h"
 
@@ -184,7 +185,9 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   report["peak_rss_after_pieces_bytes"] = result->peak_rss_after_pieces;
   report["peak_rss_after_merge_bytes"] = result->peak_rss_after_merge;
   report["peak_rss_after_loops_bytes"] = result->peak_rss_after_loops;
+  report["reordered"] = result->reordered;
   report["seconds"] = {{"ingest", result->seconds_ingest},
+                       {"reorder", result->seconds_reorder},
                        {"partition", result->seconds_partition},
                        {"sample", result->seconds_sample},
                        {"stitch", result->seconds_stitch},
@@ -211,6 +214,21 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   auto mesh = api::load(source);
   if (!mesh) return mesh.status();
   const double seconds_read = seconds_since(t);
+  // A scattered input is renumbered in spatial order, as the out-of-core engine does, so that
+  // both reach the same output (stream/partition/spatial_order.h).
+  t = Clock::now();
+  stream::OrderProbe probe;
+  probe.add(mesh->view.triangles);
+  const bool reordered = probe.scattered(mesh->view.positions.size());
+  if (reordered) {
+    if (mesh->owned.positions.empty() && mesh->owned.triangles.empty()) {
+      mesh->owned.positions.assign(mesh->view.positions.begin(), mesh->view.positions.end());
+      mesh->owned.triangles.assign(mesh->view.triangles.begin(), mesh->view.triangles.end());
+    }
+    stream::reorder_spatially(mesh->owned.positions, mesh->owned.triangles);
+    mesh->view = mesh->owned.view();
+  }
+  const double seconds_reorder = seconds_since(t);
   const MeshView input = mesh->view;
   if (input.triangles.empty()) return no_faces(source, input.positions.size());
 
@@ -305,7 +323,9 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   if (result->mesher_fallback) report["mesher_fallback_reason"] = result->mesher_fallback_reason;
   report["chunks"] = 1;
   report["peak_rss_bytes"] = stats.peak_rss_bytes;
+  report["reordered"] = reordered;
   report["seconds"] = {{"read", seconds_read},
+                       {"reorder", seconds_reorder},
                        {"sample", result->seconds_sample},
                        {"mesh", result->seconds_mesh},
                        {"write", seconds_write},

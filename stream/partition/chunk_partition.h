@@ -76,6 +76,13 @@ struct PartitionOptions {
   std::function<void(const char*, std::uint64_t, std::uint64_t)> progress;
   // Where the run's temporary directory is made (empty = $TMPDIR, else /tmp).
   std::string tmp_dir;
+  // Renumber an input whose ids are scattered (OrderProbe) in spatial order first
+  // (spatial_order.h): vertex and face ids in the chunk files are then the new ones. For
+  // commands whose output does not name input ids (simplify).
+  bool reorder_scattered = false;
+  // The renumbering's table (0 = from memory_bytes). Tests set it small to force the passes
+  // over several ranges.
+  std::uint64_t reorder_table_bytes = 0;
 };
 
 // The ingest pass's position spill is two files, written at once by two threads: one file's buffered
@@ -138,8 +145,10 @@ struct Partition {
   std::uint64_t bytes_spilled = 0;  // every byte written to temporary files
   std::uint64_t cache_misses = 0;   // blocks read into the bounded cache (a measure of disorder)
   std::uint64_t cache_bytes = 0;    // the cache's size at the end: 1/8 of its budget, grown by reloads
-  std::uint64_t untagged_frames = 0;  // face frames the ring rounds scanned (partly) untagged: windows missing, disorder
+  std::uint64_t untagged_frames = 0;
+  bool reordered = false;           // the input was scattered and renumbered (reorder_scattered)  // face frames the ring rounds scanned (partly) untagged: windows missing, disorder
   double seconds_ingest = 0, seconds_partition = 0;
+  double seconds_reorder = 0;       // the renumbering, when reordered (not in seconds_partition)
   PartitionSteps steps;             // seconds_partition by step
 
   Partition() = default;

@@ -15,6 +15,7 @@
 #include "stream/partition/input_positions.h"
 #include "stream/partition/partition_run.h"
 #include "stream/partition/spill_thread.h"
+#include "stream/partition/spatial_order.h"
 #include "stream/partition/spill_writer.h"
 
 namespace gaussmesh::stream::detail {
@@ -66,11 +67,13 @@ class IngestSink final : public format::MeshSink {
   }
   Status on_triangles(std::span<const Triangle> batch) override {
     faces_count_ += batch.size();
+    probe_.add(batch);
     if (progress_) progress_("ingest", faces_count_, std::max(declared_faces_, faces_count_));
     return spills_.triangles(batch);
   }
   std::uint64_t vertices() const { return vertices_; }
   std::uint64_t faces() const { return faces_count_; }
+  const OrderProbe& probe() const { return probe_; }
   void bounds(Vec3f& lo, Vec3f& hi) const {
     float l[3], h[3];
     for (int a = 0; a < 3; ++a) {
@@ -88,6 +91,7 @@ class IngestSink final : public format::MeshSink {
   const std::function<void(const char*, std::uint64_t, std::uint64_t)>& progress_;
   const bool input_is_file_;
   std::optional<format::MeshHeader::RawVertices> raw_vertices_;
+  OrderProbe probe_;
   std::uint64_t vertices_ = 0, faces_count_ = 0;
   std::uint64_t declared_faces_ = 0;  // the header's count (polygons): untrusted, for progress only
   float lo_[3] = {INFINITY, INFINITY, INFINITY}, hi_[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -134,6 +138,7 @@ Status PartitionRun::ingest(const std::string& input_path, const format::ReadOpt
   }
   out_.vertices = sink.vertices();
   out_.faces = sink.faces();
+  scattered_ = sink.probe().scattered(sink.vertices());
   sink.bounds(out_.lo, out_.hi);
   bytes_spilled_ += faces.bytes();
   return {};

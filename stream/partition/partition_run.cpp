@@ -18,6 +18,11 @@ Status PartitionRun::run(const std::string& input_path, const format::ReadOption
   auto start = std::chrono::steady_clock::now();
   GM_RETURN_IF_ERROR(ingest(input_path, read));
   out_.seconds_ingest = seconds_since(start);
+  if (options_.reorder_scattered && scattered_ && reorder_fits()) {
+    start = std::chrono::steady_clock::now();
+    GM_RETURN_IF_ERROR(reorder());
+    out_.seconds_reorder = seconds_since(start);
+  }
   start = std::chrono::steady_clock::now();
   GM_RETURN_IF_ERROR(plan());
   out_.steps.plan = seconds_since(start);

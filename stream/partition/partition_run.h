@@ -76,6 +76,14 @@ class PartitionRun {
 
  private:
   Status ingest(const std::string& input_path, const format::ReadOptions& read);
+  // The spatial renumbering (reorder.cpp, spatial_order.h) of an input the ingest found
+  // scattered; only for inputs with fewer than 2^32 / 3 faces (corner slots are 32-bit).
+  Status reorder();
+  bool reorder_fits() const;
+  // Calls fn(face id, triangle) for every face of the face spill, in order; a corner beyond the
+  // vertex count is kBadInput.
+  template <class Fn>
+  Status for_each_spilled_face(Fn&& fn);
   Status plan();
   // Calls fn(face id, triangle, tag) for every face in order, tag = tag_of(triangle, windows)
   // (0 when tag_of is nullptr) computed first for each frame on the read-ahead thread (FaceWindows: owners.bin and, when
@@ -121,6 +129,7 @@ class PartitionRun {
   std::unique_ptr<CachedBitmap> has_extras_;
   std::unique_ptr<CachedBitmap> frontier_[2];
   std::uint64_t bytes_spilled_ = 0;
+  bool scattered_ = false;  // the ingest's OrderProbe found the input scattered
   std::unique_ptr<tbb::task_arena> arena_;  // the plan's scans with threads > 1
 };
 

@@ -50,6 +50,8 @@ void record_partition(const Partition& partition, Result& out) {
   out.faces = partition.faces;
   out.chunks = partition.chunks.size();
   out.seconds_ingest = partition.seconds_ingest;
+  out.reordered = partition.reordered;
+  out.seconds_reorder = partition.seconds_reorder;
   out.seconds_partition = partition.seconds_partition;
   out.partition_steps = partition.steps;
   out.peak_rss_after_partition = peak_rss();

@@ -761,6 +761,8 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
     if (!first) return first.status();
   }
   PartitionOptions partition_options = options.partition;
+  // The output names no input ids: a scattered input is renumbered in spatial order first.
+  partition_options.reorder_scattered = true;
   // A target may take the chunked finish, whose pieces are a chunk's owned faces: chunks small
   // enough for a thread's share of the budget (the output does not depend on the chunks).
   if (options.auto_frequency && options.finish.any() && partition_options.max_chunk_faces == 0) {

@@ -1,0 +1,117 @@
+// Records distributed into buckets on disk, for the external passes of the spatial renumbering
+// (reorder.cpp): one temporary file of blocks, each bucket's records in blocks of its own, in the
+// order they were appended. One file and one buffer per bucket, whatever the bucket count, so
+// the memory is the buckets' buffers and a block list (12 bytes a block), and no descriptor
+// limit applies.
+#pragma once
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "format/file_io.h"
+#include "format/status.h"
+#include "stream/partition/posix_io.h"
+
+namespace gaussmesh::stream::detail {
+
+class BucketFile {
+ public:
+  BucketFile() = default;
+  BucketFile(const BucketFile&) = delete;
+  BucketFile& operator=(const BucketFile&) = delete;
+  ~BucketFile() { remove(); }
+
+  // `record_bytes` divides every block; a bucket's buffer holds about buffer_bytes (at least 64
+  // records).
+  format::Status open(const std::string& path, std::size_t buckets, std::size_t record_bytes, std::size_t buffer_bytes) {
+    path_ = path;
+    fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    if (fd_ < 0) return format::Status::error(format::Code::kOutput, path, "cannot create temporary file: " + errno_text());
+    block_ = std::max<std::size_t>(buffer_bytes / record_bytes, 64) * record_bytes;
+    buffers_.clear();
+    buffers_.resize(buckets);
+    used_.assign(buckets, 0);
+    blocks_.assign(buckets, {});
+    return {};
+  }
+  std::size_t buckets() const { return buffers_.size(); }
+  std::uint64_t bytes() const { return end_; }
+
+  // One record of the size given to open().
+  template <class Record>
+  format::Status append(std::size_t bucket, const Record& record) {
+    if (!buffers_[bucket]) buffers_[bucket].reset(new std::byte[block_]);
+    std::memcpy(buffers_[bucket].get() + used_[bucket], &record, sizeof(Record));
+    used_[bucket] += sizeof(Record);
+    if (used_[bucket] == block_) return flush(bucket);
+    return {};
+  }
+  // Writes out what the buffers hold and frees them.
+  format::Status finish() {
+    for (std::size_t b = 0; b < buffers_.size(); ++b) {
+      GM_RETURN_IF_ERROR(flush(b));
+      buffers_[b].reset();
+    }
+    return {};
+  }
+  std::uint64_t bucket_bytes(std::size_t bucket) const {
+    std::uint64_t sum = 0;
+    for (const Block& b : blocks_[bucket]) sum += b.size;
+    return sum;
+  }
+  // Calls fn(bytes) for each block of `bucket`, in order (finish() first).
+  template <class Fn>
+  format::Status read(std::size_t bucket, Fn&& fn) {
+    std::vector<std::byte> buffer(block_);
+    for (const Block& b : blocks_[bucket]) {
+      if (read_some(fd_, buffer.data(), b.size, b.offset) != static_cast<std::int64_t>(b.size)) {
+        return format::Status::error(format::Code::kBadInput, path_, "temporary file is shorter than written");
+      }
+      GM_RETURN_IF_ERROR(fn(std::span<const std::byte>(buffer.data(), b.size)));
+    }
+    return {};
+  }
+  // Closes and deletes the file (idempotent).
+  void remove() {
+    if (fd_ < 0) return;
+    ::close(fd_);
+    ::unlink(path_.c_str());
+    fd_ = -1;
+  }
+
+ private:
+  struct Block {
+    std::uint64_t offset;
+    std::uint32_t size;
+  };
+  format::Status flush(std::size_t bucket) {
+    const std::size_t size = used_[bucket];
+    if (size == 0) return {};
+    if (!format::write_all(fd_, buffers_[bucket].get(), size, end_, true)) {
+      return format::Status::error(format::Code::kOutput, path_, "write failed: " + errno_text());
+    }
+    blocks_[bucket].push_back({end_, static_cast<std::uint32_t>(size)});
+    end_ += size;
+    used_[bucket] = 0;
+    return {};
+  }
+
+  int fd_ = -1;
+  std::string path_;
+  std::size_t block_ = 0;
+  std::vector<std::unique_ptr<std::byte[]>> buffers_;
+  std::vector<std::size_t> used_;
+  std::vector<std::vector<Block>> blocks_;
+  std::uint64_t end_ = 0;
+};
+
+}  // namespace gaussmesh::stream::detail

@@ -1,0 +1,298 @@
+// The spatial renumbering of a scattered input, out of core (the rules are in spatial_order.h;
+// the passes and their cost in docs/partition.md, "Scattered input"). Every pass reads its input
+// sequentially and distributes records into buckets (bucket_file.h) sized so that one bucket's
+// table fits the budget: the renumbering costs the same whatever the input's order.
+#include <cstdio>
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "format/record_file.h"
+#include "stream/partition/bucket_file.h"
+#include "stream/partition/face_spill.h"
+#include "stream/partition/partition_run.h"
+#include "stream/partition/position_scan.h"
+#include "stream/partition/spatial_order.h"
+#include "stream/partition/spill_writer.h"
+
+namespace gaussmesh::stream::detail {
+namespace {
+
+struct PositionRecord {
+  std::uint32_t id;  // new id
+  Vec3f p;
+};
+struct CornerRecord {
+  std::uint32_t slot;  // face * 3 + corner
+  std::uint32_t id;    // old id, then new id
+};
+static_assert(sizeof(PositionRecord) == 16 && sizeof(CornerRecord) == 8);
+
+template <class Record>
+std::span<const Record> records_of(std::span<const std::byte> block) {
+  return {reinterpret_cast<const Record*>(block.data()), block.size() / sizeof(Record)};
+}
+
+std::uint64_t ceil_div(std::uint64_t a, std::uint64_t b) { return (a + b - 1) / b; }
+
+// `count` entries of the old-to-new map from entry `first`.
+Status read_map(const std::string& path, std::uint32_t* out, std::uint64_t first, std::uint64_t count) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return Status::error(Code::kBadInput, path, "cannot open temporary file: " + errno_text());
+  FdCloser closer{fd};
+  if (read_some(fd, out, count * sizeof(std::uint32_t), first * sizeof(std::uint32_t)) !=
+      static_cast<std::int64_t>(count * sizeof(std::uint32_t))) {
+    return Status::error(Code::kBadInput, path, "temporary file is shorter than written");
+  }
+  return {};
+}
+
+}  // namespace
+
+template <class Fn>
+Status PartitionRun::for_each_spilled_face(Fn&& fn) {
+  auto reader = format::RecordReader::open(faces_path_, kFaceSpillRecordKind, sizeof(Triangle));
+  if (!reader) return reader.status();
+  std::uint64_t f = 0;
+  for (;;) {
+    auto frame = (*reader)->next();
+    if (!frame) return frame.status();
+    if (frame->empty()) break;
+    for (const Triangle& t : records_of<Triangle>(*frame)) {
+      for (const std::uint32_t v : t.v) {
+        if (v >= out_.vertices) {
+          return Status::error(Code::kBadInput, faces_path_, "face " + std::to_string(f) + " names vertex " + std::to_string(v) +
+                                                                 " of " + std::to_string(out_.vertices));
+        }
+      }
+      GM_RETURN_IF_ERROR(fn(f, t));
+      ++f;
+    }
+    if (options_.progress) options_.progress("reorder", f, out_.faces);
+  }
+  if (f != out_.faces) return Status::error(Code::kBadInput, faces_path_, "temporary file is shorter than written");
+  return {};
+}
+
+bool PartitionRun::reorder_fits() const { return 3 * out_.faces < UINT32_MAX; }
+
+Status PartitionRun::reorder() {
+  const std::uint64_t vertices = out_.vertices, faces = out_.faces;
+  // Three eighths of the budget for the one table a pass holds (a range of positions, of the
+  // old-to-new map, of face corners, or a run of faces to sort), a sixteenth for the buckets'
+  // buffers, halved between two bucket files when a pass reads one and writes another.
+  const std::uint64_t table = options_.reorder_table_bytes > 0 ? options_.reorder_table_bytes
+                                                                : std::max<std::uint64_t>(options_.memory_bytes / 8 * 3, std::uint64_t{1} << 20);
+  const std::size_t buffers = std::max<std::size_t>(options_.memory_bytes / 16, std::size_t{1} << 20);
+  const std::uint64_t stripe = kPositionStripeVertices;
+  const std::uint64_t range_positions = std::max<std::uint64_t>(table / sizeof(Vec3f) / stripe, 1) * stripe;
+  const std::uint64_t range_ids = std::max<std::uint64_t>(table / sizeof(std::uint32_t), 1024);
+  const std::uint64_t range_faces = std::max<std::uint64_t>(table / sizeof(Triangle), 1024);
+  // Buckets of lowest corners holding about a table of faces each; their counts take a sixth.
+  const std::uint64_t lowest_ranges = std::max<std::uint64_t>(ceil_div(faces * sizeof(Triangle), table), 1);
+  const std::uint64_t range_lowest = std::max<std::uint64_t>(ceil_div(vertices, lowest_ranges), 1);
+  const std::uint64_t run_faces = range_faces;
+
+  // 1. Vertices per cell, and each cell's first new id in Morton order.
+  const Grid grid = Grid::make(out_.lo, out_.hi);
+  std::vector<std::uint32_t> code(grid.cells()), next(grid.cells(), 0);
+  for (std::uint32_t c = 0; c < grid.cells(); ++c) code[c] = grid.morton(c);
+  const auto serial = [](std::size_t n, auto&& fn) { fn(std::size_t{0}, n); };
+  GM_RETURN_IF_ERROR(scan_positions(
+      *vertex_files_, vertices, serial, [](std::uint64_t, std::span<const Vec3f>, std::size_t, std::size_t) {},
+      [&](std::uint64_t, std::span<const Vec3f> batch) {
+        for (const Vec3f& p : batch) ++next[code[grid.cell(p)]];
+        return Status{};
+      }));
+  {
+    std::uint32_t sum = 0;
+    for (std::uint32_t& n : next) sum += std::exchange(n, sum);
+  }
+
+  // 2. Each vertex's new id: the map (old id order) and the positions by range of new ids.
+  const std::string map_path = out_.dir + "/reorder-map.bin";
+  SpillWriter map;
+  GM_RETURN_IF_ERROR(map.open(map_path, std::size_t{1} << 20));
+  BucketFile moved;
+  GM_RETURN_IF_ERROR(moved.open(out_.dir + "/reorder-positions.bin", ceil_div(vertices, range_positions),
+                                sizeof(PositionRecord), buffers / std::max<std::uint64_t>(ceil_div(vertices, range_positions), 1)));
+  std::vector<std::uint32_t> renamed(stripe);
+  GM_RETURN_IF_ERROR(scan_positions(
+      *vertex_files_, vertices, serial, [](std::uint64_t, std::span<const Vec3f>, std::size_t, std::size_t) {},
+      [&](std::uint64_t, std::span<const Vec3f> batch) {
+        for (std::size_t i = 0; i < batch.size(); ++i) {
+          const std::uint32_t n = next[code[grid.cell(batch[i])]]++;
+          renamed[i] = n;
+          GM_RETURN_IF_ERROR(moved.append(n / range_positions, PositionRecord{n, batch[i]}));
+        }
+        return map.write(renamed.data(), batch.size() * sizeof(std::uint32_t));
+      }));
+  GM_RETURN_IF_ERROR(map.close());
+  GM_RETURN_IF_ERROR(moved.finish());
+  bytes_spilled_ += map.bytes() + moved.bytes();
+  std::vector<std::uint32_t>().swap(code);
+  std::vector<std::uint32_t>().swap(next);
+
+  // 3. The position files in the new order (they replace the input's own records too).
+  {
+    SpillWriter positions[kPositionFiles];
+    for (std::uint32_t i = 0; i < kPositionFiles; ++i)
+      GM_RETURN_IF_ERROR(positions[i].open(vertex_files_->positions[i], std::size_t{1} << 20));
+    std::vector<Vec3f> range(std::min(range_positions, vertices));
+    for (std::size_t b = 0; b < moved.buckets(); ++b) {
+      const std::uint64_t first = b * range_positions, count = std::min(range_positions, vertices - first);
+      std::uint64_t got = 0;
+      GM_RETURN_IF_ERROR(moved.read(b, [&](std::span<const std::byte> block) {
+        for (const PositionRecord& r : records_of<PositionRecord>(block)) range[r.id - first] = r.p;
+        got += block.size() / sizeof(PositionRecord);
+        return Status{};
+      }));
+      if (got != count) return Status::error(Code::kProcessing, "reorder", "a range of positions lost a vertex");
+      for (std::uint64_t v = first; v < first + count; v += stripe) {
+        const std::uint64_t n = std::min(stripe, first + count - v);
+        GM_RETURN_IF_ERROR(positions[position_file(static_cast<std::uint32_t>(v))].write(&range[v - first], n * sizeof(Vec3f)));
+      }
+    }
+    for (SpillWriter& p : positions) {
+      GM_RETURN_IF_ERROR(p.close());
+      bytes_spilled_ += p.bytes();
+    }
+    moved.remove();
+    vertex_files_->input.reset();
+  }
+
+  // 4–6. Faces renamed, in input order, by range of their lowest corner. When the whole map fits
+  // the table, corners are renamed as the face spill is read; else every corner goes by range of
+  // old ids (4), is renamed one range of the map at a time, by range of faces (5), and faces are
+  // put together again one range at a time (6).
+  BucketFile grouped;
+  GM_RETURN_IF_ERROR(grouped.open(out_.dir + "/reorder-faces.bin", lowest_ranges, sizeof(Triangle), buffers / 2 / lowest_ranges));
+  const std::uint64_t old_ranges = ceil_div(vertices, range_ids);
+  if (old_ranges <= 1) {
+    std::vector<std::uint32_t> whole(vertices);
+    GM_RETURN_IF_ERROR(read_map(map_path, whole.data(), 0, vertices));
+    ::unlink(map_path.c_str());
+    GM_RETURN_IF_ERROR(for_each_spilled_face([&](std::uint64_t, Triangle t) {
+      for (std::uint32_t& v : t.v) v = whole[v];
+      return grouped.append(lowest_corner(t) / range_lowest, t);
+    }));
+  } else {
+    // 4. Every corner, by range of old ids.
+    BucketFile corners;
+    GM_RETURN_IF_ERROR(corners.open(out_.dir + "/reorder-corners.bin", old_ranges, sizeof(CornerRecord), buffers / old_ranges));
+    GM_RETURN_IF_ERROR(for_each_spilled_face([&](std::uint64_t f, const Triangle& t) {
+      for (std::uint32_t k = 0; k < 3; ++k)
+        GM_RETURN_IF_ERROR(corners.append(t.v[k] / range_ids, CornerRecord{static_cast<std::uint32_t>(3 * f + k), t.v[k]}));
+      return Status{};
+    }));
+    GM_RETURN_IF_ERROR(corners.finish());
+    bytes_spilled_ += corners.bytes();
+
+    // 5. New ids for the corners, from the map one range at a time, by range of faces.
+    BucketFile renamed_corners;
+    const std::uint64_t face_ranges = std::max<std::uint64_t>(ceil_div(faces, range_faces), 1);
+    GM_RETURN_IF_ERROR(renamed_corners.open(out_.dir + "/reorder-renamed.bin", face_ranges, sizeof(CornerRecord), buffers / 2 / face_ranges));
+    {
+      std::vector<std::uint32_t> slice(std::min(range_ids, vertices));
+      for (std::size_t r = 0; r < old_ranges; ++r) {
+        const std::uint64_t first = r * range_ids, count = std::min(range_ids, vertices - first);
+        GM_RETURN_IF_ERROR(read_map(map_path, slice.data(), first, count));
+        GM_RETURN_IF_ERROR(corners.read(r, [&](std::span<const std::byte> block) {
+          for (const CornerRecord& c : records_of<CornerRecord>(block)) {
+            GM_RETURN_IF_ERROR(renamed_corners.append(c.slot / (3 * range_faces), CornerRecord{c.slot, slice[c.id - first]}));
+          }
+          return Status{};
+        }));
+      }
+    }
+    corners.remove();
+    ::unlink(map_path.c_str());
+    GM_RETURN_IF_ERROR(renamed_corners.finish());
+    bytes_spilled_ += renamed_corners.bytes();
+
+    // 6. Whole faces again, in input order.
+    {
+      std::vector<std::uint32_t> corner(3 * std::min(range_faces, faces));
+      for (std::size_t r = 0; r < face_ranges; ++r) {
+        const std::uint64_t first = r * range_faces, count = std::min(range_faces, faces - first);
+        std::uint64_t got = 0;
+        GM_RETURN_IF_ERROR(renamed_corners.read(r, [&](std::span<const std::byte> block) {
+          for (const CornerRecord& c : records_of<CornerRecord>(block)) corner[c.slot - 3 * first] = c.id;
+          got += block.size() / sizeof(CornerRecord);
+          return Status{};
+        }));
+        if (got != 3 * count) return Status::error(Code::kProcessing, "reorder", "a range of faces lost a corner");
+        for (std::uint64_t i = 0; i < count; ++i) {
+          const Triangle t{{corner[3 * i], corner[3 * i + 1], corner[3 * i + 2]}};
+          GM_RETURN_IF_ERROR(grouped.append(lowest_corner(t) / range_lowest, t));
+        }
+      }
+    }
+    renamed_corners.remove();
+  }
+  GM_RETURN_IF_ERROR(grouped.finish());
+  bytes_spilled_ += grouped.bytes();
+
+  // 7. The face spill sorted by lowest corner, ties in input order: each bucket counted, then
+  // sorted in runs of lowest corners that fit the table (one read each); a vertex that is the
+  // lowest corner of more faces than that is a run of its own, streamed (its faces are already
+  // in input order).
+  const std::string ordered_path = out_.dir + "/faces-ordered.gmr";
+  FaceSpill ordered;
+  GM_RETURN_IF_ERROR(ordered.open(ordered_path));
+  {
+    std::vector<Triangle> run;
+    std::vector<std::uint64_t> at(range_lowest + 1);
+    for (std::size_t b = 0; b < lowest_ranges; ++b) {
+      const std::uint64_t base = b * range_lowest, ids = std::min(range_lowest, vertices - base);
+      std::fill(at.begin(), at.end(), 0);
+      GM_RETURN_IF_ERROR(grouped.read(b, [&](std::span<const std::byte> block) {
+        for (const Triangle& t : records_of<Triangle>(block)) ++at[lowest_corner(t) - base];
+        return Status{};
+      }));
+      for (std::uint64_t v0 = 0; v0 < ids;) {
+        std::uint64_t v1 = v0 + 1, total = at[v0];
+        while (v1 < ids && total + at[v1] <= run_faces) total += at[v1++];
+        if (total == 0) {
+          v0 = v1;
+          continue;
+        }
+        const bool streamed = total > run_faces;  // one vertex alone
+        std::vector<std::uint64_t> offset(v1 - v0, 0);
+        for (std::uint64_t v = v0 + 1; v < v1; ++v) offset[v - v0] = offset[v - v0 - 1] + at[v - 1];
+        if (!streamed) run.resize(total);
+        GM_RETURN_IF_ERROR(grouped.read(b, [&](std::span<const std::byte> block) {
+          std::span<const Triangle> in = records_of<Triangle>(block);
+          if (streamed) {
+            run.clear();
+            for (const Triangle& t : in)
+              if (lowest_corner(t) - base == v0) run.push_back(t);
+            return ordered.write(run);
+          }
+          for (const Triangle& t : in) {
+            const std::uint64_t v = lowest_corner(t) - base;
+            if (v >= v0 && v < v1) run[offset[v - v0]++] = t;
+          }
+          return Status{};
+        }));
+        if (!streamed) GM_RETURN_IF_ERROR(ordered.write(run));
+        v0 = v1;
+      }
+    }
+  }
+  GM_RETURN_IF_ERROR(ordered.close());
+  grouped.remove();
+  bytes_spilled_ += ordered.bytes();
+  if (std::rename(ordered_path.c_str(), faces_path_.c_str()) != 0) {
+    return Status::error(Code::kOutput, faces_path_, "cannot replace temporary file: " + errno_text());
+  }
+  out_.reordered = true;
+  return {};
+}
+
+}  // namespace gaussmesh::stream::detail

@@ -1,0 +1,55 @@
+// The in-core form of the spatial renumbering (spatial_order.h); the out-of-core form is
+// PartitionRun::reorder (reorder.cpp), which reaches the same numbering in bounded memory.
+#include "stream/partition/spatial_order.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "stream/partition/cell_grid.h"
+
+namespace gaussmesh::stream {
+
+void reorder_spatially(std::vector<format::Vec3f>& positions, std::vector<format::Triangle>& faces) {
+  // The bounds of the finite coordinates, as the ingest pass keeps them (0 on an axis without any).
+  float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (const format::Vec3f& p : positions) {
+    const float c[3] = {p.x, p.y, p.z};
+    for (int a = 0; a < 3; ++a) {
+      if (!std::isfinite(c[a])) continue;
+      lo[a] = std::min(lo[a], c[a]);
+      hi[a] = std::max(hi[a], c[a]);
+    }
+  }
+  for (int a = 0; a < 3; ++a)
+    if (!(lo[a] <= hi[a])) lo[a] = hi[a] = 0;
+  const detail::Grid grid = detail::Grid::make({lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]});
+
+  // Vertices: a counting sort by the Morton code of their cell, stable in id.
+  std::vector<std::uint32_t> start(grid.cells() + 1, 0), code(grid.cells());
+  for (std::uint32_t c = 0; c < grid.cells(); ++c) code[c] = grid.morton(c);
+  for (const format::Vec3f& p : positions) ++start[code[grid.cell(p)] + 1];
+  for (std::size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
+  std::vector<std::uint32_t> renamed(positions.size());
+  std::vector<format::Vec3f> moved(positions.size());
+  for (std::uint32_t v = 0; v < positions.size(); ++v) {
+    const std::uint32_t n = start[code[grid.cell(positions[v])]]++;
+    renamed[v] = n;
+    moved[n] = positions[v];
+  }
+  positions.swap(moved);
+  moved = {};
+
+  // Faces: corners renamed, then a stable counting sort by their lowest corner.
+  std::vector<std::uint64_t> first(positions.size() + 1, 0);
+  for (format::Triangle& t : faces) {
+    for (std::uint32_t& v : t.v)
+      if (v < renamed.size()) v = renamed[v];
+    ++first[std::min<std::size_t>(lowest_corner(t), positions.size() - 1) + 1];
+  }
+  for (std::size_t i = 1; i < first.size(); ++i) first[i] += first[i - 1];
+  std::vector<format::Triangle> sorted(faces.size());
+  for (const format::Triangle& t : faces) sorted[first[std::min<std::size_t>(lowest_corner(t), positions.size() - 1)]++] = t;
+  faces.swap(sorted);
+}
+
+}  // namespace gaussmesh::stream

@@ -1,0 +1,172 @@
+// The spatial renumbering of scattered input (stream/partition/spatial_order.h): the probe tells
+// shuffled ids from ordered ones; the in-core renumbering keeps the surface and its orientation
+// and sorts as the rules say; and the partition's out-of-core renumbering, over one range or
+// many, reaches exactly the in-core numbering (chunk files hold the renumbered ids).
+#include "stream/partition/spatial_order.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <numeric>
+#include <random>
+#include <vector>
+
+#include "format/mesh_writer.h"
+#include "format/output_file.h"
+#include "stream/core/mesh.h"
+#include "stream/partition/cell_grid.h"
+#include "stream/partition/chunk_partition.h"
+#include "tests/support/shapes.h"
+#include "tests/support/test_util.h"
+
+namespace gaussmesh::stream {
+namespace {
+
+// A wavy sheet with more vertices than the probe's window, and beside it a fan of kFan faces
+// whose apex lies alone in the lowest cell: after renumbering the apex is vertex 0 and the
+// lowest corner of every fan face, more faces than a small table's run holds.
+constexpr std::uint32_t kFan = 8000;
+Mesh sheet_and_fan() {
+  Mesh mesh = testing::make_wavy_sheet(540);
+  const auto apex = static_cast<std::uint32_t>(mesh.positions.size());
+  mesh.positions.push_back({-1, -1, -1});
+  for (std::uint32_t i = 0; i <= kFan; ++i) {
+    const double a = 0.5 * M_PI * i / kFan;
+    mesh.positions.push_back({float(-1 + 0.8 * std::cos(a)), float(-1 + 0.8 * std::sin(a)), -1});
+  }
+  for (std::uint32_t i = 0; i < kFan; ++i) mesh.triangles.push_back({{apex, apex + 1 + i, apex + 2 + i}});
+  return mesh;
+}
+
+Mesh shuffled(const Mesh& mesh, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::vector<std::uint32_t> to_new(mesh.positions.size()), order(mesh.triangles.size());
+  std::iota(to_new.begin(), to_new.end(), 0u);
+  std::iota(order.begin(), order.end(), 0u);
+  std::shuffle(to_new.begin(), to_new.end(), rng);
+  std::shuffle(order.begin(), order.end(), rng);
+  Mesh out;
+  out.positions.resize(mesh.positions.size());
+  for (std::size_t v = 0; v < mesh.positions.size(); ++v) out.positions[to_new[v]] = mesh.positions[v];
+  for (const std::uint32_t f : order) {
+    const Triangle& t = mesh.triangles[f];
+    out.triangles.push_back({{to_new[t.v[0]], to_new[t.v[1]], to_new[t.v[2]]}});
+  }
+  return out;
+}
+
+bool scattered(const Mesh& mesh) {
+  OrderProbe probe;
+  probe.add(mesh.triangles);
+  return probe.scattered(mesh.positions.size());
+}
+
+// Every face as its corners' coordinates, rotated to start at the least corner: the surface
+// with its orientation, whatever the numbering.
+using Corners = std::array<std::array<float, 3>, 3>;
+std::vector<Corners> surface(const Mesh& mesh) {
+  std::vector<Corners> faces;
+  for (const Triangle& t : mesh.triangles) {
+    Corners c;
+    for (int k = 0; k < 3; ++k) {
+      const Vec3f& p = mesh.positions[t.v[k]];
+      c[k] = {p.x, p.y, p.z};
+    }
+    std::rotate(c.begin(), std::min_element(c.begin(), c.end()), c.end());
+    faces.push_back(c);
+  }
+  std::sort(faces.begin(), faces.end());
+  return faces;
+}
+
+TEST(SpatialOrder, TheProbeTellsShuffledIdsFromOrderedOnes) {
+  const Mesh mesh = sheet_and_fan();
+  ASSERT_GT(mesh.positions.size(), std::size_t{OrderProbe::kSlots} << OrderProbe::kBlockBits);
+  EXPECT_FALSE(scattered(mesh));
+  EXPECT_TRUE(scattered(shuffled(mesh, 7)));
+  // Within the window, any order is cheap: a small shuffled mesh is not scattered.
+  EXPECT_FALSE(scattered(shuffled(testing::make_wavy_sheet(200), 7)));
+}
+
+TEST(SpatialOrder, RenumberingKeepsTheSurfaceAndSortsByCellThenLowestCorner) {
+  const Mesh input = shuffled(sheet_and_fan(), 11);
+  Mesh mesh = input;
+  reorder_spatially(mesh.positions, mesh.triangles);
+  ASSERT_EQ(mesh.positions.size(), input.positions.size());
+  ASSERT_EQ(mesh.triangles.size(), input.triangles.size());
+  EXPECT_TRUE(surface(mesh) == surface(input));
+  Vec3f lo = mesh.positions[0], hi = mesh.positions[0];
+  for (const Vec3f& p : mesh.positions) {
+    lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+    hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+  }
+  const detail::Grid grid = detail::Grid::make(lo, hi);
+  for (std::size_t v = 1; v < mesh.positions.size(); ++v)
+    ASSERT_LE(grid.morton(grid.cell(mesh.positions[v - 1])), grid.morton(grid.cell(mesh.positions[v]))) << v;
+  for (std::size_t f = 1; f < mesh.triangles.size(); ++f)
+    ASSERT_LE(lowest_corner(mesh.triangles[f - 1]), lowest_corner(mesh.triangles[f])) << f;
+  EXPECT_EQ(mesh.positions[0].x, -1.0f);  // the fan's apex, alone in the lowest cell
+  EXPECT_FALSE(scattered(mesh));
+  // Ties keep the input's order: renumbering the same mesh again changes nothing.
+  Mesh again = mesh;
+  reorder_spatially(again.positions, again.triangles);
+  EXPECT_EQ(std::memcmp(again.triangles.data(), mesh.triangles.data(), mesh.triangles.size() * sizeof(Triangle)), 0);
+}
+
+TEST(SpatialOrder, OutOfCoreRenumberingIsTheInCoreOneOverOneRangeOrMany) {
+  const Mesh input = shuffled(sheet_and_fan(), 13);
+  Mesh expected = input;
+  reorder_spatially(expected.positions, expected.triangles);
+  testing::ScratchDir dir;
+  {
+    auto out = format::OutputFile::create(dir.file("in.ply"), true);
+    ASSERT_TRUE(out.is_ok());
+    ASSERT_TRUE(format::write_ply(**out, input.view(), {}).is_ok());
+    ASSERT_TRUE((*out)->commit().is_ok());
+  }
+  // 0: the budget's table (one range of the map); 64 KiB: dozens of ranges, and the fan's apex
+  // is the lowest corner of more faces than a run holds (streamed).
+  for (const std::uint64_t table : {std::uint64_t{0}, std::uint64_t{64} << 10}) {
+    SCOPED_TRACE("table " + std::to_string(table));
+    PartitionOptions options;
+    options.rings = 1;
+    options.memory_bytes = std::uint64_t{64} << 20;
+    options.max_chunk_faces = 100000;
+    options.threads = 2;
+    options.reorder_scattered = true;
+    options.reorder_table_bytes = table;
+    options.tmp_dir = dir.path().string();
+    auto partition = partition_mesh(dir.file("in.ply"), {}, options);
+    ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
+    EXPECT_TRUE(partition->reordered);
+    std::uint64_t owned = 0;
+    for (const ChunkInfo& info : partition->chunks) {
+      auto chunk = load_chunk(info);
+      ASSERT_TRUE(chunk.is_ok()) << chunk.status().to_string();
+      for (std::size_t v = 0; v < chunk->positions.size(); ++v) {
+        const Vec3f& want = expected.positions[chunk->global_vertex[v]];
+        ASSERT_EQ(std::memcmp(&chunk->positions[v], &want, sizeof(Vec3f)), 0) << "vertex " << chunk->global_vertex[v];
+      }
+      for (std::size_t f = 0; f < chunk->triangles.size(); ++f) {
+        if (!chunk->owned_face[f]) continue;
+        ++owned;
+        const Triangle& want = expected.triangles[chunk->global_face[f]];
+        for (int k = 0; k < 3; ++k) ASSERT_EQ(chunk->global_vertex[chunk->triangles[f].v[k]], want.v[k]) << "face " << chunk->global_face[f];
+      }
+    }
+    EXPECT_EQ(owned, expected.triangles.size());
+  }
+  // Without the option (sample, whose output names input ids), the ids stay the input's.
+  PartitionOptions options;
+  options.rings = 1;
+  options.tmp_dir = dir.path().string();
+  auto partition = partition_mesh(dir.file("in.ply"), {}, options);
+  ASSERT_TRUE(partition.is_ok());
+  EXPECT_FALSE(partition->reordered);
+}
+
+}  // namespace
+}  // namespace gaussmesh::stream
