@@ -41,7 +41,8 @@ struct LoadedMesh {
   MeshView view;
   MeshFormat format = MeshFormat::kUnknown;  // as read (kUnknown for a mesh in memory)
 };
-Result<LoadedMesh> load(const Source& source);
+// weld_stl: format::ReadOptions::weld_stl.
+Result<LoadedMesh> load(const Source& source, bool weld_stl = true);
 
 // The out-of-core engines read a path ("-": standard input).
 std::string stream_path(const Source& source);

@@ -94,6 +94,10 @@ Status no_faces(const Source& source, std::uint64_t vertices) {
   return Status::error(Code::kBadInput, source.name(), "no faces to simplify (" + std::to_string(vertices) + " vertices)");
 }
 
+stream::Weld stream_weld(Weld weld) {
+  return weld == Weld::kOn ? stream::Weld::kOn : weld == Weld::kOff ? stream::Weld::kOff : stream::Weld::kAuto;
+}
+
 Status empty_approximation(const Source& source) {
   return Status::error(Code::kProcessing, source.name(), "the approximation has no faces (too few samples: raise --frequency)");
 }
@@ -115,7 +119,10 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
       progress(pass, done, total, faces);
     };
   }
-  auto result = stream::simplify_out_of_core(api::stream_path(source), api::read_options(source), options);
+  options.partition.weld = stream_weld(o.weld);
+  format::ReadOptions read = api::read_options(source);
+  read.weld_stl = o.weld == Weld::kOff;  // else STL comes as a soup, welded with the rest in bounded memory
+  auto result = stream::simplify_out_of_core(api::stream_path(source), read, options);
   if (!result) return result.status();
   if (result->faces == 0) return no_faces(source, result->vertices);
   const std::uint64_t output_faces = result->parts ? result->parts->face_count() : result->mesh.triangles.size();
@@ -129,7 +136,8 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   const double seconds_write = seconds_since(t);
 
   SimplifyStats stats;
-  stats.input_vertices = result->vertices;
+  stats.input_vertices = result->vertices + result->welded_vertices;
+  stats.welded_vertices = result->welded_vertices;
   stats.input_faces = result->faces;
   stats.output_vertices = output_vertices;
   stats.output_faces = output_faces;
@@ -141,7 +149,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   stats.peak_rss_bytes = peak_rss_bytes();
   stats.seconds = seconds_since(started);
 
-  Json report = common_report(source, sink, o, result->vertices, result->faces, spheres[result->chosen], sampler,
+  Json report = common_report(source, sink, o, stats.input_vertices, result->faces, spheres[result->chosen], sampler,
                               *result, result->chosen, *bytes);
   t = Clock::now();
   result->parts.reset();  // and its temporary files
@@ -186,6 +194,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   report["peak_rss_after_merge_bytes"] = result->peak_rss_after_merge;
   report["peak_rss_after_loops_bytes"] = result->peak_rss_after_loops;
   report["reordered"] = result->reordered;
+  report["welded_vertices"] = result->welded_vertices;
   report["seconds"] = {{"ingest", result->seconds_ingest},
                        {"reorder", result->seconds_reorder},
                        {"partition", result->seconds_partition},
@@ -211,21 +220,23 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
                                        const std::vector<stream::GaussSphereOptions>& spheres,
                                        const stream::SamplerOptions& sampler, Clock::time_point started) {
   auto t = Clock::now();
-  auto mesh = api::load(source);
+  auto mesh = api::load(source, o.weld == Weld::kOff);
   if (!mesh) return mesh.status();
   const double seconds_read = seconds_since(t);
-  // A scattered input is renumbered in spatial order, as the out-of-core engine does, so that
-  // both reach the same output (stream/partition/spatial_order.h).
+  // A scattered input is renumbered in spatial order, and a soup welded, as the out-of-core
+  // engine does, so that both reach the same output (stream/partition/spatial_order.h).
   t = Clock::now();
   stream::OrderProbe probe;
   probe.add(mesh->view.triangles);
-  const bool reordered = probe.scattered(mesh->view.positions.size());
+  const bool weld = stream::should_weld(stream_weld(o.weld), mesh->view.positions.size(), mesh->view.triangles.size());
+  const bool reordered = weld || probe.scattered(mesh->view.positions.size());
+  std::uint64_t welded = 0;
   if (reordered) {
     if (mesh->owned.positions.empty() && mesh->owned.triangles.empty()) {
       mesh->owned.positions.assign(mesh->view.positions.begin(), mesh->view.positions.end());
       mesh->owned.triangles.assign(mesh->view.triangles.begin(), mesh->view.triangles.end());
     }
-    stream::reorder_spatially(mesh->owned.positions, mesh->owned.triangles);
+    welded = stream::reorder_spatially(mesh->owned.positions, mesh->owned.triangles, weld);
     mesh->view = mesh->owned.view();
   }
   const double seconds_reorder = seconds_since(t);
@@ -278,7 +289,8 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   const double seconds_write = seconds_since(t);
 
   SimplifyStats stats;
-  stats.input_vertices = input.positions.size();
+  stats.input_vertices = input.positions.size() + welded;
+  stats.welded_vertices = welded;
   stats.input_faces = input.triangles.size();
   stats.output_vertices = result->mesh.positions.size();
   stats.output_faces = result->mesh.triangles.size();
@@ -288,7 +300,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   stats.peak_rss_bytes = peak_rss_bytes();
   stats.seconds = seconds_since(started);
 
-  Json report = common_report(source, sink, o, input.positions.size(), input.triangles.size(),
+  Json report = common_report(source, sink, o, stats.input_vertices, input.triangles.size(),
                               options.spheres[result->orientation_index], options.sampler, *result,
                               result->orientation_index, *bytes);
   finish_report(report, finish, finished, stats);
@@ -324,6 +336,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   report["chunks"] = 1;
   report["peak_rss_bytes"] = stats.peak_rss_bytes;
   report["reordered"] = reordered;
+  report["welded_vertices"] = welded;
   report["seconds"] = {{"read", seconds_read},
                        {"reorder", seconds_reorder},
                        {"sample", result->seconds_sample},

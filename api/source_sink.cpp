@@ -130,7 +130,7 @@ format::ReadOptions read_options(const Source& source) {
 
 std::string stream_path(const Source& source) { return source.kind == Source::Kind::kFile ? source.path : "-"; }
 
-Result<LoadedMesh> load(const Source& source) {
+Result<LoadedMesh> load(const Source& source, bool weld_stl) {
   LoadedMesh loaded;
   if (source.kind == Source::Kind::kMemory) {
     for (const Triangle& t : source.mesh.triangles) {
@@ -147,9 +147,13 @@ Result<LoadedMesh> load(const Source& source) {
   stream::MeshBuilder builder;
   if (source.kind == Source::Kind::kBytes) {
     auto bytes = format::ByteSource::from_memory(source.bytes, source.path);
-    GM_RETURN_IF_ERROR(format::read_mesh(*bytes, read_options(source), builder));
+    format::ReadOptions read = read_options(source);
+    read.weld_stl = weld_stl;
+    GM_RETURN_IF_ERROR(format::read_mesh(*bytes, read, builder));
   } else {
-    GM_RETURN_IF_ERROR(format::read_mesh_file(stream_path(source), read_options(source), builder));
+    format::ReadOptions read = read_options(source);
+    read.weld_stl = weld_stl;
+    GM_RETURN_IF_ERROR(format::read_mesh_file(stream_path(source), read, builder));
   }
   loaded.format = builder.header().format;
   loaded.owned = builder.take();

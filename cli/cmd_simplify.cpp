@@ -23,6 +23,7 @@ struct SimplifyArgs {
   double ratio = 0;
   std::string max_error;  // a distance, or a percentage of the diagonal ("0.1%")
   bool measure = false;
+  bool weld = false, no_weld = false;
   int qp = 14;
   int cl = 7;
   CommonFlags common;
@@ -71,6 +72,7 @@ int run_simplify(const SimplifyArgs& args, const std::function<bool(const char*)
                                       "unknown output format '" + args.output_format + "' (draco, ply, ply-ascii, obj)"));
   }
   SimplifyOptions options;
+  options.weld = args.weld ? Weld::kOn : args.no_weld ? Weld::kOff : Weld::kAuto;
   if (args.mesher == "patch") options.mesher = Mesher::kPatch;
   else if (args.mesher == "voronoi") options.mesher = Mesher::kVoronoi;
   else return report_error(Status::error(Code::kUsage, "--mesher", "expected patch or voronoi, got '" + args.mesher + "'"));
@@ -139,6 +141,8 @@ void register_simplify(CLI::App& app, Runner& run) {
   sub->add_option("--max-error", args->max_error,
                   "no collapse whose estimated error passes E (input units), or E% of the bounding-box diagonal");
   sub->add_flag("--measure", args->measure, "add the output's Hausdorff and RMS distance to the input to the report (in core)");
+  auto* weld = sub->add_flag("--weld", args->weld, "join vertices at exactly the same position first (default: for a triangle soup)");
+  sub->add_flag("--no-weld", args->no_weld, "never join vertices by position (STL is then welded by its reader, in memory that grows with the mesh)")->excludes(weld);
   sub->add_option("--mesher", args->mesher, "patch (default, topology-preserving) or voronoi");
   sub->add_option("--qp", args->qp, "Draco position quantization bits 1-24 (default 14; encoder cost doubles per bit)")->check(CLI::Range(1, 24));
   sub->add_option("--cl", args->cl, "Draco compression level 0-10 (default 7)")->check(CLI::Range(0, 10));

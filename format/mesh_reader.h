@@ -14,6 +14,9 @@ struct ReadOptions {
   MeshFormat format = MeshFormat::kUnknown;
   // Vertices / triangles per sink call.
   size_t batch_size = size_t{1} << 16;
+  // STL: weld corners at equal positions in a hash table that grows with the mesh; false: each
+  // corner is a vertex of its own, in fixed memory (a soup, for a caller that welds).
+  bool weld_stl = true;
 };
 
 // Looks at the first bytes (without consuming them) and names the format, or kUnknown.

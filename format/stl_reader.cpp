@@ -2,6 +2,8 @@
 // (solid / facet normal / outer loop / vertex / endloop / endfacet / endsolid). STL repeats
 // each corner position in every facet, so vertices are welded by exact position in a hash
 // table: the one reader whose memory grows with the mesh (unique vertices). docs/formats.md.
+// Without ReadOptions::weld_stl every corner is a vertex of its own (a soup) and the memory is
+// fixed: simplify welds the soup itself, in bounded memory (stream/partition/spatial_order.h).
 #include "format/stl_reader.h"
 
 #include <sys/mman.h>
@@ -178,13 +180,17 @@ class VertexWelder {
 // Shared by both encodings: welds a corner and hands out its index.
 class StlCorners {
  public:
-  StlCorners(MeshBatcher& batcher) : batcher_(batcher) {}
+  StlCorners(MeshBatcher& batcher, bool weld) : batcher_(batcher), weld_(weld) {}
 
   Result<VertexIndex> corner(const Vec3f& p) {
     uint64_t next = batcher_.vertex_count();
     if (next >= kMaxVertices) {
       return Status::error(Code::kResources, "",
                            "more than " + std::to_string(kMaxVertices) + " unique vertices are not supported");
+    }
+    if (!weld_) {  // every corner its own vertex: a soup, welded later (ReadOptions::weld_stl)
+      GM_RETURN_IF_ERROR(batcher_.add_vertex(p));
+      return static_cast<VertexIndex>(next);
     }
     if (!welder_.ok()) return Status::error(Code::kResources, "", "out of memory for the STL vertex table");
     if (welder_.full()) GM_RETURN_IF_ERROR(welder_.grow());
@@ -195,6 +201,7 @@ class StlCorners {
 
  private:
   MeshBatcher& batcher_;
+  const bool weld_;
   VertexWelder welder_;
 };
 
@@ -232,7 +239,7 @@ Status read_binary_stl(ByteSource& source, const ReadOptions& options, MeshSink&
   GM_RETURN_IF_ERROR(sink.on_header(header));
 
   MeshBatcher batcher(sink, options.batch_size);
-  StlCorners corners(batcher);
+  StlCorners corners(batcher, options.weld_stl);
   uint64_t done = 0;
   while (done < count) {
     uint64_t want = std::min<uint64_t>(count - done, kRecordsPerRefill);
@@ -273,7 +280,7 @@ Status read_binary_stl(ByteSource& source, const ReadOptions& options, MeshSink&
 class AsciiStlReader {
  public:
   AsciiStlReader(ByteSource& source, const ReadOptions& options, MeshSink& sink)
-      : source_(source), sink_(sink), batcher_(sink, options.batch_size), corners_(batcher_) {}
+      : source_(source), sink_(sink), batcher_(sink, options.batch_size), corners_(batcher_, options.weld_stl) {}
 
   Status run() {
     MeshHeader header;

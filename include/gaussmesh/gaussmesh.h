@@ -159,8 +159,15 @@ struct TargetOptions {
   bool any() const { return faces > 0 || ratio > 0 || max_error > 0; }
 };
 
+// Welding joins vertices at exactly the same position (every bit) before the run: kAuto welds
+// an input with at least as many vertices as faces (a triangle soup, as STL and many exporters
+// write; STL is read as one, unless kOff, when its reader welds it in a table that grows with the
+// mesh). docs/partition.md, "Scattered input and soups".
+enum class Weld { kAuto, kOn, kOff };
+
 struct SimplifyOptions {
   TargetOptions target;
+  Weld weld = Weld::kAuto;
   SamplingOptions sampling;
   Mesher mesher = Mesher::kPatch;  // kVoronoi runs in core only
   ResourceOptions resources;
@@ -171,6 +178,7 @@ struct SimplifyOptions {
 // docs/cli.md, "Reports"): what `gaussmesh … --report` writes.
 struct SimplifyStats {
   std::uint64_t input_vertices = 0, input_faces = 0;
+  std::uint64_t welded_vertices = 0;  // input vertices joined to another at the same position
   std::uint64_t target_faces = 0;  // the face target the run resolved (0: none)
   std::uint64_t approximation_faces = 0;  // the Gauss approximation's faces, before the finish
   double estimated_error = 0;      // the finish's largest estimated collapse error, input units

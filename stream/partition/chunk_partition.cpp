@@ -51,6 +51,7 @@ Partition& Partition::operator=(Partition&& other) noexcept {
   cache_bytes = other.cache_bytes;
   untagged_frames = other.untagged_frames;
   reordered = other.reordered;
+  welded_vertices = other.welded_vertices;
   seconds_ingest = other.seconds_ingest;
   seconds_reorder = other.seconds_reorder;
   seconds_partition = other.seconds_partition;

@@ -17,6 +17,7 @@
 #include "format/mesh_types.h"
 #include "format/record_file.h"
 #include "format/status.h"
+#include "stream/partition/spatial_order.h"
 
 namespace gaussmesh::stream {
 
@@ -80,6 +81,9 @@ struct PartitionOptions {
   // (spatial_order.h): vertex and face ids in the chunk files are then the new ones. For
   // commands whose output does not name input ids (simplify).
   bool reorder_scattered = false;
+  // With reorder_scattered: weld equal positions (spatial_order.h; kAuto: when the input looks
+  // like a triangle soup).
+  Weld weld = Weld::kAuto;
   // The renumbering's table (0 = from memory_bytes). Tests set it small to force the passes
   // over several ranges.
   std::uint64_t reorder_table_bytes = 0;
@@ -146,7 +150,8 @@ struct Partition {
   std::uint64_t cache_misses = 0;   // blocks read into the bounded cache (a measure of disorder)
   std::uint64_t cache_bytes = 0;    // the cache's size at the end: 1/8 of its budget, grown by reloads
   std::uint64_t untagged_frames = 0;
-  bool reordered = false;           // the input was scattered and renumbered (reorder_scattered)  // face frames the ring rounds scanned (partly) untagged: windows missing, disorder
+  bool reordered = false;           // the input was renumbered (reorder_scattered)
+  std::uint64_t welded_vertices = 0;  // vertices welded away by the renumbering (vertices counts the rest)  // face frames the ring rounds scanned (partly) untagged: windows missing, disorder
   double seconds_ingest = 0, seconds_partition = 0;
   double seconds_reorder = 0;       // the renumbering, when reordered (not in seconds_partition)
   PartitionSteps steps;             // seconds_partition by step

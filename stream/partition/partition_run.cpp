@@ -11,6 +11,7 @@
 #include "stream/core/stopwatch.h"
 #include "stream/partition/chunk_files.h"
 #include "stream/partition/partition_run.h"
+#include "stream/partition/spatial_order.h"
 
 namespace gaussmesh::stream::detail {
 
@@ -18,9 +19,11 @@ Status PartitionRun::run(const std::string& input_path, const format::ReadOption
   auto start = std::chrono::steady_clock::now();
   GM_RETURN_IF_ERROR(ingest(input_path, read));
   out_.seconds_ingest = seconds_since(start);
-  if (options_.reorder_scattered && scattered_ && reorder_fits()) {
+  const bool weld = options_.reorder_scattered && should_weld(options_.weld, out_.vertices, out_.faces);
+  // Beyond reorder_fits, the input goes on as it is (scattered input is then slow).
+  if (options_.reorder_scattered && (scattered_ || weld) && reorder_fits()) {
     start = std::chrono::steady_clock::now();
-    GM_RETURN_IF_ERROR(reorder());
+    GM_RETURN_IF_ERROR(reorder(weld));
     out_.seconds_reorder = seconds_since(start);
   }
   start = std::chrono::steady_clock::now();

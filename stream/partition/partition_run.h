@@ -77,8 +77,9 @@ class PartitionRun {
  private:
   Status ingest(const std::string& input_path, const format::ReadOptions& read);
   // The spatial renumbering (reorder.cpp, spatial_order.h) of an input the ingest found
-  // scattered; only for inputs with fewer than 2^32 / 3 faces (corner slots are 32-bit).
-  Status reorder();
+  // scattered, or to weld it; only for inputs with fewer than 2^32 / 3 faces (corner slots are
+  // 32-bit).
+  Status reorder(bool weld);
   bool reorder_fits() const;
   // Calls fn(face id, triangle) for every face of the face spill, in order; a corner beyond the
   // vertex count is kBadInput.

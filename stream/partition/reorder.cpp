@@ -24,14 +24,17 @@ namespace gaussmesh::stream::detail {
 namespace {
 
 struct PositionRecord {
-  std::uint32_t id;  // new id
+  std::uint32_t place;  // in the cell order (cells in Morton order, ids in order within)
+  std::uint32_t id;     // the input's
   Vec3f p;
 };
+// A face corner (slot = face * 3 + corner) and its vertex's old id, then its new id; or in the
+// map's pass, an old id (slot) and its new id.
 struct CornerRecord {
-  std::uint32_t slot;  // face * 3 + corner
-  std::uint32_t id;    // old id, then new id
+  std::uint32_t slot;
+  std::uint32_t id;
 };
-static_assert(sizeof(PositionRecord) == 16 && sizeof(CornerRecord) == 8);
+static_assert(sizeof(PositionRecord) == 20 && sizeof(CornerRecord) == 8);
 
 template <class Record>
 std::span<const Record> records_of(std::span<const std::byte> block) {
@@ -81,7 +84,7 @@ Status PartitionRun::for_each_spilled_face(Fn&& fn) {
 
 bool PartitionRun::reorder_fits() const { return 3 * out_.faces < UINT32_MAX; }
 
-Status PartitionRun::reorder() {
+Status PartitionRun::reorder(bool weld) {
   const std::uint64_t vertices = out_.vertices, faces = out_.faces;
   // Three eighths of the budget for the one table a pass holds (a range of positions, of the
   // old-to-new map, of face corners, or a run of faces to sort), a sixteenth for the buckets'
@@ -89,73 +92,122 @@ Status PartitionRun::reorder() {
   const std::uint64_t table = options_.reorder_table_bytes > 0 ? options_.reorder_table_bytes
                                                                 : std::max<std::uint64_t>(options_.memory_bytes / 8 * 3, std::uint64_t{1} << 20);
   const std::size_t buffers = std::max<std::size_t>(options_.memory_bytes / 16, std::size_t{1} << 20);
-  const std::uint64_t stripe = kPositionStripeVertices;
-  const std::uint64_t range_positions = std::max<std::uint64_t>(table / sizeof(Vec3f) / stripe, 1) * stripe;
+  // A range of cells holds whole cells, at least one sorted cell's worth.
+  const std::uint64_t range_vertices = std::max<std::uint64_t>(table / (sizeof(PositionRecord) + sizeof(VertexKey)), kMaxSortedCell);
   const std::uint64_t range_ids = std::max<std::uint64_t>(table / sizeof(std::uint32_t), 1024);
   const std::uint64_t range_faces = std::max<std::uint64_t>(table / sizeof(Triangle), 1024);
-  // Buckets of lowest corners holding about a table of faces each; their counts take a sixth.
-  const std::uint64_t lowest_ranges = std::max<std::uint64_t>(ceil_div(faces * sizeof(Triangle), table), 1);
-  const std::uint64_t range_lowest = std::max<std::uint64_t>(ceil_div(vertices, lowest_ranges), 1);
   const std::uint64_t run_faces = range_faces;
 
-  // 1. Vertices per cell, and each cell's first new id in Morton order.
+  // 1. Vertices per cell; cells in Morton order packed into ranges of whole cells (a cell too
+  // large to sort is a range of its own), each vertex's place in the cell order.
   const Grid grid = Grid::make(out_.lo, out_.hi);
-  std::vector<std::uint32_t> code(grid.cells()), next(grid.cells(), 0);
+  std::vector<std::uint32_t> code(grid.cells()), next(grid.cells(), 0), range_of(grid.cells());
   for (std::uint32_t c = 0; c < grid.cells(); ++c) code[c] = grid.morton(c);
   const auto serial = [](std::size_t n, auto&& fn) { fn(std::size_t{0}, n); };
-  GM_RETURN_IF_ERROR(scan_positions(
-      *vertex_files_, vertices, serial, [](std::uint64_t, std::span<const Vec3f>, std::size_t, std::size_t) {},
-      [&](std::uint64_t, std::span<const Vec3f> batch) {
-        for (const Vec3f& p : batch) ++next[code[grid.cell(p)]];
-        return Status{};
-      }));
+  const auto no_piece = [](std::uint64_t, std::span<const Vec3f>, std::size_t, std::size_t) {};
+  GM_RETURN_IF_ERROR(scan_positions(*vertex_files_, vertices, serial, no_piece, [&](std::uint64_t, std::span<const Vec3f> batch) {
+    for (const Vec3f& p : batch) ++next[code[grid.cell(p)]];
+    return Status{};
+  }));
+  // Per range: its first cell (Morton code) and first vertex in the cell order.
+  std::vector<std::uint32_t> range_cell;
+  std::vector<std::uint64_t> range_first;
   {
-    std::uint32_t sum = 0;
-    for (std::uint32_t& n : next) sum += std::exchange(n, sum);
+    std::uint64_t sum = 0, in_range = 0;
+    for (std::uint32_t m = 0; m < next.size(); ++m) {
+      const std::uint64_t n = next[m];
+      if (range_cell.empty() || (n > 0 && in_range + n > range_vertices)) {
+        range_cell.push_back(m);
+        range_first.push_back(sum);
+        in_range = 0;
+      }
+      range_of[m] = static_cast<std::uint32_t>(range_cell.size() - 1);
+      in_range += n;
+      next[m] = static_cast<std::uint32_t>(sum);
+      sum += n;
+    }
+    range_cell.push_back(static_cast<std::uint32_t>(next.size()));
+    range_first.push_back(sum);
   }
+  const std::size_t ranges = range_cell.size() - 1;
+  std::vector<std::uint32_t> cell_start(next);  // each cell's first place in the cell order
 
-  // 2. Each vertex's new id: the map (old id order) and the positions by range of new ids.
-  const std::string map_path = out_.dir + "/reorder-map.bin";
-  SpillWriter map;
-  GM_RETURN_IF_ERROR(map.open(map_path, std::size_t{1} << 20));
+  // 2. The positions by range, each with its place in the cell order and its id.
   BucketFile moved;
-  GM_RETURN_IF_ERROR(moved.open(out_.dir + "/reorder-positions.bin", ceil_div(vertices, range_positions),
-                                sizeof(PositionRecord), buffers / std::max<std::uint64_t>(ceil_div(vertices, range_positions), 1)));
-  std::vector<std::uint32_t> renamed(stripe);
-  GM_RETURN_IF_ERROR(scan_positions(
-      *vertex_files_, vertices, serial, [](std::uint64_t, std::span<const Vec3f>, std::size_t, std::size_t) {},
-      [&](std::uint64_t, std::span<const Vec3f> batch) {
-        for (std::size_t i = 0; i < batch.size(); ++i) {
-          const std::uint32_t n = next[code[grid.cell(batch[i])]]++;
-          renamed[i] = n;
-          GM_RETURN_IF_ERROR(moved.append(n / range_positions, PositionRecord{n, batch[i]}));
-        }
-        return map.write(renamed.data(), batch.size() * sizeof(std::uint32_t));
-      }));
-  GM_RETURN_IF_ERROR(map.close());
+  GM_RETURN_IF_ERROR(moved.open(out_.dir + "/reorder-positions.bin", ranges, sizeof(PositionRecord), buffers / ranges));
+  GM_RETURN_IF_ERROR(scan_positions(*vertex_files_, vertices, serial, no_piece, [&](std::uint64_t first, std::span<const Vec3f> batch) {
+    for (std::size_t i = 0; i < batch.size(); ++i) {
+      const std::uint32_t m = code[grid.cell(batch[i])];
+      GM_RETURN_IF_ERROR(moved.append(range_of[m], PositionRecord{next[m]++, static_cast<std::uint32_t>(first + i), batch[i]}));
+    }
+    return Status{};
+  }));
   GM_RETURN_IF_ERROR(moved.finish());
-  bytes_spilled_ += map.bytes() + moved.bytes();
-  std::vector<std::uint32_t>().swap(code);
+  bytes_spilled_ += moved.bytes();
   std::vector<std::uint32_t>().swap(next);
+  std::vector<std::uint32_t>().swap(range_of);
 
-  // 3. The position files in the new order (they replace the input's own records too).
+  // 3. Range by range: each cell sorted (VertexKey) and welded, the new position files written
+  // in the new order (they replace the input's own records too), and each vertex's new id sent
+  // by range of old ids.
+  const std::string map_path = out_.dir + "/reorder-map.bin";
+  const std::uint64_t old_ranges = ceil_div(vertices, range_ids);
+  BucketFile pairs;
+  GM_RETURN_IF_ERROR(pairs.open(out_.dir + "/reorder-pairs.bin", old_ranges, sizeof(CornerRecord), buffers / old_ranges));
+  std::uint32_t kept = 0;
   {
     SpillWriter positions[kPositionFiles];
     for (std::uint32_t i = 0; i < kPositionFiles; ++i)
       GM_RETURN_IF_ERROR(positions[i].open(vertex_files_->positions[i], std::size_t{1} << 20));
-    std::vector<Vec3f> range(std::min(range_positions, vertices));
-    for (std::size_t b = 0; b < moved.buckets(); ++b) {
-      const std::uint64_t first = b * range_positions, count = std::min(range_positions, vertices - first);
+    const auto keep = [&](const Vec3f& p, std::uint32_t id) -> Status {
+      GM_RETURN_IF_ERROR(positions[position_file(kept)].write(&p, sizeof(Vec3f)));
+      return pairs.append(id / range_ids, CornerRecord{id, kept++});
+    };
+    std::vector<PositionRecord> range;
+    std::vector<VertexKey> keys;
+    for (std::size_t r = 0; r < ranges; ++r) {
+      const std::uint64_t first = range_first[r], count = range_first[r + 1] - first;
+      const bool single = range_cell[r + 1] - range_cell[r] == 1;
+      if (single && count > kMaxSortedCell) {
+        // One cell too large to sort: its records came in id order, which is its order.
+        GM_RETURN_IF_ERROR(moved.read(r, [&](std::span<const std::byte> block) {
+          for (const PositionRecord& p : records_of<PositionRecord>(block)) GM_RETURN_IF_ERROR(keep(p.p, p.id));
+          return Status{};
+        }));
+        continue;
+      }
+      range.resize(count);
       std::uint64_t got = 0;
-      GM_RETURN_IF_ERROR(moved.read(b, [&](std::span<const std::byte> block) {
-        for (const PositionRecord& r : records_of<PositionRecord>(block)) range[r.id - first] = r.p;
+      GM_RETURN_IF_ERROR(moved.read(r, [&](std::span<const std::byte> block) {
+        for (const PositionRecord& p : records_of<PositionRecord>(block)) range[p.place - first] = p;
         got += block.size() / sizeof(PositionRecord);
         return Status{};
       }));
       if (got != count) return Status::error(Code::kProcessing, "reorder", "a range of positions lost a vertex");
-      for (std::uint64_t v = first; v < first + count; v += stripe) {
-        const std::uint64_t n = std::min(stripe, first + count - v);
-        GM_RETURN_IF_ERROR(positions[position_file(static_cast<std::uint32_t>(v))].write(&range[v - first], n * sizeof(Vec3f)));
+      for (std::uint32_t m = range_cell[r]; m < range_cell[r + 1]; ++m) {
+        const std::uint64_t begin = cell_start[m] - first;
+        const std::uint64_t end = (m + 1 < cell_start.size() ? cell_start[m + 1] : range_first[ranges]) - first;
+        if (begin == end) continue;
+        if (end - begin > kMaxSortedCell) {  // too large to sort: id order, not welded
+          for (std::uint64_t i = begin; i < end; ++i) GM_RETURN_IF_ERROR(keep(range[i].p, range[i].id));
+          continue;
+        }
+        keys.clear();
+        for (std::uint64_t i = begin; i < end; ++i) {
+          keys.push_back(VertexKey::of(grid.sub_code(range[i].p, kReorderFineBits), range[i].p, static_cast<std::uint32_t>(i)));
+        }
+        std::sort(keys.begin(), keys.end(), [&](const VertexKey& a, const VertexKey& b) {
+          if (a.fine != b.fine || a.x != b.x || a.y != b.y || a.z != b.z) return a < b;
+          return range[a.id].id < range[b.id].id;
+        });
+        for (std::size_t k = 0; k < keys.size(); ++k) {
+          const PositionRecord& p = range[keys[k].id];
+          if (weld && k > 0 && keys[k].same_position(keys[k - 1])) {
+            GM_RETURN_IF_ERROR(pairs.append(p.id / range_ids, CornerRecord{p.id, kept - 1}));
+            continue;
+          }
+          GM_RETURN_IF_ERROR(keep(p.p, p.id));
+        }
       }
     }
     for (SpillWriter& p : positions) {
@@ -165,6 +217,34 @@ Status PartitionRun::reorder() {
     moved.remove();
     vertex_files_->input.reset();
   }
+  GM_RETURN_IF_ERROR(pairs.finish());
+  bytes_spilled_ += pairs.bytes();
+  std::vector<std::uint32_t>().swap(cell_start);
+
+  // The map from old ids to new, written in old-id order one range at a time.
+  {
+    SpillWriter map;
+    GM_RETURN_IF_ERROR(map.open(map_path, std::size_t{1} << 20));
+    std::vector<std::uint32_t> slice(std::min(range_ids, vertices));
+    for (std::size_t r = 0; r < old_ranges; ++r) {
+      const std::uint64_t first = r * range_ids, count = std::min(range_ids, vertices - first);
+      std::uint64_t got = 0;
+      GM_RETURN_IF_ERROR(pairs.read(r, [&](std::span<const std::byte> block) {
+        for (const CornerRecord& c : records_of<CornerRecord>(block)) slice[c.slot - first] = c.id;
+        got += block.size() / sizeof(CornerRecord);
+        return Status{};
+      }));
+      if (got != count) return Status::error(Code::kProcessing, "reorder", "a range of the map lost a vertex");
+      GM_RETURN_IF_ERROR(map.write(slice.data(), count * sizeof(std::uint32_t)));
+    }
+    GM_RETURN_IF_ERROR(map.close());
+    bytes_spilled_ += map.bytes();
+    pairs.remove();
+  }
+  const std::uint64_t new_vertices = kept;
+  // Buckets of lowest corners holding about a table of faces each.
+  const std::uint64_t lowest_ranges = std::max<std::uint64_t>(ceil_div(faces * sizeof(Triangle), table), 1);
+  const std::uint64_t range_lowest = std::max<std::uint64_t>(ceil_div(new_vertices, lowest_ranges), 1);
 
   // 4–6. Faces renamed, in input order, by range of their lowest corner. When the whole map fits
   // the table, corners are renamed as the face spill is read; else every corner goes by range of
@@ -172,7 +252,6 @@ Status PartitionRun::reorder() {
   // put together again one range at a time (6).
   BucketFile grouped;
   GM_RETURN_IF_ERROR(grouped.open(out_.dir + "/reorder-faces.bin", lowest_ranges, sizeof(Triangle), buffers / 2 / lowest_ranges));
-  const std::uint64_t old_ranges = ceil_div(vertices, range_ids);
   if (old_ranges <= 1) {
     std::vector<std::uint32_t> whole(vertices);
     GM_RETURN_IF_ERROR(read_map(map_path, whole.data(), 0, vertices));
@@ -249,7 +328,7 @@ Status PartitionRun::reorder() {
     std::vector<Triangle> run;
     std::vector<std::uint64_t> at(range_lowest + 1);
     for (std::size_t b = 0; b < lowest_ranges; ++b) {
-      const std::uint64_t base = b * range_lowest, ids = std::min(range_lowest, vertices - base);
+      const std::uint64_t base = b * range_lowest, ids = std::min(range_lowest, new_vertices - base);
       std::fill(at.begin(), at.end(), 0);
       GM_RETURN_IF_ERROR(grouped.read(b, [&](std::span<const std::byte> block) {
         for (const Triangle& t : records_of<Triangle>(block)) ++at[lowest_corner(t) - base];
@@ -292,6 +371,8 @@ Status PartitionRun::reorder() {
     return Status::error(Code::kOutput, faces_path_, "cannot replace temporary file: " + errno_text());
   }
   out_.reordered = true;
+  out_.welded_vertices = vertices - new_vertices;
+  out_.vertices = new_vertices;
   return {};
 }
 

@@ -9,7 +9,7 @@
 
 namespace gaussmesh::stream {
 
-void reorder_spatially(std::vector<format::Vec3f>& positions, std::vector<format::Triangle>& faces) {
+std::uint64_t reorder_spatially(std::vector<format::Vec3f>& positions, std::vector<format::Triangle>& faces, bool weld) {
   // The bounds of the finite coordinates, as the ingest pass keeps them (0 on an axis without any).
   float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
   for (const format::Vec3f& p : positions) {
@@ -24,20 +24,40 @@ void reorder_spatially(std::vector<format::Vec3f>& positions, std::vector<format
     if (!(lo[a] <= hi[a])) lo[a] = hi[a] = 0;
   const detail::Grid grid = detail::Grid::make({lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]});
 
-  // Vertices: a counting sort by the Morton code of their cell, stable in id.
+  // Vertices: a counting sort by the Morton code of their cell, stable in id; then each cell
+  // that is small enough sorted by VertexKey.
   std::vector<std::uint32_t> start(grid.cells() + 1, 0), code(grid.cells());
   for (std::uint32_t c = 0; c < grid.cells(); ++c) code[c] = grid.morton(c);
   for (const format::Vec3f& p : positions) ++start[code[grid.cell(p)] + 1];
   for (std::size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
-  std::vector<std::uint32_t> renamed(positions.size());
-  std::vector<format::Vec3f> moved(positions.size());
-  for (std::uint32_t v = 0; v < positions.size(); ++v) {
-    const std::uint32_t n = start[code[grid.cell(positions[v])]]++;
-    renamed[v] = n;
-    moved[n] = positions[v];
+  std::vector<VertexKey> order(positions.size());
+  {
+    std::vector<std::uint32_t> next(start.begin(), start.end() - 1);
+    for (std::uint32_t v = 0; v < positions.size(); ++v) {
+      const format::Vec3f& p = positions[v];
+      order[next[code[grid.cell(p)]]++] = VertexKey::of(grid.sub_code(p, kReorderFineBits), p, v);
+    }
   }
+  std::vector<std::uint32_t> renamed(positions.size());
+  std::vector<format::Vec3f> moved;
+  moved.reserve(positions.size());
+  for (std::size_t c = 0; c + 1 < start.size(); ++c) {
+    const auto first = order.begin() + start[c], last = order.begin() + start[c + 1];
+    const bool sorted = last - first <= std::ptrdiff_t{kMaxSortedCell};
+    if (sorted) std::sort(first, last);
+    for (auto k = first; k != last; ++k) {
+      if (weld && sorted && k != first && k->same_position(*(k - 1))) {
+        renamed[k->id] = renamed[(k - 1)->id];
+        continue;
+      }
+      renamed[k->id] = static_cast<std::uint32_t>(moved.size());
+      moved.push_back(positions[k->id]);
+    }
+  }
+  const std::uint64_t welded = positions.size() - moved.size();
   positions.swap(moved);
   moved = {};
+  order = {};
 
   // Faces: corners renamed, then a stable counting sort by their lowest corner.
   std::vector<std::uint64_t> first(positions.size() + 1, 0);
@@ -50,6 +70,7 @@ void reorder_spatially(std::vector<format::Vec3f>& positions, std::vector<format
   std::vector<format::Triangle> sorted(faces.size());
   for (const format::Triangle& t : faces) sorted[first[std::min<std::size_t>(lowest_corner(t), positions.size() - 1)]++] = t;
   faces.swap(sorted);
+  return welded;
 }
 
 }  // namespace gaussmesh::stream

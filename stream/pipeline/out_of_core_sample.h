@@ -47,7 +47,8 @@ struct OutOfCoreSampling {
   std::uint64_t vertices = 0, faces = 0;
   std::size_t chunks = 0;
   std::uint64_t bytes_spilled = 0;
-  bool reordered = false;  // the input was scattered and renumbered first (PartitionOptions::reorder_scattered)
+  bool reordered = false;  // the input was renumbered first (PartitionOptions::reorder_scattered)
+  std::uint64_t welded_vertices = 0;  // welded away by it (vertices counts the rest)
   double seconds_reorder = 0;
   double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0;
   double seconds_cleanup = 0;  // removing the temporary directory (the file system's writeback can stall it)

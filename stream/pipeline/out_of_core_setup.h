@@ -51,6 +51,7 @@ void record_partition(const Partition& partition, Result& out) {
   out.chunks = partition.chunks.size();
   out.seconds_ingest = partition.seconds_ingest;
   out.reordered = partition.reordered;
+  out.welded_vertices = partition.welded_vertices;
   out.seconds_reorder = partition.seconds_reorder;
   out.seconds_partition = partition.seconds_partition;
   out.partition_steps = partition.steps;

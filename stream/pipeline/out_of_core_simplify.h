@@ -116,7 +116,8 @@ struct OutOfCoreSimplify {
   // The loops pass: chunks it read as loop chunks (write_loop_chunk), and the faces it loaded in all.
   std::size_t loop_chunks = 0;
   std::uint64_t loop_faces = 0;
-  bool reordered = false;  // the input was scattered and renumbered first (PartitionOptions::reorder_scattered)
+  bool reordered = false;  // the input was renumbered first (PartitionOptions::reorder_scattered)
+  std::uint64_t welded_vertices = 0;  // welded away by it (vertices counts the rest)
   double seconds_reorder = 0;
   double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0, seconds_stitch = 0, seconds_mesh = 0;
   double seconds_cleanup = 0;  // removing the temporary directory (the file system's writeback can stall it)

@@ -1,7 +1,8 @@
 // The spatial renumbering of scattered input (stream/partition/spatial_order.h): the probe tells
 // shuffled ids from ordered ones; the in-core renumbering keeps the surface and its orientation
-// and sorts as the rules say; and the partition's out-of-core renumbering, over one range or
-// many, reaches exactly the in-core numbering (chunk files hold the renumbered ids).
+// and sorts as the rules say; a welded soup is the mesh it came from; and the partition's
+// out-of-core renumbering and welding, over one range or many, reach exactly the in-core
+// result (chunk files hold the renumbered ids).
 #include "stream/partition/spatial_order.h"
 
 #include <gtest/gtest.h>
@@ -58,6 +59,29 @@ Mesh shuffled(const Mesh& mesh, std::uint32_t seed) {
   return out;
 }
 
+// Each face with three vertices of its own, faces shuffled: what an STL-to-PLY converter writes.
+Mesh soup_of(const Mesh& mesh, std::uint32_t seed) {
+  Mesh out;
+  std::vector<std::uint32_t> order(mesh.triangles.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::mt19937 rng(seed);
+  std::shuffle(order.begin(), order.end(), rng);
+  for (const std::uint32_t f : order) {
+    const auto first = static_cast<std::uint32_t>(out.positions.size());
+    for (const std::uint32_t v : mesh.triangles[f].v) out.positions.push_back(mesh.positions[v]);
+    out.triangles.push_back({{first, first + 1, first + 2}});
+  }
+  return out;
+}
+
+// The faces in a fixed order, to compare meshes whose faces tie on their lowest corner.
+std::vector<std::array<std::uint32_t, 3>> sorted_faces(const Mesh& mesh) {
+  std::vector<std::array<std::uint32_t, 3>> faces;
+  for (const Triangle& t : mesh.triangles) faces.push_back({t.v[0], t.v[1], t.v[2]});
+  std::sort(faces.begin(), faces.end());
+  return faces;
+}
+
 bool scattered(const Mesh& mesh) {
   OrderProbe probe;
   probe.add(mesh.triangles);
@@ -94,7 +118,7 @@ TEST(SpatialOrder, TheProbeTellsShuffledIdsFromOrderedOnes) {
 TEST(SpatialOrder, RenumberingKeepsTheSurfaceAndSortsByCellThenLowestCorner) {
   const Mesh input = shuffled(sheet_and_fan(), 11);
   Mesh mesh = input;
-  reorder_spatially(mesh.positions, mesh.triangles);
+  EXPECT_EQ(reorder_spatially(mesh.positions, mesh.triangles, true), 0u);  // no two vertices share a position
   ASSERT_EQ(mesh.positions.size(), input.positions.size());
   ASSERT_EQ(mesh.triangles.size(), input.triangles.size());
   EXPECT_TRUE(surface(mesh) == surface(input));
@@ -112,14 +136,34 @@ TEST(SpatialOrder, RenumberingKeepsTheSurfaceAndSortsByCellThenLowestCorner) {
   EXPECT_FALSE(scattered(mesh));
   // Ties keep the input's order: renumbering the same mesh again changes nothing.
   Mesh again = mesh;
-  reorder_spatially(again.positions, again.triangles);
+  reorder_spatially(again.positions, again.triangles, false);
   EXPECT_EQ(std::memcmp(again.triangles.data(), mesh.triangles.data(), mesh.triangles.size() * sizeof(Triangle)), 0);
+}
+
+TEST(SpatialOrder, AWeldedSoupIsTheMeshItCameFrom) {
+  const Mesh mesh = shuffled(sheet_and_fan(), 17);
+  Mesh soup = soup_of(mesh, 19);
+  EXPECT_TRUE(should_weld(Weld::kAuto, soup.positions.size(), soup.triangles.size()));
+  EXPECT_FALSE(should_weld(Weld::kAuto, mesh.positions.size(), mesh.triangles.size()));
+  EXPECT_FALSE(should_weld(Weld::kOff, soup.positions.size(), soup.triangles.size()));
+  const std::uint64_t welded = reorder_spatially(soup.positions, soup.triangles, true);
+  EXPECT_EQ(welded, 3 * mesh.triangles.size() - mesh.positions.size());
+  Mesh expected = mesh;
+  reorder_spatially(expected.positions, expected.triangles, false);
+  ASSERT_EQ(soup.positions.size(), expected.positions.size());
+  EXPECT_EQ(std::memcmp(soup.positions.data(), expected.positions.data(), soup.positions.size() * sizeof(Vec3f)), 0);
+  EXPECT_TRUE(sorted_faces(soup) == sorted_faces(expected));
+  // Unwelded, it stays a soup of the same surface.
+  Mesh unwelded = soup_of(mesh, 19);
+  EXPECT_EQ(reorder_spatially(unwelded.positions, unwelded.triangles, false), 0u);
+  EXPECT_EQ(unwelded.positions.size(), 3 * mesh.triangles.size());
+  EXPECT_TRUE(surface(unwelded) == surface(mesh));
 }
 
 TEST(SpatialOrder, OutOfCoreRenumberingIsTheInCoreOneOverOneRangeOrMany) {
   const Mesh input = shuffled(sheet_and_fan(), 13);
   Mesh expected = input;
-  reorder_spatially(expected.positions, expected.triangles);
+  reorder_spatially(expected.positions, expected.triangles, false);
   testing::ScratchDir dir;
   {
     auto out = format::OutputFile::create(dir.file("in.ply"), true);
@@ -158,6 +202,44 @@ TEST(SpatialOrder, OutOfCoreRenumberingIsTheInCoreOneOverOneRangeOrMany) {
       }
     }
     EXPECT_EQ(owned, expected.triangles.size());
+  }
+  // A soup, welded out of core to exactly the in-core result.
+  const Mesh soup = soup_of(sheet_and_fan(), 23);
+  Mesh welded = soup;
+  const std::uint64_t joined = reorder_spatially(welded.positions, welded.triangles, true);
+  {
+    auto out = format::OutputFile::create(dir.file("soup.ply"), true);
+    ASSERT_TRUE(out.is_ok());
+    ASSERT_TRUE(format::write_ply(**out, soup.view(), {}).is_ok());
+    ASSERT_TRUE((*out)->commit().is_ok());
+  }
+  for (const std::uint64_t table : {std::uint64_t{0}, std::uint64_t{64} << 10}) {
+    SCOPED_TRACE("soup, table " + std::to_string(table));
+    PartitionOptions options;
+    options.rings = 1;
+    options.max_chunk_faces = 100000;
+    options.reorder_scattered = true;
+    options.reorder_table_bytes = table;
+    options.tmp_dir = dir.path().string();
+    auto partition = partition_mesh(dir.file("soup.ply"), {}, options);
+    ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
+    EXPECT_TRUE(partition->reordered);
+    EXPECT_EQ(partition->welded_vertices, joined);
+    EXPECT_EQ(partition->vertices, welded.positions.size());
+    std::uint64_t owned = 0;
+    for (const ChunkInfo& info : partition->chunks) {
+      auto chunk = load_chunk(info);
+      ASSERT_TRUE(chunk.is_ok()) << chunk.status().to_string();
+      for (std::size_t v = 0; v < chunk->positions.size(); ++v)
+        ASSERT_EQ(std::memcmp(&chunk->positions[v], &welded.positions[chunk->global_vertex[v]], sizeof(Vec3f)), 0);
+      for (std::size_t f = 0; f < chunk->triangles.size(); ++f) {
+        if (!chunk->owned_face[f]) continue;
+        ++owned;
+        const Triangle& want = welded.triangles[chunk->global_face[f]];
+        for (int k = 0; k < 3; ++k) ASSERT_EQ(chunk->global_vertex[chunk->triangles[f].v[k]], want.v[k]);
+      }
+    }
+    EXPECT_EQ(owned, welded.triangles.size());
   }
   // Without the option (sample, whose output names input ids), the ids stay the input's.
   PartitionOptions options;
