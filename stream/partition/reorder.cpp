@@ -42,6 +42,7 @@ std::span<const Record> records_of(std::span<const std::byte> block) {
 }
 
 std::uint64_t ceil_div(std::uint64_t a, std::uint64_t b) { return (a + b - 1) / b; }
+std::uint32_t floor_log2(std::uint64_t x) { return 63 - static_cast<std::uint32_t>(__builtin_clzll(x | 1)); }
 
 // `count` entries of the old-to-new map from entry `first`.
 Status read_map(const std::string& path, std::uint32_t* out, std::uint64_t first, std::uint64_t count) {
@@ -95,8 +96,13 @@ Status PartitionRun::reorder(bool weld) {
   // A range of cells holds whole cells, at least one sorted cell's worth.
   const std::uint64_t range_vertices = std::max<std::uint64_t>(table / (sizeof(PositionRecord) + sizeof(VertexKey)), kMaxSortedCell);
   const std::uint64_t range_ids = std::max<std::uint64_t>(table / sizeof(std::uint32_t), 1024);
-  const std::uint64_t range_faces = std::max<std::uint64_t>(table / sizeof(Triangle), 1024);
-  const std::uint64_t run_faces = range_faces;
+  // Ranges of faces, and of old ids for the corners' passes, are powers of two (a shift per
+  // record, not a division); a corner pass's slice of the map stays within 1 MiB, so that its
+  // look-ups stay in the cache.
+  const std::uint32_t face_bits = floor_log2(std::max<std::uint64_t>(table / sizeof(Triangle), 1024));
+  const std::uint64_t range_faces = std::uint64_t{1} << face_bits;
+  const std::uint32_t slice_bits = std::min<std::uint32_t>(floor_log2(range_ids), 18);
+  const std::uint64_t run_faces = std::max<std::uint64_t>(table / sizeof(Triangle), 1024);
 
   // 1. Vertices per cell; cells in Morton order packed into ranges of whole cells (a cell too
   // large to sort is a range of its own), each vertex's place in the cell order.
@@ -242,9 +248,11 @@ Status PartitionRun::reorder(bool weld) {
     pairs.remove();
   }
   const std::uint64_t new_vertices = kept;
-  // Buckets of lowest corners holding about a table of faces each.
-  const std::uint64_t lowest_ranges = std::max<std::uint64_t>(ceil_div(faces * sizeof(Triangle), table), 1);
-  const std::uint64_t range_lowest = std::max<std::uint64_t>(ceil_div(new_vertices, lowest_ranges), 1);
+  // Buckets of lowest corners holding about a table of faces each (a power of two of ids).
+  const std::uint32_t lowest_bits =
+      floor_log2(std::max<std::uint64_t>(ceil_div(new_vertices, std::max<std::uint64_t>(ceil_div(faces * sizeof(Triangle), table), 1)), 1));
+  const std::uint64_t range_lowest = std::uint64_t{1} << lowest_bits;
+  const std::uint64_t lowest_ranges = std::max<std::uint64_t>(ceil_div(new_vertices, range_lowest), 1);
 
   // 4–6. Faces renamed, in input order, by range of their lowest corner. When the whole map fits
   // the table, corners are renamed as the face spill is read; else every corner goes by range of
@@ -258,32 +266,33 @@ Status PartitionRun::reorder(bool weld) {
     ::unlink(map_path.c_str());
     GM_RETURN_IF_ERROR(for_each_spilled_face([&](std::uint64_t, Triangle t) {
       for (std::uint32_t& v : t.v) v = whole[v];
-      return grouped.append(lowest_corner(t) / range_lowest, t);
+      return grouped.append(lowest_corner(t) >> lowest_bits, t);
     }));
   } else {
-    // 4. Every corner, by range of old ids.
+    // 4. Every corner, by slice of old ids.
+    const std::uint64_t slices = ceil_div(vertices, std::uint64_t{1} << slice_bits);
     BucketFile corners;
-    GM_RETURN_IF_ERROR(corners.open(out_.dir + "/reorder-corners.bin", old_ranges, sizeof(CornerRecord), buffers / old_ranges));
+    GM_RETURN_IF_ERROR(corners.open(out_.dir + "/reorder-corners.bin", slices, sizeof(CornerRecord), buffers / slices));
     GM_RETURN_IF_ERROR(for_each_spilled_face([&](std::uint64_t f, const Triangle& t) {
       for (std::uint32_t k = 0; k < 3; ++k)
-        GM_RETURN_IF_ERROR(corners.append(t.v[k] / range_ids, CornerRecord{static_cast<std::uint32_t>(3 * f + k), t.v[k]}));
+        GM_RETURN_IF_ERROR(corners.append(t.v[k] >> slice_bits, CornerRecord{static_cast<std::uint32_t>(3 * f + k), t.v[k]}));
       return Status{};
     }));
     GM_RETURN_IF_ERROR(corners.finish());
     bytes_spilled_ += corners.bytes();
 
-    // 5. New ids for the corners, from the map one range at a time, by range of faces.
+    // 5. New ids for the corners, from the map one slice at a time, by range of faces.
     BucketFile renamed_corners;
     const std::uint64_t face_ranges = std::max<std::uint64_t>(ceil_div(faces, range_faces), 1);
     GM_RETURN_IF_ERROR(renamed_corners.open(out_.dir + "/reorder-renamed.bin", face_ranges, sizeof(CornerRecord), buffers / 2 / face_ranges));
     {
-      std::vector<std::uint32_t> slice(std::min(range_ids, vertices));
-      for (std::size_t r = 0; r < old_ranges; ++r) {
-        const std::uint64_t first = r * range_ids, count = std::min(range_ids, vertices - first);
+      std::vector<std::uint32_t> slice(std::min(std::uint64_t{1} << slice_bits, vertices));
+      for (std::size_t r = 0; r < slices; ++r) {
+        const std::uint64_t first = std::uint64_t{r} << slice_bits, count = std::min(std::uint64_t{1} << slice_bits, vertices - first);
         GM_RETURN_IF_ERROR(read_map(map_path, slice.data(), first, count));
         GM_RETURN_IF_ERROR(corners.read(r, [&](std::span<const std::byte> block) {
           for (const CornerRecord& c : records_of<CornerRecord>(block)) {
-            GM_RETURN_IF_ERROR(renamed_corners.append(c.slot / (3 * range_faces), CornerRecord{c.slot, slice[c.id - first]}));
+            GM_RETURN_IF_ERROR(renamed_corners.append((c.slot / 3) >> face_bits, CornerRecord{c.slot, slice[c.id - first]}));
           }
           return Status{};
         }));
@@ -308,7 +317,7 @@ Status PartitionRun::reorder(bool weld) {
         if (got != 3 * count) return Status::error(Code::kProcessing, "reorder", "a range of faces lost a corner");
         for (std::uint64_t i = 0; i < count; ++i) {
           const Triangle t{{corner[3 * i], corner[3 * i + 1], corner[3 * i + 2]}};
-          GM_RETURN_IF_ERROR(grouped.append(lowest_corner(t) / range_lowest, t));
+          GM_RETURN_IF_ERROR(grouped.append(lowest_corner(t) >> lowest_bits, t));
         }
       }
     }
@@ -326,7 +335,7 @@ Status PartitionRun::reorder(bool weld) {
   GM_RETURN_IF_ERROR(ordered.open(ordered_path));
   {
     std::vector<Triangle> run;
-    std::vector<std::uint64_t> at(range_lowest + 1);
+    std::vector<std::uint32_t> at(range_lowest + 1);
     for (std::size_t b = 0; b < lowest_ranges; ++b) {
       const std::uint64_t base = b * range_lowest, ids = std::min(range_lowest, new_vertices - base);
       std::fill(at.begin(), at.end(), 0);

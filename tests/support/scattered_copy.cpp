@@ -1,6 +1,7 @@
 #include "tests/support/scattered_copy.h"
 
 #include <algorithm>
+#include <cstring>
 #include <numeric>
 #include <random>
 #include <vector>
@@ -28,6 +29,46 @@ bool write_scattered_copy(const std::string& in, const std::string& out, std::ui
   auto file = format::OutputFile::create(out, true);
   if (!file) return false;
   if (!format::write_ply(**file, mesh->view(), {}).is_ok()) return false;
+  return (*file)->commit().is_ok();
+}
+
+bool write_soup_copy(const std::string& in, const std::string& out, std::uint64_t seed, bool stl) {
+  auto mesh = stream::load_mesh(in);
+  if (!mesh) return false;
+  std::mt19937_64 rng(seed);
+  std::shuffle(mesh->triangles.begin(), mesh->triangles.end(), rng);
+  auto file = format::OutputFile::create(out, true);
+  if (!file) return false;
+  if (stl) {
+    // Binary STL: an 80-byte header, the facet count, then per facet a normal (left zero: readers
+    // recompute it), three corners and a 16-bit attribute, little-endian.
+    std::vector<char> bytes(84, 0);
+    const auto count = static_cast<std::uint32_t>(mesh->triangles.size());
+    std::memcpy(bytes.data() + 80, &count, 4);
+    if (!(*file)->write(bytes.data(), bytes.size()).is_ok()) return false;
+    bytes.clear();
+    for (const auto& t : mesh->triangles) {
+      char record[50] = {};
+      for (int k = 0; k < 3; ++k) std::memcpy(record + 12 + 12 * k, &mesh->positions[t.v[k]], 12);
+      bytes.insert(bytes.end(), record, record + 50);
+      if (bytes.size() >= (std::size_t{1} << 20)) {
+        if (!(*file)->write(bytes.data(), bytes.size()).is_ok()) return false;
+        bytes.clear();
+      }
+    }
+    if (!(*file)->write(bytes.data(), bytes.size()).is_ok()) return false;
+    return (*file)->commit().is_ok();
+  }
+  stream::Mesh soup;
+  soup.positions.reserve(3 * mesh->triangles.size());
+  soup.triangles.reserve(mesh->triangles.size());
+  for (const auto& t : mesh->triangles) {
+    const auto first = static_cast<std::uint32_t>(soup.positions.size());
+    for (const auto v : t.v) soup.positions.push_back(mesh->positions[v]);
+    soup.triangles.push_back({{first, first + 1, first + 2}});
+  }
+  *mesh = stream::Mesh{};
+  if (!format::write_ply(**file, soup.view(), {}).is_ok()) return false;
   return (*file)->commit().is_ok();
 }
 
