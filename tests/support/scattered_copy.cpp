@@ -35,8 +35,10 @@ bool write_scattered_copy(const std::string& in, const std::string& out, std::ui
 bool write_soup_copy(const std::string& in, const std::string& out, std::uint64_t seed, bool stl) {
   auto mesh = stream::load_mesh(in);
   if (!mesh) return false;
-  std::mt19937_64 rng(seed);
-  std::shuffle(mesh->triangles.begin(), mesh->triangles.end(), rng);
+  if (seed != 0) {
+    std::mt19937_64 rng(seed);
+    std::shuffle(mesh->triangles.begin(), mesh->triangles.end(), rng);
+  }
   auto file = format::OutputFile::create(out, true);
   if (!file) return false;
   if (stl) {

@@ -1,0 +1,116 @@
+// Tests for welding in `gaussmesh simplify` (--weld, --no-weld; docs/partition.md, "Scattered
+// input and soups") as a user runs it: a fixture written as a triangle soup, in PLY and in STL,
+// simplifies to the same bytes as the fixture given --weld, in core and out of core, with and
+// without a target, and the report counts the welded vertices; --no-weld leaves a PLY soup as
+// it is; the two flags together are a usage error.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "tests/support/scattered_copy.h"
+#include "tests/support/test_util.h"
+
+namespace gaussmesh::testing {
+namespace {
+
+std::string q(const std::string& text) { return "'" + text + "'"; }
+std::string binary() { return q(gaussmesh_binary()); }
+
+struct Outcome {
+  int exit_code = 0;
+  std::string bytes, err;
+  nlohmann::json report;
+};
+
+Outcome simplify(const ScratchDir& dir, const std::string& in, const std::string& flags) {
+  const std::string out = dir.file("out.ply"), report = dir.file("report.json");
+  auto run = run_command(binary() + " simplify " + q(in) + " -o " + q(out) + " --format ply " + flags + " --report " + q(report));
+  Outcome r;
+  r.exit_code = run.exit_code;
+  r.err = run.err;
+  if (run.exit_code == 0) {
+    r.bytes = read_file(out);
+    r.report = nlohmann::json::parse(read_file(report));
+  }
+  return r;
+}
+
+TEST(SimplifyWeldCli, ASoupInPlyOrStlGivesTheWeldedFixturesBytesInCoreAndOutOfCore) {
+  ScratchDir dir;
+  // (Not the cow: two of its vertices share a position, and welding them pinches its surface
+  // at a vertex, a non-manifold input: see CowWeldedIsNonManifold.)
+  for (const char* name : {"fandisk.off", "mech-holes-shark.off", "bunny-lowres.ply"}) {
+    const std::string in = fixture(std::string("real/") + name);
+    const std::string soup = dir.file("soup.ply"), stl = dir.file("soup.stl");
+    ASSERT_TRUE(write_soup_copy(in, soup, 0, false));
+    ASSERT_TRUE(write_soup_copy(in, stl, 0, true));
+    for (const std::string target : {"", "--ratio 0.1"}) {
+      SCOPED_TRACE(std::string(name) + " " + target);
+      const Outcome welded = simplify(dir, in, "--weld " + target);
+      ASSERT_EQ(welded.exit_code, 0) << welded.err;
+      EXPECT_TRUE(welded.report["reordered"].get<bool>());
+      const long faces = welded.report["input_faces"].get<long>();
+      for (const std::string& input : {soup, stl}) {
+        // With a target, a budget that holds the whole input's collapse: under a smaller one the
+        // finish runs chunk by chunk and is not the in-core run's (docs/finish.md).
+        const std::string budget = target.empty() ? "16M" : "256M";
+        for (const std::string& engine : {std::string("--engine in-core"), "--engine out-of-core --memory " + budget}) {
+          SCOPED_TRACE(input + " " + engine);
+          const Outcome run = simplify(dir, input, engine + " " + target);
+          ASSERT_EQ(run.exit_code, 0) << run.err;
+          EXPECT_EQ(run.report["input_faces"].get<long>(), faces);
+          EXPECT_EQ(run.report["input_vertices"].get<long>(), 3 * faces);
+          EXPECT_EQ(run.report["welded_vertices"].get<long>(), 3 * faces - welded.report["input_vertices"].get<long>() +
+                                                                   welded.report["welded_vertices"].get<long>());
+          EXPECT_TRUE(run.bytes == welded.bytes);
+        }
+      }
+    }
+  }
+}
+
+TEST(SimplifyWeldCli, CowWeldedIsNonManifold) {
+  // Welding by position joins the cow's two vertices at one point: the welded surface touches
+  // itself there. In core the input is then not one the collapses can hold and the Gauss
+  // approximation is collapsed instead; out of core the polygon mesher refuses a non-manifold
+  // vertex (exit 3), as for any such input.
+  ScratchDir dir;
+  const std::string in = fixture("real/cow.off");
+  const Outcome in_core = simplify(dir, in, "--weld --engine in-core --ratio 0.1");
+  ASSERT_EQ(in_core.exit_code, 0) << in_core.err;
+  EXPECT_EQ(in_core.report["welded_vertices"].get<long>(), 1);
+  EXPECT_EQ(in_core.report["approximation"].get<std::string>(), "gauss");
+  const Outcome plain = simplify(dir, in, "--engine in-core --ratio 0.1");
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_EQ(plain.report["welded_vertices"].get<long>(), 0);
+  EXPECT_EQ(plain.report["approximation"].get<std::string>(), "input");
+  const Outcome out_of_core = simplify(dir, in, "--weld --engine out-of-core --ratio 0.1");
+  EXPECT_EQ(out_of_core.exit_code, 3);
+  EXPECT_NE(out_of_core.err.find("manifold"), std::string::npos) << out_of_core.err;
+}
+
+TEST(SimplifyWeldCli, NoWeldKeepsASoupAndBothFlagsAreAUsageError) {
+  ScratchDir dir;
+  const std::string soup = dir.file("soup.ply");
+  ASSERT_TRUE(write_soup_copy(fixture("real/cow.off"), soup, 5, false));
+  const Outcome kept = simplify(dir, soup, "--no-weld --engine in-core");
+  // A soup unwelded has no shared edge: every face is a component of its own, kept as it is.
+  ASSERT_EQ(kept.exit_code, 0) << kept.err;
+  EXPECT_EQ(kept.report["welded_vertices"].get<long>(), 0);
+  EXPECT_FALSE(kept.report["reordered"].get<bool>());
+  EXPECT_EQ(kept.report["output_faces"].get<long>(), kept.report["input_faces"].get<long>());
+  const Outcome welded = simplify(dir, soup, "--engine in-core");
+  ASSERT_EQ(welded.exit_code, 0) << welded.err;
+  EXPECT_GT(welded.report["welded_vertices"].get<long>(), 0);
+  std::filesystem::remove(dir.file("out.ply"));
+  const Outcome both = simplify(dir, soup, "--weld --no-weld");
+  EXPECT_EQ(both.exit_code, 1);
+  EXPECT_NE(both.err.find("--weld"), std::string::npos) << both.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("out.ply")));
+}
+
+}  // namespace
+}  // namespace gaussmesh::testing
