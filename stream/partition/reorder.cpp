@@ -93,8 +93,9 @@ Status PartitionRun::reorder(bool weld) {
   const std::uint64_t table = options_.reorder_table_bytes > 0 ? options_.reorder_table_bytes
                                                                 : std::max<std::uint64_t>(options_.memory_bytes / 8 * 3, std::uint64_t{1} << 20);
   const std::size_t buffers = std::max<std::size_t>(options_.memory_bytes / 16, std::size_t{1} << 20);
-  // A range of cells holds whole cells, at least one sorted cell's worth.
-  const std::uint64_t range_vertices = std::max<std::uint64_t>(table / (sizeof(PositionRecord) + sizeof(VertexKey)), kMaxSortedCell);
+  // A range of cells holds whole cells (or is one cell larger than that), at least the largest
+  // group of one fine code that is welded.
+  const std::uint64_t range_vertices = std::max<std::uint64_t>(table / (sizeof(PositionRecord) + sizeof(OrderedVertex)), kMaxWeldGroup);
   const std::uint64_t range_ids = std::max<std::uint64_t>(table / sizeof(std::uint32_t), 1024);
   // Ranges of faces, and of old ids for the corners' passes, are powers of two (a shift per
   // record, not a division); a corner pass's slice of the map stays within 1 MiB, so that its
@@ -104,8 +105,8 @@ Status PartitionRun::reorder(bool weld) {
   const std::uint32_t slice_bits = std::min<std::uint32_t>(floor_log2(range_ids), 18);
   const std::uint64_t run_faces = std::max<std::uint64_t>(table / sizeof(Triangle), 1024);
 
-  // 1. Vertices per cell; cells in Morton order packed into ranges of whole cells (a cell too
-  // large to sort is a range of its own), each vertex's place in the cell order.
+  // 1. Vertices per cell; cells in Morton order packed into ranges of whole cells (a cell larger
+  // than a range is a range of its own), each vertex's place in the cell order.
   const Grid grid = Grid::make(out_.lo, out_.hi);
   std::vector<std::uint32_t> code(grid.cells()), next(grid.cells(), 0), range_of(grid.cells());
   for (std::uint32_t c = 0; c < grid.cells(); ++c) code[c] = grid.morton(c);
@@ -165,21 +166,91 @@ Status PartitionRun::reorder(bool weld) {
     SpillWriter positions[kPositionFiles];
     for (std::uint32_t i = 0; i < kPositionFiles; ++i)
       GM_RETURN_IF_ERROR(positions[i].open(vertex_files_->positions[i], std::size_t{1} << 20));
-    const auto keep = [&](const Vec3f& p, std::uint32_t id) -> Status {
-      GM_RETURN_IF_ERROR(positions[position_file(kept)].write(&p, sizeof(Vec3f)));
-      return pairs.append(id / range_ids, CornerRecord{id, kept++});
+    Status failed;
+    const auto emit = [&](const OrderedVertex& v, bool joined) {
+      if (!failed.is_ok()) return;
+      if (!joined) {
+        failed = positions[position_file(kept)].write(&v.p, sizeof(Vec3f));
+        ++kept;
+      }
+      if (failed.is_ok()) failed = pairs.append(v.key.id / range_ids, CornerRecord{v.key.id, kept - 1});
     };
+    const auto fine_of = [&](const Vec3f& p) { return grid.sub_code(p, kReorderFineBits); };
     std::vector<PositionRecord> range;
-    std::vector<VertexKey> keys;
+    std::vector<OrderedVertex> run;
+    // The vertices of bucket r whose fine code is in [lo, hi), ordered.
+    const auto order_codes = [&](std::size_t r, std::uint32_t lo, std::uint64_t hi) -> Status {
+      run.clear();
+      GM_RETURN_IF_ERROR(moved.read(r, [&](std::span<const std::byte> block) {
+        for (const PositionRecord& p : records_of<PositionRecord>(block)) {
+          const std::uint32_t f = fine_of(p.p);
+          if (f >= lo && f < hi) run.push_back({VertexKey::of(f, p.p, p.id), p.p});
+        }
+        return Status{};
+      }));
+      order_run(run, weld, emit);
+      return failed;
+    };
+    // Consecutive counts[i] from `from`, up to `cap` in all (at least one): the end.
+    const auto pack = [](const std::vector<std::uint64_t>& counts, std::size_t from, std::uint64_t cap) {
+      std::size_t to = from;
+      for (std::uint64_t total = 0; to < counts.size() && (to == from || total + counts[to] <= cap); ++to) total += counts[to];
+      return to;
+    };
+    constexpr std::uint32_t kHalf = 3 * kReorderFineBits / 2;  // a fine code's high and low halves
     for (std::size_t r = 0; r < ranges; ++r) {
       const std::uint64_t first = range_first[r], count = range_first[r + 1] - first;
-      const bool single = range_cell[r + 1] - range_cell[r] == 1;
-      if (single && count > kMaxSortedCell) {
-        // One cell too large to sort: its records came in id order, which is its order.
+      if (count > range_vertices) {  // only one cell holds vertices: ranges hold whole cells
+
+        // One cell larger than the table: ordered in pieces of whole fine codes, found by
+        // counting the codes' high halves, then within a high half too large the low halves;
+        // a single code larger than the table is a group past kMaxWeldGroup, whose records
+        // come in id order, its order.
+        std::vector<std::uint64_t> high(std::size_t{1} << kHalf, 0);
         GM_RETURN_IF_ERROR(moved.read(r, [&](std::span<const std::byte> block) {
-          for (const PositionRecord& p : records_of<PositionRecord>(block)) GM_RETURN_IF_ERROR(keep(p.p, p.id));
+          for (const PositionRecord& p : records_of<PositionRecord>(block)) ++high[fine_of(p.p) >> kHalf];
           return Status{};
         }));
+        for (std::size_t h = 0; h < high.size();) {
+          if (high[h] == 0) {
+            ++h;
+            continue;
+          }
+          if (high[h] <= range_vertices) {
+            const std::size_t end = pack(high, h, range_vertices);
+            GM_RETURN_IF_ERROR(order_codes(r, static_cast<std::uint32_t>(h << kHalf), std::uint64_t{end} << kHalf));
+            h = end;
+            continue;
+          }
+          std::vector<std::uint64_t> low(std::size_t{1} << kHalf, 0);
+          GM_RETURN_IF_ERROR(moved.read(r, [&](std::span<const std::byte> block) {
+            for (const PositionRecord& p : records_of<PositionRecord>(block)) {
+              const std::uint32_t f = fine_of(p.p);
+              if (f >> kHalf == h) ++low[f & ((1u << kHalf) - 1)];
+            }
+            return Status{};
+          }));
+          const std::uint32_t base = static_cast<std::uint32_t>(h << kHalf);
+          for (std::size_t l = 0; l < low.size();) {
+            if (low[l] == 0) {
+              ++l;
+              continue;
+            }
+            if (low[l] > range_vertices) {
+              GM_RETURN_IF_ERROR(moved.read(r, [&](std::span<const std::byte> block) {
+                for (const PositionRecord& p : records_of<PositionRecord>(block))
+                  if (fine_of(p.p) == base + l) emit({VertexKey::of(base + static_cast<std::uint32_t>(l), p.p, p.id), p.p}, false);
+                return failed;
+              }));
+              ++l;
+              continue;
+            }
+            const std::size_t end = pack(low, l, range_vertices);
+            GM_RETURN_IF_ERROR(order_codes(r, base + static_cast<std::uint32_t>(l), std::uint64_t{base} + end));
+            l = end;
+          }
+          ++h;
+        }
         continue;
       }
       range.resize(count);
@@ -193,27 +264,10 @@ Status PartitionRun::reorder(bool weld) {
       for (std::uint32_t m = range_cell[r]; m < range_cell[r + 1]; ++m) {
         const std::uint64_t begin = cell_start[m] - first;
         const std::uint64_t end = (m + 1 < cell_start.size() ? cell_start[m + 1] : range_first[ranges]) - first;
-        if (begin == end) continue;
-        if (end - begin > kMaxSortedCell) {  // too large to sort: id order, not welded
-          for (std::uint64_t i = begin; i < end; ++i) GM_RETURN_IF_ERROR(keep(range[i].p, range[i].id));
-          continue;
-        }
-        keys.clear();
-        for (std::uint64_t i = begin; i < end; ++i) {
-          keys.push_back(VertexKey::of(grid.sub_code(range[i].p, kReorderFineBits), range[i].p, static_cast<std::uint32_t>(i)));
-        }
-        std::sort(keys.begin(), keys.end(), [&](const VertexKey& a, const VertexKey& b) {
-          if (a.fine != b.fine || a.x != b.x || a.y != b.y || a.z != b.z) return a < b;
-          return range[a.id].id < range[b.id].id;
-        });
-        for (std::size_t k = 0; k < keys.size(); ++k) {
-          const PositionRecord& p = range[keys[k].id];
-          if (weld && k > 0 && keys[k].same_position(keys[k - 1])) {
-            GM_RETURN_IF_ERROR(pairs.append(p.id / range_ids, CornerRecord{p.id, kept - 1}));
-            continue;
-          }
-          GM_RETURN_IF_ERROR(keep(p.p, p.id));
-        }
+        run.clear();
+        for (std::uint64_t i = begin; i < end; ++i) run.push_back({VertexKey::of(fine_of(range[i].p), range[i].p, range[i].id), range[i].p});
+        order_run(run, weld, emit);
+        GM_RETURN_IF_ERROR(failed);
       }
     }
     for (SpillWriter& p : positions) {

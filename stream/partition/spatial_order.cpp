@@ -24,35 +24,28 @@ std::uint64_t reorder_spatially(std::vector<format::Vec3f>& positions, std::vect
     if (!(lo[a] <= hi[a])) lo[a] = hi[a] = 0;
   const detail::Grid grid = detail::Grid::make({lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]});
 
-  // Vertices: a counting sort by the Morton code of their cell, stable in id; then each cell
-  // that is small enough sorted by VertexKey.
+  // Vertices: a counting sort by the Morton code of their cell, then each cell ordered.
   std::vector<std::uint32_t> start(grid.cells() + 1, 0), code(grid.cells());
   for (std::uint32_t c = 0; c < grid.cells(); ++c) code[c] = grid.morton(c);
   for (const format::Vec3f& p : positions) ++start[code[grid.cell(p)] + 1];
   for (std::size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
-  std::vector<VertexKey> order(positions.size());
+  std::vector<OrderedVertex> order(positions.size());
   {
     std::vector<std::uint32_t> next(start.begin(), start.end() - 1);
     for (std::uint32_t v = 0; v < positions.size(); ++v) {
       const format::Vec3f& p = positions[v];
-      order[next[code[grid.cell(p)]]++] = VertexKey::of(grid.sub_code(p, kReorderFineBits), p, v);
+      order[next[code[grid.cell(p)]]++] = {VertexKey::of(grid.sub_code(p, kReorderFineBits), p, v), p};
     }
   }
   std::vector<std::uint32_t> renamed(positions.size());
   std::vector<format::Vec3f> moved;
   moved.reserve(positions.size());
   for (std::size_t c = 0; c + 1 < start.size(); ++c) {
-    const auto first = order.begin() + start[c], last = order.begin() + start[c + 1];
-    const bool sorted = last - first <= std::ptrdiff_t{kMaxSortedCell};
-    if (sorted) std::sort(first, last);
-    for (auto k = first; k != last; ++k) {
-      if (weld && sorted && k != first && k->same_position(*(k - 1))) {
-        renamed[k->id] = renamed[(k - 1)->id];
-        continue;
-      }
-      renamed[k->id] = static_cast<std::uint32_t>(moved.size());
-      moved.push_back(positions[k->id]);
-    }
+    order_run(std::span<OrderedVertex>(order.data() + start[c], start[c + 1] - start[c]), weld,
+              [&](const OrderedVertex& v, bool joined) {
+                if (!joined) moved.push_back(v.p);
+                renamed[v.key.id] = static_cast<std::uint32_t>(moved.size() - 1);
+              });
   }
   const std::uint64_t welded = positions.size() - moved.size();
   positions.swap(moved);

@@ -29,20 +29,23 @@ namespace gaussmesh::stream {
 inline std::uint32_t lowest_corner(const format::Triangle& t) { return std::min({t.v[0], t.v[1], t.v[2]}); }
 
 // Within a cell, vertices go by the Z-order code of their sub-cell at 2^kReorderFineBits parts
-// per axis, then by their coordinates' bits, then by id; a cell of more than kMaxSortedCell
-// vertices (only when far outliers stretch the bounds) keeps them in id order and is not
-// welded, so that one cell's sort always fits a bounded table.
+// per axis, then by their coordinates' bits, then by id. More than kMaxWeldGroup vertices with
+// one such code (a sub-cell a billionth of its cell: in practice many copies of one point) keep
+// id order and are not welded, so that the out-of-core sort never needs more than a bounded
+// table for one code.
 inline constexpr std::uint32_t kReorderFineBits = 10;
-inline constexpr std::uint32_t kMaxSortedCell = 1u << 18;
+inline constexpr std::uint32_t kMaxWeldGroup = 1u << 18;
 
 // The sort key of a vertex within its cell. Equal positions (every bit) sort next to each other.
 struct VertexKey {
   std::uint32_t fine, x, y, z, id;
   static VertexKey of(std::uint32_t fine, const format::Vec3f& p, std::uint32_t id) {
+    // -0 as +0 (the same point; the STL reader's weld does the same).
+    const float c[3] = {p.x == 0 ? 0.0f : p.x, p.y == 0 ? 0.0f : p.y, p.z == 0 ? 0.0f : p.z};
     VertexKey k{fine, 0, 0, 0, id};
-    std::memcpy(&k.x, &p.x, 4);
-    std::memcpy(&k.y, &p.y, 4);
-    std::memcpy(&k.z, &p.z, 4);
+    std::memcpy(&k.x, &c[0], 4);
+    std::memcpy(&k.y, &c[1], 4);
+    std::memcpy(&k.z, &c[2], 4);
     return k;
   }
   bool same_position(const VertexKey& o) const { return x == o.x && y == o.y && z == o.z; }
@@ -55,8 +58,32 @@ struct VertexKey {
   }
 };
 
-// Welding joins vertices whose positions are equal in every bit (so +0 and -0 stay apart) into
-// the first of them in the order above. `--weld auto` welds an input with at least as many
+// A vertex being ordered: its key (key.id: its input id) and its position.
+struct OrderedVertex {
+  VertexKey key;
+  format::Vec3f p;
+};
+
+// Orders `run` (vertices of one cell, whole groups of equal fine codes) and calls
+// emit(vertex, joined) for each in the new order; joined: welded into the last vertex emitted
+// unjoined.
+template <class Emit>
+void order_run(std::span<OrderedVertex> run, bool weld, Emit&& emit) {
+  std::sort(run.begin(), run.end(), [](const OrderedVertex& a, const OrderedVertex& b) { return a.key < b.key; });
+  for (std::size_t i = 0; i < run.size();) {
+    std::size_t j = i + 1;
+    while (j < run.size() && run[j].key.fine == run[i].key.fine) ++j;
+    const bool large = j - i > kMaxWeldGroup;
+    if (large) {
+      std::sort(run.begin() + i, run.begin() + j, [](const OrderedVertex& a, const OrderedVertex& b) { return a.key.id < b.key.id; });
+    }
+    for (std::size_t k = i; k < j; ++k) emit(run[k], weld && !large && k > i && run[k].key.same_position(run[k - 1].key));
+    i = j;
+  }
+}
+
+// Welding joins vertices whose coordinates are equal in every bit (-0 taken as +0; NaNs only
+// with the same bits) into the first of them in the order above. `--weld auto` welds an input with at least as many
 // vertices as faces: a triangle soup has three a face, a mesh that shares its vertices about one
 // for two faces.
 enum class Weld { kAuto, kOn, kOff };

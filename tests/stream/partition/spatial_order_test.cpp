@@ -250,5 +250,58 @@ TEST(SpatialOrder, OutOfCoreRenumberingIsTheInCoreOneOverOneRangeOrMany) {
   EXPECT_FALSE(partition->reordered);
 }
 
+TEST(SpatialOrder, ACellLargerThanTheTableIsOrderedInPiecesOutOfCore) {
+  // A far triangle stretches the bounds so that the whole sheet falls in one cell, and beside
+  // it more than kMaxWeldGroup unreferenced copies of one of its vertices: one fine code that
+  // keeps id order and is not welded. Out of core, that cell is ordered in pieces of fine codes
+  // (and the large group streamed); the numbering is still the in-core one.
+  Mesh mesh = testing::make_wavy_sheet(540);
+  const Vec3f copied = mesh.positions[1000];
+  for (std::uint32_t i = 0; i < kMaxWeldGroup + 5000; ++i) mesh.positions.push_back(copied);
+  const auto far = static_cast<std::uint32_t>(mesh.positions.size());
+  mesh.positions.push_back({1000, 1000, 1000});
+  mesh.positions.push_back({1001, 1000, 1000});
+  mesh.positions.push_back({1000, 1001, 1000});
+  mesh.triangles.push_back({{far, far + 1, far + 2}});
+  const Mesh input = shuffled(mesh, 29);
+  Mesh expected = input;
+  EXPECT_EQ(reorder_spatially(expected.positions, expected.triangles, true), 0u);  // the copies are too many to weld
+  testing::ScratchDir dir;
+  {
+    auto out = format::OutputFile::create(dir.file("in.ply"), true);
+    ASSERT_TRUE(out.is_ok());
+    ASSERT_TRUE(format::write_ply(**out, input.view(), {}).is_ok());
+    ASSERT_TRUE((*out)->commit().is_ok());
+  }
+  for (const std::uint64_t table : {std::uint64_t{0}, std::uint64_t{64} << 10}) {
+    SCOPED_TRACE("table " + std::to_string(table));
+    PartitionOptions options;
+    options.rings = 1;
+    options.max_chunk_faces = 100000;
+    options.reorder_scattered = true;
+    options.weld = Weld::kOn;
+    options.reorder_table_bytes = table;
+    options.tmp_dir = dir.path().string();
+    auto partition = partition_mesh(dir.file("in.ply"), {}, options);
+    ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
+    EXPECT_TRUE(partition->reordered);
+    EXPECT_EQ(partition->welded_vertices, 0u);
+    std::uint64_t owned = 0;
+    for (const ChunkInfo& info : partition->chunks) {
+      auto chunk = load_chunk(info);
+      ASSERT_TRUE(chunk.is_ok()) << chunk.status().to_string();
+      for (std::size_t v = 0; v < chunk->positions.size(); ++v)
+        ASSERT_EQ(std::memcmp(&chunk->positions[v], &expected.positions[chunk->global_vertex[v]], sizeof(Vec3f)), 0);
+      for (std::size_t f = 0; f < chunk->triangles.size(); ++f) {
+        if (!chunk->owned_face[f]) continue;
+        ++owned;
+        const Triangle& want = expected.triangles[chunk->global_face[f]];
+        for (int k = 0; k < 3; ++k) ASSERT_EQ(chunk->global_vertex[chunk->triangles[f].v[k]], want.v[k]);
+      }
+    }
+    EXPECT_EQ(owned, expected.triangles.size());
+  }
+}
+
 }  // namespace
 }  // namespace gaussmesh::stream
