@@ -10,7 +10,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "format/mesh_writer.h"
+#include "format/output_file.h"
+#include "stream/core/mesh.h"
 #include "tests/support/scattered_copy.h"
+#include "tests/support/shapes.h"
 #include "tests/support/test_util.h"
 
 namespace gaussmesh::testing {
@@ -90,6 +94,35 @@ TEST(SimplifyWeldCli, CowWeldedIsNonManifold) {
   const Outcome out_of_core = simplify(dir, in, "--weld --engine out-of-core --ratio 0.1");
   EXPECT_EQ(out_of_core.exit_code, 3);
   EXPECT_NE(out_of_core.err.find("manifold"), std::string::npos) << out_of_core.err;
+}
+
+TEST(SimplifyWeldCli, ASoupStreamsUnderAHardAddressSpaceLimit) {
+  // 581k faces as a soup (1.7M vertices) under --memory 16M, in a process whose address space
+  // is capped at 160 MiB (ulimit -v): welded on the way, it finishes with the unlimited run's
+  // bytes. Left unwelded it cannot, and says so in one line (exit 5) rather than being killed.
+  ScratchDir dir;
+  {
+    const stream::Mesh sheet = make_wavy_sheet(540);
+    auto out = format::OutputFile::create(dir.file("sheet.ply"), true);
+    ASSERT_TRUE(out.is_ok());
+    ASSERT_TRUE(format::write_ply(**out, sheet.view(), {}).is_ok());
+    ASSERT_TRUE((*out)->commit().is_ok());
+  }
+  const std::string soup = dir.file("soup.ply");
+  ASSERT_TRUE(write_soup_copy(dir.file("sheet.ply"), soup, 3, false));
+  const std::string flags = "--engine out-of-core --memory 16M --threads 2";
+  const Outcome free_run = simplify(dir, soup, flags);
+  ASSERT_EQ(free_run.exit_code, 0) << free_run.err;
+  const std::string capped = "ulimit -v 163840; ";
+  const std::string out = dir.file("capped.ply");
+  auto run = run_command(capped + binary() + " simplify " + q(soup) + " -o " + q(out) + " --format ply " + flags);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(read_file(out) == free_run.bytes);
+  std::filesystem::remove(out);
+  run = run_command(capped + binary() + " simplify " + q(soup) + " -o " + q(out) + " --format ply --no-weld " + flags);
+  EXPECT_EQ(run.exit_code, 5) << run.err;
+  EXPECT_NE(run.err.find("out of memory"), std::string::npos) << run.err;
+  EXPECT_FALSE(std::filesystem::exists(out));
 }
 
 TEST(SimplifyWeldCli, NoWeldKeepsASoupAndBothFlagsAreAUsageError) {
