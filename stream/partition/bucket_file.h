@@ -1,8 +1,9 @@
 // Records distributed into buckets on disk, for the external passes of the spatial renumbering
-// (reorder.cpp): one temporary file of blocks, each bucket's records in blocks of its own, in the
-// order they were appended. One file and one buffer per bucket, whatever the bucket count, so
-// the memory is the buckets' buffers and a block list (12 bytes a block), and no descriptor
-// limit applies.
+// (reorder.cpp): one temporary file of equal blocks, each bucket's records in blocks of its own,
+// in the order they were appended. One file and one buffer per bucket, whatever the bucket
+// count, so the memory is the buckets' buffers and the block numbers (4 bytes a block), and no
+// descriptor limit applies. A bucket's last block may be partly filled (the file has a hole
+// there).
 #pragma once
 
 #include <fcntl.h>
@@ -41,10 +42,11 @@ class BucketFile {
     buffers_.resize(buckets);
     used_.assign(buckets, 0);
     blocks_.assign(buckets, {});
+    last_bytes_.assign(buckets, 0);
     return {};
   }
   std::size_t buckets() const { return buffers_.size(); }
-  std::uint64_t bytes() const { return end_; }
+  std::uint64_t bytes() const { return written_; }
 
   // One record of the size given to open().
   template <class Record>
@@ -63,25 +65,23 @@ class BucketFile {
     }
     return {};
   }
-  std::uint64_t bucket_bytes(std::size_t bucket) const {
-    std::uint64_t sum = 0;
-    for (const Block& b : blocks_[bucket]) sum += b.size;
-    return sum;
-  }
   // Calls fn(bytes) for each block of `bucket`, in order (finish() first).
   template <class Fn>
   format::Status read(std::size_t bucket, Fn&& fn) {
     std::vector<std::byte> buffer(block_);
-    for (const Block& b : blocks_[bucket]) {
-      if (read_some(fd_, buffer.data(), b.size, b.offset) != static_cast<std::int64_t>(b.size)) {
+    const std::vector<std::uint32_t>& blocks = blocks_[bucket];
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+      const std::size_t size = i + 1 == blocks.size() && last_bytes_[bucket] > 0 ? last_bytes_[bucket] : block_;
+      if (read_some(fd_, buffer.data(), size, std::uint64_t{blocks[i]} * block_) != static_cast<std::int64_t>(size)) {
         return format::Status::error(format::Code::kBadInput, path_, "temporary file is shorter than written");
       }
-      GM_RETURN_IF_ERROR(fn(std::span<const std::byte>(buffer.data(), b.size)));
+      GM_RETURN_IF_ERROR(fn(std::span<const std::byte>(buffer.data(), size)));
     }
     return {};
   }
-  // Closes and deletes the file (idempotent).
+  // Closes and deletes the file, and frees the block lists (idempotent).
   void remove() {
+    std::vector<std::vector<std::uint32_t>>().swap(blocks_);
     if (fd_ < 0) return;
     ::close(fd_);
     ::unlink(path_.c_str());
@@ -89,18 +89,18 @@ class BucketFile {
   }
 
  private:
-  struct Block {
-    std::uint64_t offset;
-    std::uint32_t size;
-  };
+  // Writes the bucket's buffer as the file's next block (a partial one only from finish()).
   format::Status flush(std::size_t bucket) {
     const std::size_t size = used_[bucket];
     if (size == 0) return {};
+    if (end_ / block_ >= UINT32_MAX) return format::Status::error(format::Code::kResources, path_, "more than 2^32 blocks");
     if (!format::write_all(fd_, buffers_[bucket].get(), size, end_, true)) {
       return format::Status::error(format::Code::kOutput, path_, "write failed: " + errno_text());
     }
-    blocks_[bucket].push_back({end_, static_cast<std::uint32_t>(size)});
-    end_ += size;
+    blocks_[bucket].push_back(static_cast<std::uint32_t>(end_ / block_));
+    if (size < block_) last_bytes_[bucket] = size;
+    end_ += block_;
+    written_ += size;
     used_[bucket] = 0;
     return {};
   }
@@ -110,8 +110,9 @@ class BucketFile {
   std::size_t block_ = 0;
   std::vector<std::unique_ptr<std::byte[]>> buffers_;
   std::vector<std::size_t> used_;
-  std::vector<std::vector<Block>> blocks_;
-  std::uint64_t end_ = 0;
+  std::vector<std::vector<std::uint32_t>> blocks_;  // per bucket: its blocks' numbers
+  std::vector<std::size_t> last_bytes_;               // per bucket: its partial last block's bytes, or 0
+  std::uint64_t end_ = 0, written_ = 0;
 };
 
 }  // namespace gaussmesh::stream::detail

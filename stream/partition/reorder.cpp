@@ -98,11 +98,11 @@ Status PartitionRun::reorder(bool weld) {
   const std::uint64_t range_vertices = std::max<std::uint64_t>(table / (sizeof(PositionRecord) + sizeof(OrderedVertex)), kMaxWeldGroup);
   const std::uint64_t range_ids = std::max<std::uint64_t>(table / sizeof(std::uint32_t), 1024);
   // Ranges of faces, and of old ids for the corners' passes, are powers of two (a shift per
-  // record, not a division); a corner pass's slice of the map stays within 1 MiB, so that its
-  // look-ups stay in the cache.
+  // record, not a division); a corner pass's slice of the map stays within 4 MiB, so that its
+  // look-ups mostly hit the cache while its buckets stay few enough for large blocks.
   const std::uint32_t face_bits = floor_log2(std::max<std::uint64_t>(table / sizeof(Triangle), 1024));
   const std::uint64_t range_faces = std::uint64_t{1} << face_bits;
-  const std::uint32_t slice_bits = std::min<std::uint32_t>(floor_log2(range_ids), 18);
+  const std::uint32_t slice_bits = std::min<std::uint32_t>(floor_log2(range_ids), 20);
   const std::uint64_t run_faces = std::max<std::uint64_t>(table / sizeof(Triangle), 1024);
 
   // 1. Vertices per cell; cells in Morton order packed into ranges of whole cells (a cell larger
