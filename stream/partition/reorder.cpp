@@ -1,7 +1,8 @@
-// The spatial renumbering of a scattered input, out of core (the rules are in spatial_order.h;
-// the passes and their cost in docs/partition.md, "Scattered input"). Every pass reads its input
-// sequentially and distributes records into buckets (bucket_file.h) sized so that one bucket's
-// table fits the budget: the renumbering costs the same whatever the input's order.
+// The spatial renumbering of a scattered input or a soup, out of core, welding on the way (the
+// rules are in spatial_order.h; the passes and their cost in docs/partition.md, "Scattered input
+// and soups"). Every pass reads its input sequentially and distributes records into buckets
+// (bucket_file.h) sized so that one bucket's table fits the budget: the renumbering costs the
+// same whatever the input's order.
 #include <cstdio>
 
 #include <algorithm>

@@ -34,7 +34,7 @@ inline std::uint32_t lowest_corner(const format::Triangle& t) { return std::min(
 // id order and are not welded, so that the out-of-core sort never needs more than a bounded
 // table for one code.
 inline constexpr std::uint32_t kReorderFineBits = 10;
-inline constexpr std::uint32_t kMaxWeldGroup = 1u << 18;
+inline constexpr std::uint32_t kMaxWeldGroup = 1u << 16;
 
 // The sort key of a vertex within its cell. Equal positions (every bit) sort next to each other.
 struct VertexKey {
