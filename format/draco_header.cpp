@@ -3,6 +3,7 @@
 // mesh_sequential_decoder.cc and mesh_edgebreaker_decoder{,_impl}.cc (DecodeConnectivity).
 #include "format/draco_header.h"
 
+#include <algorithm>
 #include <cstring>
 
 #include <draco/compression/config/compression_shared.h>
@@ -28,10 +29,12 @@ constexpr std::uint32_t version(std::uint32_t major, std::uint32_t minor) { retu
 // A forward cursor over the header bytes; every read is bounds-checked.
 class Cursor {
  public:
-  Cursor(std::span<const char> bytes, const std::string& name) : bytes_(bytes), name_(name) {}
+  Cursor(std::span<const char> bytes, const std::string& name, std::uint64_t file_size)
+      : bytes_(bytes), name_(name), file_size_(std::max<std::uint64_t>(file_size, bytes.size())) {}
 
-  size_t offset() const { return pos_; }
   size_t remaining() const { return bytes_.size() - pos_; }
+  // What the whole file holds after the cursor, of which remaining() is at hand.
+  std::uint64_t remaining_in_file() const { return file_size_ - pos_; }
   Status bad(const std::string& message) const {
     return Status::error(Code::kBadInput, name_ + ": byte " + std::to_string(pos_), "Draco: " + message);
   }
@@ -84,6 +87,7 @@ class Cursor {
  private:
   std::span<const char> bytes_;
   const std::string& name_;
+  std::uint64_t file_size_;
   size_t pos_ = 0;
 };
 
@@ -132,7 +136,7 @@ Status read_sequential(Cursor& in, std::uint32_t bitstream, DracoCounts& counts)
   std::uint32_t faces = 0, points = 0;
   if (!in.count(bitstream, version(2, 2), faces) || !in.count(bitstream, version(2, 2), points)) return in.ended();
   // Draco's own checks: 32-bit indices, and at least one byte a face index left in the file.
-  if (faces > 0xffffffffu / 3 || faces > in.remaining() / 3) {
+  if (faces > 0xffffffffu / 3 || faces > in.remaining_in_file() / 3) {
     return in.bad(std::to_string(faces) + " faces do not fit the rest of the file");
   }
   counts.faces = faces;
@@ -157,8 +161,9 @@ Status read_edgebreaker(Cursor& in, std::uint32_t bitstream, DracoCounts& counts
 
 }  // namespace
 
-Result<DracoCounts> read_draco_counts(std::span<const char> bytes, const std::string& name) {
-  Cursor in(bytes, name);
+Result<DracoCounts> read_draco_counts(std::span<const char> bytes, const std::string& name,
+                                      std::uint64_t file_size) {
+  Cursor in(bytes, name, file_size);
   if (bytes.size() < 5 || std::memcmp(bytes.data(), "DRACO", 5) != 0) return in.bad("no \"DRACO\" magic");
   in.skip(5);
   DracoCounts counts;

@@ -26,10 +26,12 @@ struct DracoCounts {
 // Reads the "DRACO" header (version, geometry type, method, flags), steps over the metadata
 // when the flags announce it, and reads the counts at the start of the connectivity of either
 // method, in every mesh bitstream version Draco 1.5 decodes (1.0 to 2.2). `bytes` is the file
-// from its first byte; only the header is read, never more than it needs.
+// from its first byte, or its first `bytes.size()` bytes of `file_size` (0: `bytes` is the whole
+// file); only the header is read, never more than it needs.
 // Errors (kBadInput, "name: byte N"): the bytes end inside the header; not "DRACO"; a version
 // outside 1.0..2.2; not a triangle mesh; an unknown method or edgebreaker traversal; a face
 // count Draco refuses; metadata nested deeper than 64. Draco 1.5 refuses all of these too.
-Result<DracoCounts> read_draco_counts(std::span<const char> bytes, const std::string& name);
+Result<DracoCounts> read_draco_counts(std::span<const char> bytes, const std::string& name,
+                                      std::uint64_t file_size = 0);
 
 }  // namespace gaussmesh::format

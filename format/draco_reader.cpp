@@ -22,22 +22,32 @@ namespace {
 // Files larger than this are refused rather than read whole (a decoded mesh is ~20x larger).
 constexpr size_t kMaxDracoBytes = size_t{1} << 30;
 
-// The decode's peak beyond the file's own bytes, from the counts: Draco's mesh, its corner
-// table and its attribute buffers. The rule is the largest rate measured over both methods and
-// over closed meshes and soups, rounded up (docs/formats.md, "Draco input").
-constexpr std::uint64_t kDecodeBytesPerFace = 80;
-constexpr std::uint64_t kDecodeBytesPerPoint = 40;
+// The read's peak beyond the file's own bytes, from the counts: Draco's mesh, its decoder's
+// tables (edgebreaker's corner table) and attribute buffers, then the delivery. Per method, a
+// rate per face and one per point fitted to the largest peaks measured on closed meshes (half a
+// point a face) and on soups (three), at every encoding speed, and rounded up (docs/formats.md,
+// "Draco input").
+struct DecodeRates {
+  std::uint64_t per_face, per_point;
+};
+constexpr DecodeRates kSequentialRates{20, 30};
+constexpr DecodeRates kEdgebreakerRates{44, 64};
+// The process around the read: the binary, its threads, a pipeline's ingest buffers (measured
+// 17 MiB beside the read of `simplify --engine out-of-core`).
+constexpr std::uint64_t kProcessBytes = std::uint64_t{20} << 20;
 
 std::uint64_t decode_bytes(const DracoCounts& counts) {
-  return counts.faces * kDecodeBytesPerFace + counts.points * kDecodeBytesPerPoint;
+  const DecodeRates& r = counts.method == DracoMethod::kSequential ? kSequentialRates : kEdgebreakerRates;
+  return counts.faces * r.per_face + counts.points * r.per_point;
 }
 
 std::uint64_t to_mib(std::uint64_t bytes) { return (bytes + (std::uint64_t{1} << 20) - 1) >> 20; }
 
-// kResources, one line, when the file's bytes plus the decode's estimated peak pass the limit.
+// kResources, one line, when the process, the file's bytes and the decode's estimated peak pass
+// the limit.
 Status check_budget(const ByteSource& source, const DracoCounts* counts, std::uint64_t file_bytes,
                     std::uint64_t limit) {
-  const std::uint64_t need = file_bytes + (counts != nullptr ? decode_bytes(*counts) : 0);
+  const std::uint64_t need = kProcessBytes + file_bytes + (counts != nullptr ? decode_bytes(*counts) : 0);
   if (limit == 0 || need <= limit) return {};
   const std::string what = counts != nullptr ? "decoding this Draco mesh (" + std::to_string(counts->faces) +
                                                    " faces, " + std::to_string(counts->points) + " points)"
@@ -116,7 +126,7 @@ Status read_checked(ByteSource& source, const ReadOptions& options, MeshSink& si
   auto got = source.ensure(ByteSource::kMaxWindow);
   if (!got) return got.status();
   const bool whole_in_window = *got < ByteSource::kMaxWindow;
-  auto counts = read_draco_counts({source.cursor(), *got}, source.name());
+  auto counts = read_draco_counts({source.cursor(), *got}, source.name(), source.total_size().value_or(0));
   if (!counts && whole_in_window) return counts.status();
   if (counts) {
     GM_RETURN_IF_ERROR(check_budget(source, &*counts, source.total_size().value_or(*got), options.memory_limit));
