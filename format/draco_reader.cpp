@@ -32,8 +32,7 @@ struct DecodeRates {
 };
 constexpr DecodeRates kSequentialRates{20, 30};
 constexpr DecodeRates kEdgebreakerRates{44, 64};
-// The process around the read: the binary, its threads, a pipeline's ingest buffers (measured
-// 17 MiB beside the read of `simplify --engine out-of-core`).
+// The process around the read: the binary, its threads, a pipeline's ingest buffers (docs/formats.md).
 constexpr std::uint64_t kProcessBytes = std::uint64_t{20} << 20;
 
 std::uint64_t decode_bytes(const DracoCounts& counts) {
