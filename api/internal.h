@@ -34,6 +34,9 @@ std::uint64_t physical_memory();
 stream::SamplerOptions sampler_options(const SamplingOptions& options);
 
 format::ReadOptions read_options(const Source& source);
+// What an out-of-core run lets a reader hold when the input must be held whole (Draco): an
+// explicit --memory, else as far as the automatic budget may grow (a quarter of physical memory).
+std::uint64_t whole_input_limit(const ResourceOptions& resources);
 
 // The mesh of a source in memory: read from its file or stream, or viewed where it lies.
 struct LoadedMesh {
@@ -41,8 +44,9 @@ struct LoadedMesh {
   MeshView view;
   MeshFormat format = MeshFormat::kUnknown;  // as read (kUnknown for a mesh in memory)
 };
-// weld_stl: format::ReadOptions::weld_stl.
-Result<LoadedMesh> load(const Source& source, bool weld_stl = true);
+// weld_stl, memory_limit: format::ReadOptions's (0: no limit; an in-core run passes an explicit
+// --memory, so that a Draco input whose decode cannot fit is refused before it is decoded).
+Result<LoadedMesh> load(const Source& source, bool weld_stl = true, std::uint64_t memory_limit = 0);
 
 // The out-of-core engines read a path ("-": standard input).
 std::string stream_path(const Source& source);

@@ -123,7 +123,9 @@ Result<SampleStats> sample_out_of_core(const Source& source, const std::string& 
       progress("sample", done, total, faces);
     };
   }
-  auto sampled = stream::sample_out_of_core(api::stream_path(source), api::read_options(source), options);
+  format::ReadOptions read = api::read_options(source);
+  read.memory_limit = api::whole_input_limit(o.resources);
+  auto sampled = stream::sample_out_of_core(api::stream_path(source), read, options);
   if (!sampled) return sampled.status();
   const auto t1 = Clock::now();
   std::vector<Sample> found;
@@ -174,7 +176,7 @@ Result<SampleStats> sample_in_core(const Source& source, const std::string& path
                                    const std::vector<stream::GaussSphereOptions>& spheres,
                                    const stream::SamplerOptions& sampler, std::vector<Sample>* samples) {
   const auto t0 = Clock::now();
-  auto mesh = api::load(source);
+  auto mesh = api::load(source, true, o.resources.memory_bytes);
   if (!mesh) return mesh.status();
   const MeshView input = mesh->view;
   const auto t1 = Clock::now();

@@ -122,6 +122,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   options.partition.weld = stream_weld(o.weld);
   format::ReadOptions read = api::read_options(source);
   read.weld_stl = o.weld == Weld::kOff;  // else STL comes as a soup, welded with the rest in bounded memory
+  read.memory_limit = api::whole_input_limit(o.resources);
   auto result = stream::simplify_out_of_core(api::stream_path(source), read, options);
   if (!result) return result.status();
   if (result->faces == 0) return no_faces(source, result->vertices);
@@ -220,7 +221,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
                                        const std::vector<stream::GaussSphereOptions>& spheres,
                                        const stream::SamplerOptions& sampler, Clock::time_point started) {
   auto t = Clock::now();
-  auto mesh = api::load(source, o.weld == Weld::kOff);
+  auto mesh = api::load(source, o.weld == Weld::kOff, o.resources.memory_bytes);
   if (!mesh) return mesh.status();
   const double seconds_read = seconds_since(t);
   // A scattered input is renumbered in spatial order, and a soup welded, as the out-of-core

@@ -128,9 +128,13 @@ format::ReadOptions read_options(const Source& source) {
   return options;
 }
 
+std::uint64_t whole_input_limit(const ResourceOptions& resources) {
+  return resources.memory_bytes != 0 ? resources.memory_bytes : physical_memory() / 4;
+}
+
 std::string stream_path(const Source& source) { return source.kind == Source::Kind::kFile ? source.path : "-"; }
 
-Result<LoadedMesh> load(const Source& source, bool weld_stl) {
+Result<LoadedMesh> load(const Source& source, bool weld_stl, std::uint64_t memory_limit) {
   LoadedMesh loaded;
   if (source.kind == Source::Kind::kMemory) {
     for (const Triangle& t : source.mesh.triangles) {
@@ -149,10 +153,12 @@ Result<LoadedMesh> load(const Source& source, bool weld_stl) {
     auto bytes = format::ByteSource::from_memory(source.bytes, source.path);
     format::ReadOptions read = read_options(source);
     read.weld_stl = weld_stl;
+    read.memory_limit = memory_limit;
     GM_RETURN_IF_ERROR(format::read_mesh(*bytes, read, builder));
   } else {
     format::ReadOptions read = read_options(source);
     read.weld_stl = weld_stl;
+    read.memory_limit = memory_limit;
     GM_RETURN_IF_ERROR(format::read_mesh_file(stream_path(source), read, builder));
   }
   loaded.format = builder.header().format;

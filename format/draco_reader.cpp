@@ -1,8 +1,8 @@
 // Draco input: the whole file is decoded in memory by Google's decoder (Draco has no streaming
 // decode), then delivered to the sink in batches like every other reader. Memory is the file
-// plus the decoded mesh; Draco files are compressed outputs, so this is the one reader whose
-// memory follows the input (docs/formats.md). Size is taken from the bytes actually read,
-// never from a header.
+// plus the decode, which follows the mesh, not the file: a few MB of Draco can decode to a GB.
+// So the counts are read from the header first (format/draco_header.h), and a decode whose
+// estimated peak passes ReadOptions::memory_limit is refused before it starts (docs/formats.md).
 #include <exception>
 #include <new>
 #include <string>
@@ -12,6 +12,7 @@
 #include <draco/core/decoder_buffer.h>
 #include <draco/mesh/mesh.h>
 
+#include "format/draco_header.h"
 #include "format/mesh_batcher.h"
 #include "format/mesh_reader.h"
 
@@ -21,7 +22,41 @@ namespace {
 // Files larger than this are refused rather than read whole (a decoded mesh is ~20x larger).
 constexpr size_t kMaxDracoBytes = size_t{1} << 30;
 
-Status decode_into(const std::vector<char>& bytes, ByteSource& source, const ReadOptions& options, MeshSink& sink) {
+// The read's peak beyond the file's own bytes, from the counts: Draco's mesh, its decoder's
+// tables (edgebreaker's corner table) and attribute buffers, then the delivery. Per method, a
+// rate per face and one per point fitted to the largest peaks measured on closed meshes (half a
+// point a face) and on soups (three), at every encoding speed, and rounded up (docs/formats.md,
+// "Draco input").
+struct DecodeRates {
+  std::uint64_t per_face, per_point;
+};
+constexpr DecodeRates kSequentialRates{20, 30};
+constexpr DecodeRates kEdgebreakerRates{44, 64};
+// The process around the read: the binary, its threads, a pipeline's ingest buffers (docs/formats.md).
+constexpr std::uint64_t kProcessBytes = std::uint64_t{20} << 20;
+
+std::uint64_t decode_bytes(const DracoCounts& counts) {
+  const DecodeRates& r = counts.method == DracoMethod::kSequential ? kSequentialRates : kEdgebreakerRates;
+  return counts.faces * r.per_face + counts.points * r.per_point;
+}
+
+std::uint64_t to_mib(std::uint64_t bytes) { return (bytes + (std::uint64_t{1} << 20) - 1) >> 20; }
+
+// kResources, one line, when the process, the file's bytes and the decode's estimated peak pass
+// the limit.
+Status check_budget(const ByteSource& source, const DracoCounts* counts, std::uint64_t file_bytes,
+                    std::uint64_t limit) {
+  const std::uint64_t need = kProcessBytes + file_bytes + (counts != nullptr ? decode_bytes(*counts) : 0);
+  if (limit == 0 || need <= limit) return {};
+  const std::string what = counts != nullptr ? "decoding this Draco mesh (" + std::to_string(counts->faces) +
+                                                   " faces, " + std::to_string(counts->points) + " points)"
+                                             : "holding this Draco file";
+  return Status::error(Code::kResources, source.name(),
+                       what + " needs about " + std::to_string(to_mib(need)) + " MiB, over the --memory budget of " +
+                           std::to_string(limit >> 20) + " MiB");
+}
+
+Result<std::unique_ptr<draco::Mesh>> decode(const std::vector<char>& bytes, const ByteSource& source) {
   draco::DecoderBuffer buffer;
   buffer.Init(bytes.data(), bytes.size());
   draco::Decoder decoder;
@@ -29,19 +64,22 @@ Status decode_into(const std::vector<char>& bytes, ByteSource& source, const Rea
   if (!decoded.ok()) {
     return Status::error(Code::kBadInput, source.name(), "Draco: " + decoded.status().error_msg_string());
   }
-  const std::unique_ptr<draco::Mesh>& mesh = decoded.value();
-  const draco::PointAttribute* position = mesh->GetNamedAttribute(draco::GeometryAttribute::POSITION);
+  return std::move(decoded).value();
+}
+
+Status deliver(const draco::Mesh& mesh, const ByteSource& source, const ReadOptions& options, MeshSink& sink) {
+  const draco::PointAttribute* position = mesh.GetNamedAttribute(draco::GeometryAttribute::POSITION);
   if (position == nullptr || position->num_components() < 3) {
     return Status::error(Code::kBadInput, source.name(), "Draco: the mesh has no 3-component POSITION attribute");
   }
-  const uint64_t points = mesh->num_points();
+  const uint64_t points = mesh.num_points();
   if (points > kMaxVertices) {
     return Status::error(Code::kBadInput, source.name(), "Draco: more than 2^32 - 1 points");
   }
   MeshHeader header;
   header.format = MeshFormat::kDraco;
   header.declared_vertices = points;
-  header.declared_faces = mesh->num_faces();
+  header.declared_faces = mesh.num_faces();
   GM_RETURN_IF_ERROR(sink.on_header(header));
   MeshBatcher batcher(sink, options.batch_size);
   for (draco::PointIndex::ValueType i = 0; i < points; ++i) {
@@ -51,8 +89,8 @@ Status decode_into(const std::vector<char>& bytes, ByteSource& source, const Rea
     }
     GM_RETURN_IF_ERROR(batcher.add_vertex({xyz[0], xyz[1], xyz[2]}));
   }
-  for (draco::FaceIndex f(0); f < mesh->num_faces(); ++f) {
-    const auto& face = mesh->face(f);
+  for (draco::FaceIndex f(0); f < mesh.num_faces(); ++f) {
+    const auto& face = mesh.face(f);
     for (int k = 0; k < 3; ++k) {
       if (face[k].value() >= points) {
         return Status::error(Code::kBadInput, source.name(), "Draco: face " + std::to_string(f.value()) + " refers to point " +
@@ -65,22 +103,51 @@ Status decode_into(const std::vector<char>& bytes, ByteSource& source, const Rea
   return sink.on_end();
 }
 
-}  // namespace
-
-Status read_draco(ByteSource& source, const ReadOptions& options, MeshSink& sink) {
-  std::vector<char> bytes;
+// Reads the whole file into `bytes`, refusing it as soon as the file plus the decode of `counts`
+// (when known) passes the limit.
+Status read_whole(ByteSource& source, const DracoCounts* counts, std::uint64_t limit, std::vector<char>& bytes) {
   for (;;) {
     auto got = source.ensure(ByteSource::kMaxWindow);
     if (!got) return got.status();
-    if (*got == 0) break;
+    if (*got == 0) return {};
     if (bytes.size() + *got > kMaxDracoBytes) {
       return Status::error(Code::kResources, source.at_byte(), "Draco input larger than 1 GiB is not supported");
     }
+    GM_RETURN_IF_ERROR(check_budget(source, counts, bytes.size() + *got, limit));
     bytes.insert(bytes.end(), source.cursor(), source.cursor() + *got);
     source.advance(*got);
   }
+}
+
+Status read_checked(ByteSource& source, const ReadOptions& options, MeshSink& sink) {
+  // The counts, from the first window when the header lies within it (it always does unless
+  // its metadata is megabytes long): a file whose decode cannot fit is refused unread.
+  auto got = source.ensure(ByteSource::kMaxWindow);
+  if (!got) return got.status();
+  const bool whole_in_window = *got < ByteSource::kMaxWindow;
+  auto counts = read_draco_counts({source.cursor(), *got}, source.name(), source.total_size().value_or(0));
+  if (!counts && whole_in_window) return counts.status();
+  if (counts) {
+    GM_RETURN_IF_ERROR(check_budget(source, &*counts, source.total_size().value_or(*got), options.memory_limit));
+  }
+  std::vector<char> bytes;
+  GM_RETURN_IF_ERROR(read_whole(source, counts ? &*counts : nullptr, options.memory_limit, bytes));
+  if (!counts) {  // the header runs past the first window, or a count needed the rest of the file
+    counts = read_draco_counts(bytes, source.name());
+    if (!counts) return counts.status();
+    GM_RETURN_IF_ERROR(check_budget(source, &*counts, bytes.size(), options.memory_limit));
+  }
+  auto mesh = decode(bytes, source);
+  if (!mesh) return mesh.status();
+  std::vector<char>().swap(bytes);  // the decoded mesh needs the file no more
+  return deliver(**mesh, source, options, sink);
+}
+
+}  // namespace
+
+Status read_draco(ByteSource& source, const ReadOptions& options, MeshSink& sink) {
   try {
-    return decode_into(bytes, source, options, sink);
+    return read_checked(source, options, sink);
   } catch (const std::bad_alloc&) {
     return Status::error(Code::kResources, source.name(), "out of memory decoding Draco");
   } catch (const std::exception& e) {

@@ -1,6 +1,7 @@
 // Streaming mesh input: format detection from content and dispatch to the per-format readers.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <string_view>
 
@@ -17,6 +18,9 @@ struct ReadOptions {
   // STL: weld corners at equal positions in a hash table that grows with the mesh; false: each
   // corner is a vertex of its own, in fixed memory (a soup, for a caller that welds).
   bool weld_stl = true;
+  // Bytes the reader may hold at once; 0: no limit. Only the readers that must hold the whole
+  // input (Draco) use it: they refuse an input that would pass it (kResources) before holding it.
+  std::uint64_t memory_limit = 0;
 };
 
 // Looks at the first bytes (without consuming them) and names the format, or kUnknown.
@@ -41,7 +45,8 @@ Status read_ply(ByteSource& source, const ReadOptions& options, MeshSink& sink);
 Status read_off(ByteSource& source, const ReadOptions& options, MeshSink& sink);
 Status read_obj(ByteSource& source, const ReadOptions& options, MeshSink& sink);
 Status read_stl(ByteSource& source, const ReadOptions& options, MeshSink& sink);
-// Draco (draco_reader.cpp): decoded whole in memory — Draco has no streaming decoder.
+// Draco (draco_reader.cpp): decoded whole in memory — Draco has no streaming decoder — after
+// a check, from the counts in its header, that the decode fits options.memory_limit.
 Status read_draco(ByteSource& source, const ReadOptions& options, MeshSink& sink);
 
 }  // namespace gaussmesh::format
