@@ -104,7 +104,8 @@ Status PartitionRun::reorder(bool weld) {
   const std::uint32_t face_bits = floor_log2(std::max<std::uint64_t>(table / sizeof(Triangle), 1024));
   const std::uint64_t range_faces = std::uint64_t{1} << face_bits;
   const std::uint32_t slice_bits = std::min<std::uint32_t>(floor_log2(range_ids), 20);
-  const std::uint64_t run_faces = std::max<std::uint64_t>(table / sizeof(Triangle), 1024);
+  // A run of faces to sort holds at least a group too large to be ordered (order_face_group).
+  const std::uint64_t run_faces = std::max<std::uint64_t>(table / sizeof(Triangle), kMaxFaceGroup + 1);
 
   // 1. Vertices per cell; cells in Morton order packed into ranges of whole cells (a cell larger
   // than a range is a range of its own), each vertex's place in the cell order.
@@ -381,10 +382,10 @@ Status PartitionRun::reorder(bool weld) {
   GM_RETURN_IF_ERROR(grouped.finish());
   bytes_spilled_ += grouped.bytes();
 
-  // 7. The face spill sorted by lowest corner, ties in input order: each bucket counted, then
-  // sorted in runs of lowest corners that fit the table (one read each); a vertex that is the
-  // lowest corner of more faces than that is a run of its own, streamed (its faces are already
-  // in input order).
+  // 7. The face spill in order (spatial_order.h): each bucket counted, then sorted in runs of
+  // lowest corners that fit the table (one read each), each lowest corner's faces ordered; a
+  // vertex that is the lowest corner of more faces than a run holds is a run of its own,
+  // streamed (past kMaxFaceGroup its faces stay in input order, the order they come in).
   const std::string ordered_path = out_.dir + "/faces-ordered.gmr";
   FaceSpill ordered;
   GM_RETURN_IF_ERROR(ordered.open(ordered_path));
@@ -423,7 +424,13 @@ Status PartitionRun::reorder(bool weld) {
           }
           return Status{};
         }));
-        if (!streamed) GM_RETURN_IF_ERROR(ordered.write(run));
+        if (!streamed) {
+          for (std::uint64_t v = v0, begin = 0; v < v1; ++v) {  // offset[v - v0]: the end of v's group now
+            order_face_group(std::span<Triangle>(run.data() + begin, offset[v - v0] - begin));
+            begin = offset[v - v0];
+          }
+          GM_RETURN_IF_ERROR(ordered.write(run));
+        }
         v0 = v1;
       }
     }

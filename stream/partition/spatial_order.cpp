@@ -52,7 +52,7 @@ std::uint64_t reorder_spatially(std::vector<format::Vec3f>& positions, std::vect
   moved = {};
   order = {};
 
-  // Faces: corners renamed, then a stable counting sort by their lowest corner.
+  // Faces: corners renamed, a stable counting sort by their lowest corner, each group ordered.
   std::vector<std::uint64_t> first(positions.size() + 1, 0);
   for (format::Triangle& t : faces) {
     for (std::uint32_t& v : t.v)
@@ -62,6 +62,10 @@ std::uint64_t reorder_spatially(std::vector<format::Vec3f>& positions, std::vect
   for (std::size_t i = 1; i < first.size(); ++i) first[i] += first[i - 1];
   std::vector<format::Triangle> sorted(faces.size());
   for (const format::Triangle& t : faces) sorted[first[std::min<std::size_t>(lowest_corner(t), positions.size() - 1)]++] = t;
+  for (std::size_t v = 0, begin = 0; v < positions.size(); ++v) {  // first[v]: the end of v's group now
+    order_face_group(std::span<format::Triangle>(sorted.data() + begin, first[v] - begin));
+    begin = first[v];
+  }
   faces.swap(sorted);
   return welded;
 }

@@ -7,7 +7,7 @@
 //     says: the cell grid is the partition's (Grid::make over the bounds of the finite
 //     positions), fixed by the bounds alone, so the order does not depend on --memory;
 //   - with welding, vertices at exactly the same position become one (the first in that order);
-//   - faces by (their lowest new corner id, their position in the input): corners keep their
+//   - faces by their lowest new corner id, then as order_face_group says: corners keep their
 //     order, so every face keeps its orientation.
 // Whether an input is scattered is decided by OrderProbe on the faces in input order, with a
 // fixed window, so the decision is the same for every engine and budget; a triangle soup is
@@ -19,14 +19,31 @@
 #include <cstdint>
 #include <cstring>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "format/mesh_types.h"
 
 namespace gaussmesh::stream {
 
-// A face's lowest corner id (after renaming): faces are sorted by it, ties in input order.
+// A face's lowest corner id (after renaming): faces are sorted by it first.
 inline std::uint32_t lowest_corner(const format::Triangle& t) { return std::min({t.v[0], t.v[1], t.v[2]}); }
+
+// Faces with the same lowest corner then go by the corner after it and the one after that (in
+// the face's own order, from the first lowest corner), ties in input order; a vertex that is the
+// lowest corner of more than kMaxFaceGroup faces keeps them in input order, so that no group
+// needs more than a bounded table. The face order then does not depend on the input's.
+inline constexpr std::uint32_t kMaxFaceGroup = 1u << 16;
+inline std::pair<std::uint32_t, std::uint32_t> face_tail(const format::Triangle& t) {
+  const int i = t.v[0] <= t.v[1] && t.v[0] <= t.v[2] ? 0 : t.v[1] <= t.v[2] ? 1 : 2;
+  return {t.v[(i + 1) % 3], t.v[(i + 2) % 3]};
+}
+// Orders the faces of one lowest corner, given in input order.
+inline void order_face_group(std::span<format::Triangle> group) {
+  if (group.size() < 2 || group.size() > kMaxFaceGroup) return;
+  std::stable_sort(group.begin(), group.end(),
+                   [](const format::Triangle& a, const format::Triangle& b) { return face_tail(a) < face_tail(b); });
+}
 
 // Within a cell, vertices go by the Z-order code of their sub-cell at 2^kReorderFineBits parts
 // per axis, then by their coordinates' bits, then by id. More than kMaxWeldGroup vertices with

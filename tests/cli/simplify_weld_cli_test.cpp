@@ -1,7 +1,7 @@
 // Tests for welding in `gaussmesh simplify` (--weld, --no-weld; docs/partition.md, "Scattered
-// input and soups") as a user runs it: a fixture written as a triangle soup, in PLY and in STL,
-// simplifies to the same bytes as the fixture given --weld, in core and out of core, with and
-// without a target, and the report counts the welded vertices; --no-weld leaves a PLY soup as
+// input and soups") as a user runs it: a fixture written as a triangle soup with its faces
+// shuffled, in PLY and in STL, simplifies to the same bytes as the fixture given --weld, in core
+// and out of core, with and without a target, and the report counts the welded vertices; --no-weld leaves a PLY soup as
 // it is; the two flags together are a usage error.
 #include <gtest/gtest.h>
 
@@ -49,8 +49,9 @@ TEST(SimplifyWeldCli, ASoupInPlyOrStlGivesTheWeldedFixturesBytesInCoreAndOutOfCo
   for (const char* name : {"fandisk.off", "mech-holes-shark.off", "bunny-lowres.ply"}) {
     const std::string in = fixture(std::string("real/") + name);
     const std::string soup = dir.file("soup.ply"), stl = dir.file("soup.stl");
-    ASSERT_TRUE(write_soup_copy(in, soup, 0, false));
-    ASSERT_TRUE(write_soup_copy(in, stl, 0, true));
+    // Faces shuffled: the renumbering orders them whatever their input order.
+    ASSERT_TRUE(write_soup_copy(in, soup, 5, false));
+    ASSERT_TRUE(write_soup_copy(in, stl, 9, true));
     for (const std::string target : {"", "--ratio 0.1"}) {
       SCOPED_TRACE(std::string(name) + " " + target);
       const Outcome welded = simplify(dir, in, "--weld " + target);

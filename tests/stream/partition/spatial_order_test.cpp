@@ -28,8 +28,9 @@ namespace {
 
 // A wavy sheet with more vertices than the probe's window, and beside it a fan of kFan faces
 // whose apex lies alone in the lowest cell: after renumbering the apex is vertex 0 and the
-// lowest corner of every fan face, more faces than a small table's run holds.
-constexpr std::uint32_t kFan = 8000;
+// lowest corner of every fan face, more faces than order_face_group orders (they keep input
+// order) and than a small table's run holds.
+constexpr std::uint32_t kFan = kMaxFaceGroup + 4000;
 Mesh sheet_and_fan() {
   Mesh mesh = testing::make_wavy_sheet(540);
   const auto apex = static_cast<std::uint32_t>(mesh.positions.size());
@@ -140,8 +141,29 @@ TEST(SpatialOrder, RenumberingKeepsTheSurfaceAndSortsByCellThenLowestCorner) {
   EXPECT_EQ(std::memcmp(again.triangles.data(), mesh.triangles.data(), mesh.triangles.size() * sizeof(Triangle)), 0);
 }
 
+TEST(SpatialOrder, AnyFaceOrderGivesTheSameRenumberedMesh) {
+  const Mesh mesh = testing::make_wavy_sheet(540);
+  std::vector<Triangle> first_order, second_order;
+  for (const std::uint32_t seed : {31u, 37u}) {
+    std::vector<Triangle> faces = mesh.triangles;
+    std::mt19937 rng(seed);
+    std::shuffle(faces.begin(), faces.end(), rng);
+    std::vector<Vec3f> positions = mesh.positions;
+    reorder_spatially(positions, faces, false);
+    (seed == 31u ? first_order : second_order) = faces;
+  }
+  ASSERT_EQ(first_order.size(), second_order.size());
+  EXPECT_EQ(std::memcmp(first_order.data(), second_order.data(), first_order.size() * sizeof(Triangle)), 0);
+  for (std::size_t f = 1; f < first_order.size(); ++f) {
+    if (lowest_corner(first_order[f - 1]) == lowest_corner(first_order[f])) {
+      ASSERT_LE(face_tail(first_order[f - 1]), face_tail(first_order[f])) << f;
+    }
+  }
+}
+
 TEST(SpatialOrder, AWeldedSoupIsTheMeshItCameFrom) {
-  const Mesh mesh = shuffled(sheet_and_fan(), 17);
+  // (The sheet alone: the fan's apex would have more copies in the soup than are welded.)
+  const Mesh mesh = shuffled(testing::make_wavy_sheet(540), 17);
   Mesh soup = soup_of(mesh, 19);
   EXPECT_TRUE(should_weld(Weld::kAuto, soup.positions.size(), soup.triangles.size()));
   EXPECT_FALSE(should_weld(Weld::kAuto, mesh.positions.size(), mesh.triangles.size()));
