@@ -41,8 +41,19 @@ inline std::pair<std::uint32_t, std::uint32_t> face_tail(const format::Triangle&
 // Orders the faces of one lowest corner, given in input order.
 inline void order_face_group(std::span<format::Triangle> group) {
   if (group.size() < 2 || group.size() > kMaxFaceGroup) return;
-  std::stable_sort(group.begin(), group.end(),
-                   [](const format::Triangle& a, const format::Triangle& b) { return face_tail(a) < face_tail(b); });
+  const auto before = [](const format::Triangle& a, const format::Triangle& b) { return face_tail(a) < face_tail(b); };
+  if (group.size() > 32) {
+    std::stable_sort(group.begin(), group.end(), before);
+    return;
+  }
+  // A few faces (six or so around a vertex): insertion sort, stable and without the buffer
+  // std::stable_sort allocates on every call.
+  for (std::size_t i = 1; i < group.size(); ++i) {
+    const format::Triangle t = group[i];
+    std::size_t j = i;
+    for (; j > 0 && before(t, group[j - 1]); --j) group[j] = group[j - 1];
+    group[j] = t;
+  }
 }
 
 // Within a cell, vertices go by the Z-order code of their sub-cell at 2^kReorderFineBits parts
