@@ -1,6 +1,7 @@
 // gaussmesh: command-line entry point. Exit codes: 0 ok, 1 usage, 2 bad input,
 // 3 processing, 4 output/temp write, 5 resources (docs/cli.md).
 #include <algorithm>
+#include <csignal>
 #include <cstdio>
 #include <exception>
 #include <new>
@@ -48,6 +49,9 @@ int finish(const CommonFlags& flags, const std::string& report_json) {
 int main(int argc, char** argv) {
   using namespace gaussmesh;
   install_signal_cleanup();
+  // A write past the file-size limit (ulimit -f) fails with EFBIG, reported and cleaned up as a
+  // full disk is, instead of SIGXFSZ killing the process with its temporary files left behind.
+  ::signal(SIGXFSZ, SIG_IGN);
 #ifdef __GLIBC__
   // One malloc arena for every thread: the chunk passes allocate and free each chunk's arrays on
   // several threads, and with an arena per thread one thread's free pages are never reused by

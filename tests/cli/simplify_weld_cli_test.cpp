@@ -5,6 +5,7 @@
 // it is; the two flags together are a usage error.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <string>
 
@@ -123,6 +124,30 @@ TEST(SimplifyWeldCli, ASoupStreamsUnderAHardAddressSpaceLimit) {
   run = run_command(capped + binary() + " simplify " + q(soup) + " -o " + q(out) + " --format ply --no-weld " + flags);
   EXPECT_EQ(run.exit_code, 5) << run.err;
   EXPECT_NE(run.err.find("out of memory"), std::string::npos) << run.err;
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+TEST(SimplifyWeldCli, AFileSizeLimitInTheRenumberingIsOneLineAndLeavesNothing) {
+  // ulimit -f below what the renumbering's bucket files need: the write fails (EFBIG, not a
+  // SIGXFSZ kill), one line names the file, exit 4, and the temporary directory is gone.
+  ScratchDir dir;
+  {
+    const stream::Mesh sheet = make_wavy_sheet(540);
+    auto out = format::OutputFile::create(dir.file("sheet.ply"), true);
+    ASSERT_TRUE(out.is_ok());
+    ASSERT_TRUE(format::write_ply(**out, sheet.view(), {}).is_ok());
+    ASSERT_TRUE((*out)->commit().is_ok());
+  }
+  const std::string soup = dir.file("soup.ply"), tmp = dir.file("tmp"), out = dir.file("out.ply");
+  ASSERT_TRUE(write_soup_copy(dir.file("sheet.ply"), soup, 3, false));
+  std::filesystem::create_directory(tmp);
+  const auto run = run_command("ulimit -f 12000; " + binary() + " simplify " + q(soup) + " -o " + q(out) +
+                               " --memory 16M --engine out-of-core --tmp " + q(tmp));
+  EXPECT_EQ(run.exit_code, 4) << run.err;
+  EXPECT_NE(run.err.find("reorder-"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("File too large"), std::string::npos) << run.err;
+  EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+  EXPECT_TRUE(std::filesystem::is_empty(tmp));
   EXPECT_FALSE(std::filesystem::exists(out));
 }
 
