@@ -43,6 +43,15 @@ Outcome simplify(const ScratchDir& dir, const std::string& in, const std::string
   return r;
 }
 
+// A wavy sheet of 581k faces (292k vertices) as binary PLY.
+void write_sheet(const std::string& path) {
+  const stream::Mesh sheet = make_wavy_sheet(540);
+  auto out = format::OutputFile::create(path, true);
+  ASSERT_TRUE(out.is_ok());
+  ASSERT_TRUE(format::write_ply(**out, sheet.view(), {}).is_ok());
+  ASSERT_TRUE((*out)->commit().is_ok());
+}
+
 TEST(SimplifyWeldCli, ASoupInPlyOrStlGivesTheWeldedFixturesBytesInCoreAndOutOfCore) {
   ScratchDir dir;
   // (Not the cow: two of its vertices share a position, and welding them pinches its surface
@@ -103,13 +112,7 @@ TEST(SimplifyWeldCli, ASoupStreamsUnderAHardAddressSpaceLimit) {
   // is capped at 160 MiB (ulimit -v): welded on the way, it finishes with the unlimited run's
   // bytes. Left unwelded it cannot, and says so in one line (exit 5) rather than being killed.
   ScratchDir dir;
-  {
-    const stream::Mesh sheet = make_wavy_sheet(540);
-    auto out = format::OutputFile::create(dir.file("sheet.ply"), true);
-    ASSERT_TRUE(out.is_ok());
-    ASSERT_TRUE(format::write_ply(**out, sheet.view(), {}).is_ok());
-    ASSERT_TRUE((*out)->commit().is_ok());
-  }
+  write_sheet(dir.file("sheet.ply"));
   const std::string soup = dir.file("soup.ply");
   ASSERT_TRUE(write_soup_copy(dir.file("sheet.ply"), soup, 3, false));
   const std::string flags = "--engine out-of-core --memory 16M --threads 2";
@@ -131,13 +134,7 @@ TEST(SimplifyWeldCli, AFileSizeLimitInTheRenumberingIsOneLineAndLeavesNothing) {
   // ulimit -f below what the renumbering's bucket files need: the write fails (EFBIG, not a
   // SIGXFSZ kill), one line names the file, exit 4, and the temporary directory is gone.
   ScratchDir dir;
-  {
-    const stream::Mesh sheet = make_wavy_sheet(540);
-    auto out = format::OutputFile::create(dir.file("sheet.ply"), true);
-    ASSERT_TRUE(out.is_ok());
-    ASSERT_TRUE(format::write_ply(**out, sheet.view(), {}).is_ok());
-    ASSERT_TRUE((*out)->commit().is_ok());
-  }
+  write_sheet(dir.file("sheet.ply"));
   const std::string soup = dir.file("soup.ply"), tmp = dir.file("tmp"), out = dir.file("out.ply");
   ASSERT_TRUE(write_soup_copy(dir.file("sheet.ply"), soup, 3, false));
   std::filesystem::create_directory(tmp);

@@ -107,6 +107,34 @@ std::vector<Corners> surface(const Mesh& mesh) {
   return faces;
 }
 
+void write_ply_file(const std::string& path, const Mesh& mesh) {
+  auto out = format::OutputFile::create(path, true);
+  ASSERT_TRUE(out.is_ok());
+  ASSERT_TRUE(format::write_ply(**out, mesh.view(), {}).is_ok());
+  ASSERT_TRUE((*out)->commit().is_ok());
+}
+
+// Every chunk file holds `expected`'s ids and positions (the in-core renumbering), and the
+// chunks own every face once.
+void expect_chunks_hold(const Partition& partition, const Mesh& expected) {
+  std::uint64_t owned = 0;
+  for (const ChunkInfo& info : partition.chunks) {
+    auto chunk = load_chunk(info);
+    ASSERT_TRUE(chunk.is_ok()) << chunk.status().to_string();
+    for (std::size_t v = 0; v < chunk->positions.size(); ++v) {
+      const Vec3f& want = expected.positions[chunk->global_vertex[v]];
+      ASSERT_EQ(std::memcmp(&chunk->positions[v], &want, sizeof(Vec3f)), 0) << "vertex " << chunk->global_vertex[v];
+    }
+    for (std::size_t f = 0; f < chunk->triangles.size(); ++f) {
+      if (!chunk->owned_face[f]) continue;
+      ++owned;
+      const Triangle& want = expected.triangles[chunk->global_face[f]];
+      for (int k = 0; k < 3; ++k) ASSERT_EQ(chunk->global_vertex[chunk->triangles[f].v[k]], want.v[k]) << "face " << chunk->global_face[f];
+    }
+  }
+  EXPECT_EQ(owned, expected.triangles.size());
+}
+
 TEST(SpatialOrder, TheProbeTellsShuffledIdsFromOrderedOnes) {
   const Mesh mesh = sheet_and_fan();
   ASSERT_GT(mesh.positions.size(), std::size_t{OrderProbe::kSlots} << OrderProbe::kBlockBits);
@@ -187,12 +215,7 @@ TEST(SpatialOrder, OutOfCoreRenumberingIsTheInCoreOneOverOneRangeOrMany) {
   Mesh expected = input;
   reorder_spatially(expected.positions, expected.triangles, false);
   testing::ScratchDir dir;
-  {
-    auto out = format::OutputFile::create(dir.file("in.ply"), true);
-    ASSERT_TRUE(out.is_ok());
-    ASSERT_TRUE(format::write_ply(**out, input.view(), {}).is_ok());
-    ASSERT_TRUE((*out)->commit().is_ok());
-  }
+  write_ply_file(dir.file("in.ply"), input);
   // 0: the budget's table (one range of the map); 64 KiB: dozens of ranges, and the fan's apex
   // is the lowest corner of more faces than a run holds (streamed).
   for (const std::uint64_t table : {std::uint64_t{0}, std::uint64_t{64} << 10}) {
@@ -208,33 +231,13 @@ TEST(SpatialOrder, OutOfCoreRenumberingIsTheInCoreOneOverOneRangeOrMany) {
     auto partition = partition_mesh(dir.file("in.ply"), {}, options);
     ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
     EXPECT_TRUE(partition->reordered);
-    std::uint64_t owned = 0;
-    for (const ChunkInfo& info : partition->chunks) {
-      auto chunk = load_chunk(info);
-      ASSERT_TRUE(chunk.is_ok()) << chunk.status().to_string();
-      for (std::size_t v = 0; v < chunk->positions.size(); ++v) {
-        const Vec3f& want = expected.positions[chunk->global_vertex[v]];
-        ASSERT_EQ(std::memcmp(&chunk->positions[v], &want, sizeof(Vec3f)), 0) << "vertex " << chunk->global_vertex[v];
-      }
-      for (std::size_t f = 0; f < chunk->triangles.size(); ++f) {
-        if (!chunk->owned_face[f]) continue;
-        ++owned;
-        const Triangle& want = expected.triangles[chunk->global_face[f]];
-        for (int k = 0; k < 3; ++k) ASSERT_EQ(chunk->global_vertex[chunk->triangles[f].v[k]], want.v[k]) << "face " << chunk->global_face[f];
-      }
-    }
-    EXPECT_EQ(owned, expected.triangles.size());
+    expect_chunks_hold(*partition, expected);
   }
   // A soup, welded out of core to exactly the in-core result.
   const Mesh soup = soup_of(sheet_and_fan(), 23);
   Mesh welded = soup;
   const std::uint64_t joined = reorder_spatially(welded.positions, welded.triangles, true);
-  {
-    auto out = format::OutputFile::create(dir.file("soup.ply"), true);
-    ASSERT_TRUE(out.is_ok());
-    ASSERT_TRUE(format::write_ply(**out, soup.view(), {}).is_ok());
-    ASSERT_TRUE((*out)->commit().is_ok());
-  }
+  write_ply_file(dir.file("soup.ply"), soup);
   for (const std::uint64_t table : {std::uint64_t{0}, std::uint64_t{64} << 10}) {
     SCOPED_TRACE("soup, table " + std::to_string(table));
     PartitionOptions options;
@@ -248,20 +251,7 @@ TEST(SpatialOrder, OutOfCoreRenumberingIsTheInCoreOneOverOneRangeOrMany) {
     EXPECT_TRUE(partition->reordered);
     EXPECT_EQ(partition->welded_vertices, joined);
     EXPECT_EQ(partition->vertices, welded.positions.size());
-    std::uint64_t owned = 0;
-    for (const ChunkInfo& info : partition->chunks) {
-      auto chunk = load_chunk(info);
-      ASSERT_TRUE(chunk.is_ok()) << chunk.status().to_string();
-      for (std::size_t v = 0; v < chunk->positions.size(); ++v)
-        ASSERT_EQ(std::memcmp(&chunk->positions[v], &welded.positions[chunk->global_vertex[v]], sizeof(Vec3f)), 0);
-      for (std::size_t f = 0; f < chunk->triangles.size(); ++f) {
-        if (!chunk->owned_face[f]) continue;
-        ++owned;
-        const Triangle& want = welded.triangles[chunk->global_face[f]];
-        for (int k = 0; k < 3; ++k) ASSERT_EQ(chunk->global_vertex[chunk->triangles[f].v[k]], want.v[k]);
-      }
-    }
-    EXPECT_EQ(owned, welded.triangles.size());
+    expect_chunks_hold(*partition, welded);
   }
   // Without the option (sample, whose output names input ids), the ids stay the input's.
   PartitionOptions options;
@@ -289,12 +279,7 @@ TEST(SpatialOrder, ACellLargerThanTheTableIsOrderedInPiecesOutOfCore) {
   Mesh expected = input;
   EXPECT_EQ(reorder_spatially(expected.positions, expected.triangles, true), 0u);  // the copies are too many to weld
   testing::ScratchDir dir;
-  {
-    auto out = format::OutputFile::create(dir.file("in.ply"), true);
-    ASSERT_TRUE(out.is_ok());
-    ASSERT_TRUE(format::write_ply(**out, input.view(), {}).is_ok());
-    ASSERT_TRUE((*out)->commit().is_ok());
-  }
+  write_ply_file(dir.file("in.ply"), input);
   for (const std::uint64_t table : {std::uint64_t{0}, std::uint64_t{64} << 10}) {
     SCOPED_TRACE("table " + std::to_string(table));
     PartitionOptions options;
@@ -308,20 +293,7 @@ TEST(SpatialOrder, ACellLargerThanTheTableIsOrderedInPiecesOutOfCore) {
     ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
     EXPECT_TRUE(partition->reordered);
     EXPECT_EQ(partition->welded_vertices, 0u);
-    std::uint64_t owned = 0;
-    for (const ChunkInfo& info : partition->chunks) {
-      auto chunk = load_chunk(info);
-      ASSERT_TRUE(chunk.is_ok()) << chunk.status().to_string();
-      for (std::size_t v = 0; v < chunk->positions.size(); ++v)
-        ASSERT_EQ(std::memcmp(&chunk->positions[v], &expected.positions[chunk->global_vertex[v]], sizeof(Vec3f)), 0);
-      for (std::size_t f = 0; f < chunk->triangles.size(); ++f) {
-        if (!chunk->owned_face[f]) continue;
-        ++owned;
-        const Triangle& want = expected.triangles[chunk->global_face[f]];
-        for (int k = 0; k < 3; ++k) ASSERT_EQ(chunk->global_vertex[chunk->triangles[f].v[k]], want.v[k]);
-      }
-    }
-    EXPECT_EQ(owned, expected.triangles.size());
+    expect_chunks_hold(*partition, expected);
   }
 }
 
