@@ -1,8 +1,8 @@
-// Scattered input put in spatial order (docs/partition.md, "Scattered input"). The partition
-// reads vertex-indexed data (owners, chunk sets) at random through a bounded cache, once per
-// face corner: on a mesh whose vertex ids or faces are shuffled, every corner misses, and the run
-// slows by orders of magnitude. So `simplify` renumbers such an input first, the same way in
-// core and out of core:
+// Scattered input and soups put in spatial order, and welded (docs/partition.md, "Scattered input
+// and soups"). The partition reads vertex-indexed data (owners, chunk sets) at random through a
+// bounded cache, once per face corner: on a mesh whose vertex ids or faces are shuffled, every
+// corner misses, and the run slows by orders of magnitude; a soup has no shared edge at all. So
+// `simplify` renumbers such an input first, the same way in core and out of core:
 //   - vertices by the Morton code of their partition cell, then within the cell as VertexKey
 //     says: the cell grid is the partition's (Grid::make over the bounds of the finite
 //     positions), fixed by the bounds alone, so the order does not depend on --memory;
