@@ -6,6 +6,7 @@
 #include <exception>
 #include <new>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -106,6 +107,13 @@ auto guarded(const char* job, Job&& run) -> decltype(run()) {
     return run();
   } catch (const std::bad_alloc&) {
     return Status::error(Code::kResources, job, "out of memory");
+  } catch (const std::system_error& e) {
+    // A thread the system would not start (EAGAIN: an address-space or process limit) is a
+    // resource error, like memory.
+    if (e.code() == std::errc::resource_unavailable_try_again || e.code() == std::errc::not_enough_memory) {
+      return Status::error(Code::kResources, job, std::string("out of resources: ") + e.what());
+    }
+    return Status::error(Code::kProcessing, job, std::string("internal error: ") + e.what());
   } catch (const std::exception& e) {
     return Status::error(Code::kProcessing, job, std::string("internal error: ") + e.what());
   }
