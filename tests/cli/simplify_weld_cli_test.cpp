@@ -11,8 +11,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include "format/mesh_writer.h"
-#include "format/output_file.h"
 #include "stream/core/mesh.h"
 #include "tests/support/scattered_copy.h"
 #include "tests/support/shapes.h"
@@ -44,13 +42,7 @@ Outcome simplify(const ScratchDir& dir, const std::string& in, const std::string
 }
 
 // A wavy sheet of 581k faces (292k vertices) as binary PLY.
-void write_sheet(const std::string& path) {
-  const stream::Mesh sheet = make_wavy_sheet(540);
-  auto out = format::OutputFile::create(path, true);
-  ASSERT_TRUE(out.is_ok());
-  ASSERT_TRUE(format::write_ply(**out, sheet.view(), {}).is_ok());
-  ASSERT_TRUE((*out)->commit().is_ok());
-}
+void write_sheet(const std::string& path) { ASSERT_TRUE(write_binary_ply(path, make_wavy_sheet(540))); }
 
 TEST(SimplifyWeldCli, ASoupInPlyOrStlGivesTheWeldedFixturesBytesInCoreAndOutOfCore) {
   ScratchDir dir;

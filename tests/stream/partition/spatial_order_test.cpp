@@ -11,15 +11,13 @@
 #include <array>
 #include <cmath>
 #include <cstring>
-#include <numeric>
 #include <random>
 #include <vector>
 
-#include "format/mesh_writer.h"
-#include "format/output_file.h"
 #include "stream/core/mesh.h"
 #include "stream/partition/cell_grid.h"
 #include "stream/partition/chunk_partition.h"
+#include "tests/support/scattered_copy.h"
 #include "tests/support/shapes.h"
 #include "tests/support/test_util.h"
 
@@ -41,38 +39,6 @@ Mesh sheet_and_fan() {
   }
   for (std::uint32_t i = 0; i < kFan; ++i) mesh.triangles.push_back({{apex, apex + 1 + i, apex + 2 + i}});
   return mesh;
-}
-
-Mesh shuffled(const Mesh& mesh, std::uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::vector<std::uint32_t> to_new(mesh.positions.size()), order(mesh.triangles.size());
-  std::iota(to_new.begin(), to_new.end(), 0u);
-  std::iota(order.begin(), order.end(), 0u);
-  std::shuffle(to_new.begin(), to_new.end(), rng);
-  std::shuffle(order.begin(), order.end(), rng);
-  Mesh out;
-  out.positions.resize(mesh.positions.size());
-  for (std::size_t v = 0; v < mesh.positions.size(); ++v) out.positions[to_new[v]] = mesh.positions[v];
-  for (const std::uint32_t f : order) {
-    const Triangle& t = mesh.triangles[f];
-    out.triangles.push_back({{to_new[t.v[0]], to_new[t.v[1]], to_new[t.v[2]]}});
-  }
-  return out;
-}
-
-// Each face with three vertices of its own, faces shuffled: what an STL-to-PLY converter writes.
-Mesh soup_of(const Mesh& mesh, std::uint32_t seed) {
-  Mesh out;
-  std::vector<std::uint32_t> order(mesh.triangles.size());
-  std::iota(order.begin(), order.end(), 0u);
-  std::mt19937 rng(seed);
-  std::shuffle(order.begin(), order.end(), rng);
-  for (const std::uint32_t f : order) {
-    const auto first = static_cast<std::uint32_t>(out.positions.size());
-    for (const std::uint32_t v : mesh.triangles[f].v) out.positions.push_back(mesh.positions[v]);
-    out.triangles.push_back({{first, first + 1, first + 2}});
-  }
-  return out;
 }
 
 // The faces in a fixed order, to compare meshes whose faces tie on their lowest corner.
@@ -107,11 +73,22 @@ std::vector<Corners> surface(const Mesh& mesh) {
   return faces;
 }
 
-void write_ply_file(const std::string& path, const Mesh& mesh) {
-  auto out = format::OutputFile::create(path, true);
-  ASSERT_TRUE(out.is_ok());
-  ASSERT_TRUE(format::write_ply(**out, mesh.view(), {}).is_ok());
-  ASSERT_TRUE((*out)->commit().is_ok());
+void write_ply_file(const std::string& path, const Mesh& mesh) { ASSERT_TRUE(testing::write_binary_ply(path, mesh)); }
+
+// partition_mesh of `path` renumbered (reorder_scattered) over a table of `table` bytes (0: the
+// budget's), with rings 1 and chunks of 100k faces.
+format::Result<Partition> renumbered_partition(const testing::ScratchDir& dir, const std::string& path,
+                                               std::uint64_t table, Weld weld = Weld::kAuto) {
+  PartitionOptions options;
+  options.rings = 1;
+  options.memory_bytes = std::uint64_t{64} << 20;
+  options.max_chunk_faces = 100000;
+  options.threads = 2;
+  options.reorder_scattered = true;
+  options.weld = weld;
+  options.reorder_table_bytes = table;
+  options.tmp_dir = dir.path().string();
+  return partition_mesh(path, {}, options);
 }
 
 // Every chunk file holds `expected`'s ids and positions (the in-core renumbering), and the
@@ -139,13 +116,13 @@ TEST(SpatialOrder, TheProbeTellsShuffledIdsFromOrderedOnes) {
   const Mesh mesh = sheet_and_fan();
   ASSERT_GT(mesh.positions.size(), std::size_t{OrderProbe::kSlots} << OrderProbe::kBlockBits);
   EXPECT_FALSE(scattered(mesh));
-  EXPECT_TRUE(scattered(shuffled(mesh, 7)));
+  EXPECT_TRUE(scattered(testing::scattered_mesh(mesh, 7)));
   // Within the window, any order is cheap: a small shuffled mesh is not scattered.
-  EXPECT_FALSE(scattered(shuffled(testing::make_wavy_sheet(200), 7)));
+  EXPECT_FALSE(scattered(testing::scattered_mesh(testing::make_wavy_sheet(200), 7)));
 }
 
 TEST(SpatialOrder, RenumberingKeepsTheSurfaceAndSortsByCellThenLowestCorner) {
-  const Mesh input = shuffled(sheet_and_fan(), 11);
+  const Mesh input = testing::scattered_mesh(sheet_and_fan(), 11);
   Mesh mesh = input;
   EXPECT_EQ(reorder_spatially(mesh.positions, mesh.triangles, true), 0u);  // no two vertices share a position
   ASSERT_EQ(mesh.positions.size(), input.positions.size());
@@ -191,8 +168,8 @@ TEST(SpatialOrder, AnyFaceOrderGivesTheSameRenumberedMesh) {
 
 TEST(SpatialOrder, AWeldedSoupIsTheMeshItCameFrom) {
   // (The sheet alone: the fan's apex would have more copies in the soup than are welded.)
-  const Mesh mesh = shuffled(testing::make_wavy_sheet(540), 17);
-  Mesh soup = soup_of(mesh, 19);
+  const Mesh mesh = testing::scattered_mesh(testing::make_wavy_sheet(540), 17);
+  Mesh soup = testing::soup_mesh(mesh, 19);
   EXPECT_TRUE(should_weld(Weld::kAuto, soup.positions.size(), soup.triangles.size()));
   EXPECT_FALSE(should_weld(Weld::kAuto, mesh.positions.size(), mesh.triangles.size()));
   EXPECT_FALSE(should_weld(Weld::kOff, soup.positions.size(), soup.triangles.size()));
@@ -204,14 +181,14 @@ TEST(SpatialOrder, AWeldedSoupIsTheMeshItCameFrom) {
   EXPECT_EQ(std::memcmp(soup.positions.data(), expected.positions.data(), soup.positions.size() * sizeof(Vec3f)), 0);
   EXPECT_TRUE(sorted_faces(soup) == sorted_faces(expected));
   // Unwelded, it stays a soup of the same surface.
-  Mesh unwelded = soup_of(mesh, 19);
+  Mesh unwelded = testing::soup_mesh(mesh, 19);
   EXPECT_EQ(reorder_spatially(unwelded.positions, unwelded.triangles, false), 0u);
   EXPECT_EQ(unwelded.positions.size(), 3 * mesh.triangles.size());
   EXPECT_TRUE(surface(unwelded) == surface(mesh));
 }
 
 TEST(SpatialOrder, OutOfCoreRenumberingIsTheInCoreOneOverOneRangeOrMany) {
-  const Mesh input = shuffled(sheet_and_fan(), 13);
+  const Mesh input = testing::scattered_mesh(sheet_and_fan(), 13);
   Mesh expected = input;
   reorder_spatially(expected.positions, expected.triangles, false);
   testing::ScratchDir dir;
@@ -220,33 +197,19 @@ TEST(SpatialOrder, OutOfCoreRenumberingIsTheInCoreOneOverOneRangeOrMany) {
   // is the lowest corner of more faces than a run holds (streamed).
   for (const std::uint64_t table : {std::uint64_t{0}, std::uint64_t{64} << 10}) {
     SCOPED_TRACE("table " + std::to_string(table));
-    PartitionOptions options;
-    options.rings = 1;
-    options.memory_bytes = std::uint64_t{64} << 20;
-    options.max_chunk_faces = 100000;
-    options.threads = 2;
-    options.reorder_scattered = true;
-    options.reorder_table_bytes = table;
-    options.tmp_dir = dir.path().string();
-    auto partition = partition_mesh(dir.file("in.ply"), {}, options);
+    auto partition = renumbered_partition(dir, dir.file("in.ply"), table);
     ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
     EXPECT_TRUE(partition->reordered);
     expect_chunks_hold(*partition, expected);
   }
   // A soup, welded out of core to exactly the in-core result.
-  const Mesh soup = soup_of(sheet_and_fan(), 23);
+  const Mesh soup = testing::soup_mesh(sheet_and_fan(), 23);
   Mesh welded = soup;
   const std::uint64_t joined = reorder_spatially(welded.positions, welded.triangles, true);
   write_ply_file(dir.file("soup.ply"), soup);
   for (const std::uint64_t table : {std::uint64_t{0}, std::uint64_t{64} << 10}) {
     SCOPED_TRACE("soup, table " + std::to_string(table));
-    PartitionOptions options;
-    options.rings = 1;
-    options.max_chunk_faces = 100000;
-    options.reorder_scattered = true;
-    options.reorder_table_bytes = table;
-    options.tmp_dir = dir.path().string();
-    auto partition = partition_mesh(dir.file("soup.ply"), {}, options);
+    auto partition = renumbered_partition(dir, dir.file("soup.ply"), table);
     ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
     EXPECT_TRUE(partition->reordered);
     EXPECT_EQ(partition->welded_vertices, joined);
@@ -275,21 +238,14 @@ TEST(SpatialOrder, ACellLargerThanTheTableIsOrderedInPiecesOutOfCore) {
   mesh.positions.push_back({1001, 1000, 1000});
   mesh.positions.push_back({1000, 1001, 1000});
   mesh.triangles.push_back({{far, far + 1, far + 2}});
-  const Mesh input = shuffled(mesh, 29);
+  const Mesh input = testing::scattered_mesh(mesh, 29);
   Mesh expected = input;
   EXPECT_EQ(reorder_spatially(expected.positions, expected.triangles, true), 0u);  // the copies are too many to weld
   testing::ScratchDir dir;
   write_ply_file(dir.file("in.ply"), input);
   for (const std::uint64_t table : {std::uint64_t{0}, std::uint64_t{64} << 10}) {
     SCOPED_TRACE("table " + std::to_string(table));
-    PartitionOptions options;
-    options.rings = 1;
-    options.max_chunk_faces = 100000;
-    options.reorder_scattered = true;
-    options.weld = Weld::kOn;
-    options.reorder_table_bytes = table;
-    options.tmp_dir = dir.path().string();
-    auto partition = partition_mesh(dir.file("in.ply"), {}, options);
+    auto partition = renumbered_partition(dir, dir.file("in.ply"), table, Weld::kOn);
     ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
     EXPECT_TRUE(partition->reordered);
     EXPECT_EQ(partition->welded_vertices, 0u);
