@@ -18,6 +18,33 @@ using format::Vec3f;
 constexpr std::uint32_t kCellBits = 18;  // at most 2^18 cells: histogram and table 1 MiB each
 constexpr std::uint32_t kMaxSplitBits = 5;  // a split cell has at most 8^5 sub-cells (128 KiB of counts)
 
+// The bounds of the finite coordinates, axis by axis (an axis with none gets 0..0): what the
+// grid is cut from. The ingest and the in-core renumbering both take them so, to the same bits.
+class FiniteBounds {
+ public:
+  void add(const Vec3f& p) {
+    const float c[3] = {p.x, p.y, p.z};
+    for (int a = 0; a < 3; ++a) {
+      if (!std::isfinite(c[a])) continue;
+      lo_[a] = std::min(lo_[a], c[a]);
+      hi_[a] = std::max(hi_[a], c[a]);
+    }
+  }
+  void get(Vec3f& lo, Vec3f& hi) const {
+    float l[3], h[3];
+    for (int a = 0; a < 3; ++a) {
+      const bool any = lo_[a] <= hi_[a];
+      l[a] = any ? lo_[a] : 0;
+      h[a] = any ? hi_[a] : 0;
+    }
+    lo = {l[0], l[1], l[2]};
+    hi = {h[0], h[1], h[2]};
+  }
+
+ private:
+  float lo_[3] = {INFINITY, INFINITY, INFINITY}, hi_[3] = {-INFINITY, -INFINITY, -INFINITY};
+};
+
 struct Grid {
   double lo[3] = {0, 0, 0}, scale[3] = {0, 0, 0};
   std::uint32_t bits[3] = {0, 0, 0};

@@ -42,14 +42,7 @@ class IngestSink final : public format::MeshSink {
       return Status::error(Code::kResources, "", "more than " + std::to_string(format::kMaxVertices) +
                                                      " vertices: chunk records hold 32-bit vertex ids");
     }
-    for (const Vec3f& p : batch) {
-      const float c[3] = {p.x, p.y, p.z};
-      for (int a = 0; a < 3; ++a) {
-        if (!std::isfinite(c[a])) continue;
-        lo_[a] = std::min(lo_[a], c[a]);
-        hi_[a] = std::max(hi_[a], c[a]);
-      }
-    }
+    for (const Vec3f& p : batch) bounds_.add(p);
     if (raw_vertices_) {
       vertices_ += batch.size();
       return {};
@@ -74,16 +67,7 @@ class IngestSink final : public format::MeshSink {
   std::uint64_t vertices() const { return vertices_; }
   std::uint64_t faces() const { return faces_count_; }
   const OrderProbe& probe() const { return probe_; }
-  void bounds(Vec3f& lo, Vec3f& hi) const {
-    float l[3], h[3];
-    for (int a = 0; a < 3; ++a) {
-      const bool any = lo_[a] <= hi_[a];
-      l[a] = any ? lo_[a] : 0;
-      h[a] = any ? hi_[a] : 0;
-    }
-    lo = {l[0], l[1], l[2]};
-    hi = {h[0], h[1], h[2]};
-  }
+  void bounds(Vec3f& lo, Vec3f& hi) const { bounds_.get(lo, hi); }
 
  private:
   SpillThread& spills_;
@@ -94,7 +78,7 @@ class IngestSink final : public format::MeshSink {
   OrderProbe probe_;
   std::uint64_t vertices_ = 0, faces_count_ = 0;
   std::uint64_t declared_faces_ = 0;  // the header's count (polygons): untrusted, for progress only
-  float lo_[3] = {INFINITY, INFINITY, INFINITY}, hi_[3] = {-INFINITY, -INFINITY, -INFINITY};
+  FiniteBounds bounds_;
 };
 
 }  // namespace

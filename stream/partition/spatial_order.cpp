@@ -3,26 +3,17 @@
 #include "stream/partition/spatial_order.h"
 
 #include <algorithm>
-#include <cmath>
 
 #include "stream/partition/cell_grid.h"
 
 namespace gaussmesh::stream {
 
 std::uint64_t reorder_spatially(std::vector<format::Vec3f>& positions, std::vector<format::Triangle>& faces, bool weld) {
-  // The bounds of the finite coordinates, as the ingest pass keeps them (0 on an axis without any).
-  float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-  for (const format::Vec3f& p : positions) {
-    const float c[3] = {p.x, p.y, p.z};
-    for (int a = 0; a < 3; ++a) {
-      if (!std::isfinite(c[a])) continue;
-      lo[a] = std::min(lo[a], c[a]);
-      hi[a] = std::max(hi[a], c[a]);
-    }
-  }
-  for (int a = 0; a < 3; ++a)
-    if (!(lo[a] <= hi[a])) lo[a] = hi[a] = 0;
-  const detail::Grid grid = detail::Grid::make({lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]});
+  detail::FiniteBounds bounds;
+  for (const format::Vec3f& p : positions) bounds.add(p);
+  format::Vec3f lo, hi;
+  bounds.get(lo, hi);
+  const detail::Grid grid = detail::Grid::make(lo, hi);  // the partition's, from the ingest's bounds
 
   // Vertices: a counting sort by the Morton code of their cell, then each cell ordered.
   std::vector<std::uint32_t> start(grid.cells() + 1, 0), code(grid.cells());
