@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -180,7 +181,9 @@ class VertexWelder {
 // Shared by both encodings: welds a corner and hands out its index.
 class StlCorners {
  public:
-  StlCorners(MeshBatcher& batcher, bool weld) : batcher_(batcher), weld_(weld) {}
+  StlCorners(MeshBatcher& batcher, bool weld) : batcher_(batcher) {
+    if (weld) welder_.emplace();  // its tables only when it welds
+  }
 
   Result<VertexIndex> corner(const Vec3f& p) {
     uint64_t next = batcher_.vertex_count();
@@ -188,21 +191,20 @@ class StlCorners {
       return Status::error(Code::kResources, "",
                            "more than " + std::to_string(kMaxVertices) + " unique vertices are not supported");
     }
-    if (!weld_) {  // every corner its own vertex: a soup, welded later (ReadOptions::weld_stl)
+    if (!welder_) {  // every corner its own vertex: a soup, welded later (ReadOptions::weld_stl)
       GM_RETURN_IF_ERROR(batcher_.add_vertex(p));
       return static_cast<VertexIndex>(next);
     }
-    if (!welder_.ok()) return Status::error(Code::kResources, "", "out of memory for the STL vertex table");
-    if (welder_.full()) GM_RETURN_IF_ERROR(welder_.grow());
-    uint32_t index = welder_.find_or_insert(p, static_cast<uint32_t>(next));
+    if (!welder_->ok()) return Status::error(Code::kResources, "", "out of memory for the STL vertex table");
+    if (welder_->full()) GM_RETURN_IF_ERROR(welder_->grow());
+    uint32_t index = welder_->find_or_insert(p, static_cast<uint32_t>(next));
     if (index == next) GM_RETURN_IF_ERROR(batcher_.add_vertex(p));
     return index;
   }
 
  private:
   MeshBatcher& batcher_;
-  const bool weld_;
-  VertexWelder welder_;
+  std::optional<VertexWelder> welder_;
 };
 
 // Puts a "where" on a located-elsewhere error (the welder does not know the position).
