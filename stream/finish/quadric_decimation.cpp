@@ -212,8 +212,90 @@ class Decimator {
       if (m_.edge_alive(e)) push(e);
   }
 
+  // The neighbour of free vertex v that it joins most cheaply (collapse_cost with v moved onto
+  // it), leaving out those that took a collapse in this sweep; kNone when there is none.
+  std::uint32_t cheapest_neighbour(std::uint32_t v, double& cost) {
+    std::uint32_t best = CollapseMesh::kNone;
+    const Quadric& a = q_[v];
+    m_.for_each_edge(v, [&](std::uint32_t, std::uint32_t w) {
+      if (swept_[w] == sweep_) return;
+      // collapse_cost at p_w from the two ends' own errors there, w's cached.
+      const double ea = a.error(p_[w]), eb = own_error_[w];
+      const double wa = a.weight, wb = q_[w].weight, wq = wa + wb;
+      const double merged = wq > 0 ? (ea + eb) / wq : ea + eb;
+      const double worse = std::max(wa > 0 ? ea / wa : ea, wb > 0 ? eb / wb : eb);
+      const double c = std::sqrt(merged * worse);
+      if (std::isfinite(c) && (best == CollapseMesh::kNone || c < cost || (c == cost && w < best))) best = w, cost = c;
+    });
+    return best;
+  }
+
+  // Sweeps of collapses onto neighbours (DecimationOptions::sweep_to_faces) down to about `goal`
+  // faces: they stop within kSweepRest of it, or when one makes few collapses, and the queue
+  // takes the rest (a sweep costs a pass over every vertex, however few it collapses).
+  void sweep(const DecimationOptions& options, std::uint64_t goal, std::uint64_t& faces, DecimationResult& r) {
+    swept_.assign(m_.vertex_count(), 0);
+    own_error_.assign(m_.vertex_count(), 0);
+    std::vector<std::pair<double, std::uint32_t>> candidates;
+    while (faces > goal && double(faces - goal) > kSweepRest * double(faces)) {
+      ++sweep_;
+      candidates.clear();
+      for (std::uint32_t v = 0; v < m_.vertex_count(); ++v)
+        if (m_.vertex_alive(v)) own_error_[v] = q_[v].error(p_[v]);
+      for (std::uint32_t v = 0; v < m_.vertex_count(); ++v) {
+        double cost;
+        if (m_.vertex_alive(v) && !locked(v) && cheapest_neighbour(v, cost) != CollapseMesh::kNone)
+          candidates.push_back({cost, v});
+      }
+      // Each collapse takes two faces (one on a boundary): the cost at the rank of the last one
+      // needed, with slack for those that will be blocked or refused.
+      const std::size_t needed = std::size_t((faces - goal + 1) / 2);
+      if (needed < candidates.size()) {
+        std::nth_element(candidates.begin(), candidates.begin() + std::ptrdiff_t(needed), candidates.end());
+        const double limit = kSweepSlack * candidates[needed].first;
+        candidates.erase(std::partition(candidates.begin(), candidates.end(),
+                                        [&](const auto& c) { return c.first <= limit; }),
+                         candidates.end());
+      }
+      std::sort(candidates.begin(), candidates.end());
+      const double limit = candidates.empty() ? 0 : candidates.back().first;
+      std::uint64_t made = 0;
+      for (const auto& [ignored, v] : candidates) {
+        if (faces <= goal) break;
+        if (!m_.vertex_alive(v) || swept_[v] == sweep_) continue;
+        double cost;  // again: a neighbour may have taken a collapse since
+        const std::uint32_t w = cheapest_neighbour(v, cost);
+        if (w == CollapseMesh::kNone || cost > limit) continue;
+        Quadric q = q_[v];
+        q += q_[w];
+        const double error = decimation_error(q, p_[w]);
+        if (error > options.max_error) {
+          ++r.over_error;
+          continue;
+        }
+        CollapseMesh::Across across;
+        if (!m_.link_ok(v, w, stamp_, epoch_, across) || (locked(w) && !locked_neighbours_ok(v, w, across)) ||
+            !geometry_ok(v, w, p_[w])) {
+          ++r.refused;
+          continue;
+        }
+        faces -= std::uint64_t(m_.collapse(v, w));
+        q_[w] = q;
+        own_error_[w] = q.error(p_[w]);
+        swept_[w] = sweep_;
+        ++made;
+        ++r.collapses;
+        ++r.swept;
+        r.estimated_error = std::max(r.estimated_error, error);
+      }
+      if (made == 0 || made < needed / 16) break;
+    }
+  }
+
   DecimationResult run(const DecimationOptions& options, std::uint64_t faces) {
     DecimationResult r;
+    if (options.sweep_to_faces > options.target_faces && options.target_faces > 0)
+      sweep(options, options.sweep_to_faces, faces, r);
     push_all();
     while (options.target_faces == 0 || faces > options.target_faces) {
       if (heap_.empty()) {
@@ -267,6 +349,9 @@ class Decimator {
   EdgeHeap heap_;
   std::span<const std::uint8_t> locked_;
   std::vector<std::uint32_t> stamp_;  // link_ok's one-ring marks
+  std::vector<std::uint32_t> swept_;  // per vertex: the last sweep that collapsed onto it
+  std::vector<double> own_error_;     // per vertex: its quadric's error at its own place
+  std::uint32_t sweep_ = 0;
   std::uint32_t epoch_ = 0;
   const QuadricFrame& frame_;
   std::vector<Vec3f> position_;

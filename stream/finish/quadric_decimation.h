@@ -47,11 +47,25 @@ struct DecimationOptions {
   // the rest. The chunked finish does not: a piece short of its share leaves the rest to the
   // next round or to the other pieces rather than fold its faces.
   bool relax_turn_limit = true;
+  // Before the queue, sweeps of cheap collapses bring the mesh down to this many faces (0, or
+  // not above target_faces: none). A sweep moves each free vertex onto the neighbour where its
+  // quadric and the neighbour's add up least, cheapest first, up to kSweepSlack × the cost of the
+  // last collapse still needed, with no vertex taking two in one sweep: no minimiser to solve and
+  // no queue to update, at the price of keeping input positions. For the first reductions of a
+  // large input, which the queue then refines (docs/finish.md).
+  std::uint64_t sweep_to_faces = 0;
 };
+
+// A sweep takes collapses up to kSweepSlack × the cost of the last one it would need if none were
+// refused or blocked by another (about half are, most by a neighbour's collapse in the same
+// sweep); sweeps end when the faces above the goal are under kSweepRest of the mesh.
+inline constexpr double kSweepSlack = 3;
+inline constexpr double kSweepRest = 0.1;
 
 struct DecimationResult {
   Mesh mesh;
   std::uint64_t collapses = 0;
+  std::uint64_t swept = 0;       // of the collapses, those the sweeps made (sweep_to_faces)
   std::uint64_t refused = 0;     // collapses refused by the link condition or the geometry tests
   std::uint64_t over_error = 0;  // collapses left out for passing max_error
   double estimated_error = 0;    // largest decimation_error of a collapse made (frame units)

@@ -549,6 +549,8 @@ format::Result<ChunkedFinish> chunked_finish(const Partition& partition, const C
           if (target > 0) {
             const std::uint64_t at_locked = faces_at_locked(pieces[p]);
             d.target_faces = at_locked + std::max<std::uint64_t>(1, std::uint64_t(std::ceil(round_one_ratio * double(faces_in - at_locked))));
+            d.sweep_to_faces = at_locked + std::uint64_t(std::ceil(std::min(1.0, kRoundOneSweepShare / kRoundOneShare * round_one_ratio) *
+                                                                   double(faces_in - at_locked)));
           }
           PieceResult r = decimate_piece(std::move(pieces[p]), frame, d);
           totals.add(r, faces_in);

@@ -12,6 +12,7 @@
 #include <numeric>
 
 #include "stream/core/mesh_topology.h"
+#include "stream/finish/face_quadrics.h"
 #include "tests/support/shapes.h"
 
 namespace gaussmesh::stream {
@@ -176,6 +177,73 @@ TEST(QuadricFinish, AShuffledCopyCollapsesToTheSameSurface) {
   };
   EXPECT_EQ(a->mesh.triangles.size(), b->mesh.triangles.size());
   EXPECT_TRUE(corners(a->mesh) == corners(b->mesh));
+}
+
+// Each face's plane quadric (area-weighted) added to its corners, in the mesh's frame.
+std::vector<Quadric> corner_quadrics(const Mesh& m, const QuadricFrame& frame) {
+  std::vector<Quadric> q(m.positions.size());
+  for (const auto& t : m.triangles) {
+    Vec3dq p[3];
+    for (int k = 0; k < 3; ++k) p[k] = frame.to_frame(m.positions[t.v[k]].x, m.positions[t.v[k]].y, m.positions[t.v[k]].z);
+    const Vec3dq n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
+    const double twice_area = norm(n);
+    if (!(twice_area > 0)) continue;
+    const Vec3dq u = scale(n, 1 / twice_area);
+    const Quadric plane = Quadric::plane(u, -dot(u, p[0]), twice_area / 2);
+    for (int k = 0; k < 3; ++k) q[t.v[k]] += plane;
+  }
+  return q;
+}
+
+TEST(QuadricDecimation, SweepsMakeMostCollapsesAndKeepTheTopologyAndTheLockedVertices) {
+  for (const Case& c : cases()) {
+    SCOPED_TRACE(c.name);
+    const Mesh& in = c.input;
+    const QuadricFrame frame = frame_of(in.view());
+    // A band of locked vertices, as a piece's border with its neighbours would be.
+    std::vector<std::uint8_t> locked(in.positions.size(), 0);
+    for (std::size_t v = 0; v < in.positions.size(); ++v) locked[v] = std::abs(in.positions[v].x) < 0.05f;
+    DecimationOptions o;
+    o.target_faces = in.triangles.size() / 10;
+    o.sweep_to_faces = in.triangles.size() / 5;
+    o.locked = locked;
+    auto r = decimate(in.view(), corner_quadrics(in, frame), frame, o);
+    ASSERT_TRUE(r.is_ok()) << r.status().to_string();
+    EXPECT_TRUE(r->reached_target);
+    EXPECT_LE(r->mesh.triangles.size(), o.target_faces);
+    EXPECT_GE(r->mesh.triangles.size() + 2, o.target_faces);
+    // The sweeps took the mesh most of the way: at least 3/4 of the faces removed are theirs.
+    EXPECT_GE(4 * r->swept, 3 * (in.triangles.size() - o.sweep_to_faces) / 2);
+    EXPECT_LT(r->swept, r->collapses);  // and the queue did the rest
+    expect_same_surface_kind(in, r->mesh);
+    // Every locked vertex is still there, where it was.
+    std::vector<std::uint8_t> kept(in.positions.size(), 0);
+    for (std::size_t i = 0; i < r->source.size(); ++i) {
+      const std::uint32_t v = r->source[i];
+      kept[v] = 1;
+      if (locked[v]) {
+        EXPECT_EQ(r->mesh.positions[i].x, in.positions[v].x);
+        EXPECT_EQ(r->mesh.positions[i].y, in.positions[v].y);
+        EXPECT_EQ(r->mesh.positions[i].z, in.positions[v].z);
+      }
+    }
+    for (std::size_t v = 0; v < in.positions.size(); ++v) EXPECT_TRUE(!locked[v] || kept[v]) << "locked vertex " << v << " collapsed";
+  }
+}
+
+TEST(QuadricDecimation, SweepsDoNotPassTheErrorBound) {
+  const Mesh torus = make_torus(1.0, 0.3, {.vertices = 4000, .noise = 0.002, .seed = 3});
+  const QuadricFrame frame = frame_of(torus.view());
+  DecimationOptions o;
+  o.target_faces = 100;
+  o.sweep_to_faces = 2000;
+  o.max_error = 1e-4;
+  auto r = decimate(torus.view(), corner_quadrics(torus, frame), frame, o);
+  ASSERT_TRUE(r.is_ok());
+  EXPECT_GT(r->swept, 0u);
+  EXPECT_GT(r->over_error, 0u);
+  EXPECT_LE(r->estimated_error, o.max_error);
+  EXPECT_FALSE(r->reached_target);
 }
 
 TEST(QuadricFinish, CompactInputDropsRepeatedCornersAndUnusedVertices) {
