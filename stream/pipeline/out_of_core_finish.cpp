@@ -297,7 +297,7 @@ format::Status build_piece(const RoundOutput& last, const Plan& plan, const Shif
   std::vector<Held> held;
   std::vector<PieceFaceRecord> faces, fs;
   std::vector<PieceVertexRecord> vs;
-  std::vector<std::uint32_t> owner;
+  std::vector<std::uint32_t> owner, ids;
   std::vector<std::uint8_t> take, shared;
   for (std::uint32_t j : plan.reads[k]) {
     const Unit& unit = last.units[j];
@@ -311,9 +311,12 @@ format::Status build_piece(const RoundOutput& last, const Plan& plan, const Shif
     }
     take.assign(vs.size(), 0);
     shared.assign(vs.size(), 0);
+    // The faces' corners by binary search over the ids alone: the records are 112 B each.
+    ids.resize(vs.size());
+    for (std::size_t v = 0; v < vs.size(); ++v) ids[v] = vs[v].id;
     auto index_of = [&](std::uint32_t id) -> std::int64_t {
-      auto it = std::lower_bound(vs.begin(), vs.end(), id, [](const PieceVertexRecord& r, std::uint32_t x) { return r.id < x; });
-      return it != vs.end() && it->id == id ? it - vs.begin() : -1;
+      auto it = std::lower_bound(ids.begin(), ids.end(), id);
+      return it != ids.end() && *it == id ? it - ids.begin() : -1;
     };
     for (const auto& f : fs) {
       std::int64_t i[3];
