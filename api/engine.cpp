@@ -9,23 +9,20 @@
 #include "api/internal.h"
 #include "format/output_file.h"
 #include "format/temp_registry.h"
+#include "stream/core/memory_limit.h"
 #include "stream/core/process_memory.h"
 #include "stream/partition/chunk_partition.h"
 
 namespace gaussmesh {
 namespace api {
 
-std::uint64_t physical_memory() {
-  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
-  if (pages <= 0 || page <= 0) return 0;
-  return static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page);
-}
+std::uint64_t usable_memory() { return stream::process_memory_limit().bytes; }
 
 }  // namespace api
 
 namespace {
 
-using api::physical_memory;
+using api::usable_memory;
 
 // Fewest input bytes a face takes in any format we read (binary PLY: a 13-byte face record and
 // a share of the 12-byte vertices; Draco is compressed further but decodes whole anyway), so
@@ -42,10 +39,10 @@ static_assert(kMinMemory == stream::kMinPartitionMemory);
 }  // namespace
 
 std::uint64_t auto_memory_budget() {
-  const std::uint64_t physical = physical_memory();
+  const std::uint64_t usable = usable_memory();
   const std::uint64_t cap = std::uint64_t{64} << 20;
-  if (physical == 0) return cap;
-  return std::clamp(physical / 64, kMinMemory, cap);
+  if (usable == 0) return cap;
+  return std::clamp(usable / 64, kMinMemory, cap);
 }
 
 std::uint64_t in_core_bytes(std::uint64_t faces) { return kProcessBytes + kInCoreBytesPerFace * faces; }
@@ -53,6 +50,12 @@ std::uint64_t in_core_bytes(std::uint64_t faces) { return kProcessBytes + kInCor
 Result<EngineChoice> choose_engine(const Source& source, const ResourceOptions& resources) {
   if (resources.memory_bytes != 0 && resources.memory_bytes < kMinMemory) {
     return Status::error(Code::kUsage, "--memory", "at least 16M (the reader's window and the spill buffers)");
+  }
+  // Past a cgroup limit the kernel kills the process rather than fail an allocation: a budget
+  // above what the process may use is refused before anything is read or written.
+  if (const stream::MemoryLimit limit = stream::process_memory_limit(); limit.limited && resources.memory_bytes > limit.bytes) {
+    return Status::error(Code::kResources, "--memory",
+                         "more than this process may use (" + std::to_string(limit.bytes >> 20) + " MiB, its " + limit.by + ")");
   }
   EngineChoice choice;
   choice.memory_bytes = resources.memory_bytes != 0 ? resources.memory_bytes : auto_memory_budget();
@@ -77,7 +80,7 @@ Result<EngineChoice> choose_engine(const Source& source, const ResourceOptions& 
     choice.engine = resources.engine;
     return choice;
   }
-  const std::uint64_t in_core_limit = resources.memory_bytes != 0 ? resources.memory_bytes : physical_memory() / 4;
+  const std::uint64_t in_core_limit = resources.memory_bytes != 0 ? resources.memory_bytes : usable_memory() / 4;
   choice.engine = known && choice.estimated_faces <= kInCoreMaxFaces && in_core_bytes(choice.estimated_faces) <= in_core_limit
                       ? Engine::kInCore
                       : Engine::kOutOfCore;

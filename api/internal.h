@@ -30,13 +30,14 @@ Result<std::vector<stream::GaussSphereOptions>> gauss_spheres(const SamplingOpti
 // --frequency auto with a target: G at frequencies 1, 2, 4, … kMaxAutoFrequency, in that order, the
 // first whose sampling reaches the finish's sample count kept (stream::finish_min_samples).
 Result<std::vector<stream::GaussSphereOptions>> frequency_ladder(const SamplingOptions& options);
-// The machine's physical memory in bytes (0 if unknown).
-std::uint64_t physical_memory();
+// What this process may use, in bytes: physical memory, or less under a cgroup limit or an
+// rlimit (stream::process_memory_limit; 0 if unknown).
+std::uint64_t usable_memory();
 stream::SamplerOptions sampler_options(const SamplingOptions& options);
 
 format::ReadOptions read_options(const Source& source);
 // What an out-of-core run lets a reader hold when the input must be held whole (Draco): an
-// explicit --memory, else as far as the automatic budget may grow (a quarter of physical memory).
+// explicit --memory, else as far as the automatic budget may grow (a quarter of usable memory).
 std::uint64_t whole_input_limit(const ResourceOptions& resources);
 
 // The mesh of a source in memory: read from its file or stream, or viewed where it lies.

@@ -111,7 +111,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   options.finish = finish_target(o.target);
   options.auto_frequency = o.sampling.frequency == kAutoFrequency;
   options.memory_explicit = o.resources.memory_bytes != 0;
-  options.memory_ceiling = api::physical_memory() / 4;  // as far as the automatic budget may grow
+  options.memory_ceiling = api::usable_memory() / 4;  // as far as the automatic budget may grow
   options.whole_output_bytes_per_face = api::whole_output_bytes_per_face(sink);
   if (o.resources.progress) {
     const ProgressFn& progress = o.resources.progress;
@@ -376,7 +376,7 @@ Result<SimplifyStats> simplify_job(const Source& source, const Sink& sink, const
   if (engine->engine == Engine::kInCore && options.resources.engine == Engine::kAuto && options.target.any() &&
       source.kind == Source::Kind::kFile) {
     const std::uint64_t limit =
-        options.resources.memory_bytes != 0 ? options.resources.memory_bytes : api::physical_memory() / 4;
+        options.resources.memory_bytes != 0 ? options.resources.memory_bytes : api::usable_memory() / 4;
     const std::uint64_t faces = engine->estimated_faces;
     if (in_core_bytes(faces) + stream::kInputBytesPerFace * faces > limit) {
       engine->engine = Engine::kOutOfCore;

@@ -129,7 +129,7 @@ format::ReadOptions read_options(const Source& source) {
 }
 
 std::uint64_t whole_input_limit(const ResourceOptions& resources) {
-  return resources.memory_bytes != 0 ? resources.memory_bytes : physical_memory() / 4;
+  return resources.memory_bytes != 0 ? resources.memory_bytes : usable_memory() / 4;
 }
 
 std::string stream_path(const Source& source) { return source.kind == Source::Kind::kFile ? source.path : "-"; }

@@ -117,14 +117,16 @@ struct ResourceOptions {
 
 inline constexpr std::uint64_t kMinMemory = std::uint64_t{16} << 20;
 
-// The automatic streaming budget: 1/64 of physical memory, between 16 MiB and 64 MiB. Larger
+// The automatic streaming budget: 1/64 of usable memory (physical memory, or a memory cgroup's
+// or an rlimit's limit if less), between 16 MiB and 64 MiB. Larger
 // budgets make larger chunks, which stream no faster (docs/benchmarks.md).
 std::uint64_t auto_memory_budget();
 
 // The engine a job would run on `source` with these options, and the budget it would hold to:
 // kInCore when the input is small enough that in core is faster (at most kInCoreMaxFaces
 // faces) and its in-core working set (in_core_bytes) fits the budget — the explicit one, else a
-// quarter of physical memory; kOutOfCore otherwise. Standard input of unknown size streams. A
+// quarter of usable memory; kOutOfCore otherwise. An explicit budget above a memory cgroup's or
+// an rlimit's limit is kResources. Standard input of unknown size streams. A
 // forced engine is returned as is. The face count is read from the header where the format
 // declares one, else estimated from the file size.
 struct EngineChoice {
