@@ -18,8 +18,9 @@ struct ReadOptions {
   // STL: weld corners at equal positions in a hash table that grows with the mesh; false: each
   // corner is a vertex of its own, in fixed memory (a soup, for a caller that welds).
   bool weld_stl = true;
-  // Bytes the reader may hold at once; 0: no limit. Only the readers that must hold the whole
-  // input (Draco) use it: they refuse an input that would pass it (kResources) before holding it.
+  // Bytes the reader may hold at once; 0: no limit. Only the readers whose memory grows with the
+  // input use it: Draco (decoded whole) refuses an input that would pass it before holding it,
+  // and the STL weld's table stops at half of it (kResources either way).
   std::uint64_t memory_limit = 0;
 };
 

@@ -70,6 +70,8 @@ class VertexWelder {
   size_t size() const { return size_; }
   // True when the next insertion must wait for grow().
   bool full() const { return size_ * 10 >= slots_.size() * 7; }
+  // What the tables hold while grow() copies the table into one twice its size.
+  uint64_t bytes_while_growing() const { return (3 * uint64_t{slots_.size()} + kRecentSlots) * sizeof(Slot); }
 
   // The index of p: an existing one, or next_index after inserting p. Precondition: !full().
   uint32_t find_or_insert(const Vec3f& p, uint32_t next_index) {
@@ -181,7 +183,9 @@ class VertexWelder {
 // Shared by both encodings: welds a corner and hands out its index.
 class StlCorners {
  public:
-  StlCorners(MeshBatcher& batcher, bool weld) : batcher_(batcher) {
+  // The welder holds at most half of `memory_limit` (0: no limit), the rest being the caller's:
+  // an STL with more unique vertices than that is refused rather than read past the budget.
+  StlCorners(MeshBatcher& batcher, bool weld, uint64_t memory_limit) : batcher_(batcher), limit_(memory_limit / 2) {
     if (weld) welder_.emplace();  // its tables only when it welds
   }
 
@@ -196,7 +200,15 @@ class StlCorners {
       return static_cast<VertexIndex>(next);
     }
     if (!welder_->ok()) return Status::error(Code::kResources, "", "out of memory for the STL vertex table");
-    if (welder_->full()) GM_RETURN_IF_ERROR(welder_->grow());
+    if (welder_->full()) {
+      if (limit_ > 0 && welder_->bytes_while_growing() > limit_) {
+        return Status::error(Code::kResources, "",
+                             "welding this STL's vertices needs more than " + std::to_string(welder_->bytes_while_growing() >> 20) +
+                                 " MiB (" + std::to_string(welder_->size()) + " unique so far), over half the --memory budget of " +
+                                 std::to_string((2 * limit_) >> 20) + " MiB: raise --memory, or simplify it (which welds in bounded memory)");
+      }
+      GM_RETURN_IF_ERROR(welder_->grow());
+    }
     uint32_t index = welder_->find_or_insert(p, static_cast<uint32_t>(next));
     if (index == next) GM_RETURN_IF_ERROR(batcher_.add_vertex(p));
     return index;
@@ -204,6 +216,7 @@ class StlCorners {
 
  private:
   MeshBatcher& batcher_;
+  uint64_t limit_;
   std::optional<VertexWelder> welder_;
 };
 
@@ -241,7 +254,7 @@ Status read_binary_stl(ByteSource& source, const ReadOptions& options, MeshSink&
   GM_RETURN_IF_ERROR(sink.on_header(header));
 
   MeshBatcher batcher(sink, options.batch_size);
-  StlCorners corners(batcher, options.weld_stl);
+  StlCorners corners(batcher, options.weld_stl, options.memory_limit);
   uint64_t done = 0;
   while (done < count) {
     uint64_t want = std::min<uint64_t>(count - done, kRecordsPerRefill);
@@ -282,7 +295,7 @@ Status read_binary_stl(ByteSource& source, const ReadOptions& options, MeshSink&
 class AsciiStlReader {
  public:
   AsciiStlReader(ByteSource& source, const ReadOptions& options, MeshSink& sink)
-      : source_(source), sink_(sink), batcher_(sink, options.batch_size), corners_(batcher_, options.weld_stl) {}
+      : source_(source), sink_(sink), batcher_(sink, options.batch_size), corners_(batcher_, options.weld_stl, options.memory_limit) {}
 
   Status run() {
     MeshHeader header;
