@@ -303,6 +303,11 @@ format::Result<ChunkLoopSummary> spill_chunk_loops(ChunkLoops&& loops, format::R
   out.runs = std::move(loops.runs);
   out.vertices = std::move(loops.vertices);
   out.areas = std::move(loops.areas);
+  // Held by the run until the mesher is done (a fetch stitches the loops again): no slack from
+  // the vectors' growth.
+  out.runs.shrink_to_fit();
+  out.vertices.shrink_to_fit();
+  out.areas.shrink_to_fit();
   out.entries = loops.run_vertices.size();
   if (out.entries == 0) return out;
   out.path = file.path();
