@@ -147,6 +147,8 @@ class SimplifyRun {
   format::Status for_each_chunk(const char* pass, const ChunkBody& body) const;
   format::Status for_each_chunk(std::size_t count, const std::function<ChunkInfo(std::size_t)>& info_of,
                                 const char* pass, const ChunkBody& body) const;
+  // Where the loop stitch leaves the loop summaries (spill_loop_summaries) for a fetch.
+  std::string summaries_path() const { return partition_.dir + "/loop-summaries.bin"; }
   // Chunk c as the loops and chains passes read it: its loop chunk where the sample pass wrote one.
   ChunkInfo loop_info_of(std::size_t c) const;
   // The sample pass's pieces and loop chunk for chunk c, from the sampler's arrays in ws.
@@ -558,7 +560,12 @@ format::Status SimplifyRun::stitch() {
   out_.stitch_half_edges = stitch_stats.half_edges;
   out_.stitch_vertices = stitch_stats.vertices;
   out_.bytes_spilled += 12 * stitch_stats.vertices;
-  return format::Status();
+  // The summaries are read again only if a fetch stitches the loops again: not held beside the
+  // mesher.
+  for (const ChunkLoopSummary& l : loops_)
+    out_.bytes_spilled += l.runs.size() * sizeof(LoopRunRecord) + l.vertices.size() * sizeof(LoopVertexRecord) +
+                          l.areas.size() * sizeof(l.areas[0]);
+  return spill_loop_summaries(loops_, summaries_path());
 }
 
 format::Status SimplifyRun::fetch(const std::vector<std::uint32_t>& now) {
@@ -623,7 +630,10 @@ format::Status SimplifyRun::mesh() {
     std::sort(extra.begin(), extra.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     extra.erase(std::unique(extra.begin(), extra.end(), [](const auto& a, const auto& b) { return a.first == b.first; }),
                 extra.end());
-    auto regraph = stitch_loops(loops_, merged_.patch_label.size(), plane_, partition_.dir, extra, nullptr);
+    auto loops = read_loop_summaries(loops_, summaries_path());
+    if (!loops) return loops.status();
+    auto regraph = stitch_loops(*loops, merged_.patch_label.size(), plane_, partition_.dir, extra, nullptr);
+    loops = std::vector<ChunkLoopSummary>();
     if (!regraph) return regraph.status();
     {
       const DenseIds dense(regraph->global);
