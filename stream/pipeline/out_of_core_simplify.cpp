@@ -552,20 +552,23 @@ format::Status SimplifyRun::loops() {
 }
 
 format::Status SimplifyRun::stitch() {
+  // The summaries go to a file first and the stitch reads them back: after it they are needed
+  // only if a fetch stitches the loops again, and are not held beside the mesher.
+  for (const ChunkLoopSummary& l : loops_)
+    out_.bytes_spilled += l.runs.size() * sizeof(LoopRunRecord) + l.vertices.size() * sizeof(LoopVertexRecord) +
+                          l.areas.size() * sizeof(l.areas[0]);
+  GM_RETURN_IF_ERROR(spill_loop_summaries(loops_, summaries_path()));
+  auto loops = read_loop_summaries(loops_, summaries_path());
+  if (!loops) return loops.status();
   LoopStitchStats stitch_stats;
-  auto graph = stitch_loops(loops_, merged_.patch_label.size(), plane_, partition_.dir, {}, &stitch_stats);
+  auto graph = stitch_loops(*loops, merged_.patch_label.size(), plane_, partition_.dir, {}, &stitch_stats);
   if (!graph) return graph.status();
   graph_ = std::move(graph).value();
   out_.stitch_runs = stitch_stats.runs;
   out_.stitch_half_edges = stitch_stats.half_edges;
   out_.stitch_vertices = stitch_stats.vertices;
   out_.bytes_spilled += 12 * stitch_stats.vertices;
-  // The summaries are read again only if a fetch stitches the loops again: not held beside the
-  // mesher.
-  for (const ChunkLoopSummary& l : loops_)
-    out_.bytes_spilled += l.runs.size() * sizeof(LoopRunRecord) + l.vertices.size() * sizeof(LoopVertexRecord) +
-                          l.areas.size() * sizeof(l.areas[0]);
-  return spill_loop_summaries(loops_, summaries_path());
+  return format::Status();
 }
 
 format::Status SimplifyRun::fetch(const std::vector<std::uint32_t>& now) {
