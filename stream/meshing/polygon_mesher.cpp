@@ -150,6 +150,10 @@ class PolygonMesher {
       std::vector<std::uint32_t> failed;
       bool retry = false;
       triangulate_all(failed, retry);
+      // Out of core, within a budget: a round grows its tables, and the allocator keeps what
+      // their growth freed; handed back after each round, the rounds' peak is what they hold,
+      // not that plus the old copies.
+      if (!from_mesh_) release_free_memory();
       if (!loop_status().is_ok()) return loop_status();
       if (failed.empty() && !retry) return finish();
       // Out of core, a patch that reaches the steps needing its input faces without them: stop
@@ -884,8 +888,8 @@ class PolygonMesher {
   // Checks the triangles make a valid mesh, then runs the corner collapses on it.
   format::Result<PolygonMesherResult> finish() {
     // The rounds are over: their tables, replay logs and scratch go (capacity and all) before
-    // phase 2 builds its mesh, and the allocator hands the pages back, so that phase 2 and the
-    // caller's output do not stack on what the rounds held at their peak.
+    // phase 2 builds its mesh, and out of core the allocator hands the pages back, so that
+    // phase 2 and the caller's output do not stack on what the rounds held at their peak.
     edges_ = EdgeKeyMap();
     local_index_ = EdgeKeyMap();
     queries_.release();
@@ -894,7 +898,7 @@ class PolygonMesher {
             reduced_offset_, last_reduced_offset_, failing_, prefetch_ids_, local_to_vertex_, local_points_, local_loops_,
             loop_area_, plane_points_, tri_, loop_buffer_, loop_offset_, loop_patch_, patch_loop_offset_, degree_,
             interior_of_patch_, patch_area_, refinements_, mode_);
-    release_free_memory();
+    if (!from_mesh_) release_free_memory();
     auto fail = [](const std::string& what) {
       return format::Status::error(format::Code::kProcessing, "polygon mesher", what);
     };

@@ -616,6 +616,9 @@ format::Status SimplifyRun::mesh() {
   const std::string ids_path = partition_.dir + "/loop-ids.bin";
   auto id_count = spill_global_ids(graph_, ids_path);
   if (!id_count) return id_count.status();
+  // What the passes before freed goes back before the mesher, whose tables are output-sized and
+  // can be the run's largest (docs/meshing.md#memory).
+  release_free_memory();
   auto meshed = mesh_patch_loops(std::move(graph_));
   if (!meshed) return meshed.status();
   for (int attempt = 0; !meshed->needs_faces.empty(); ++attempt) {
