@@ -68,7 +68,8 @@ class PolygonMesher {
         from_mesh_(true) {}
 
   // Out of core: everything from records (PolygonGraphInput); no faces.
-  // graph's loops are moved from; its positions and plane normals must outlive the mesher.
+  // graph's loops, roles, ids and per-patch arrays are moved from (or freed); its positions and
+  // plane normals must outlive the mesher.
   explicit PolygonMesher(PolygonGraphInput& graph)
       : in_(nullptr),
         tris_(nullptr),
