@@ -17,6 +17,7 @@
 #include "stream/core/edge_key_map.h"
 #include "stream/core/hash_mix.h"
 #include "stream/core/mesh_adjacency.h"
+#include "stream/core/process_memory.h"
 #include "stream/meshing/polygon_triangulation.h"
 
 namespace gaussmesh::stream {
@@ -46,6 +47,12 @@ std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
 
 bool is_collapsed(const format::Triangle& t) { return t.v[0] == t.v[1] || t.v[1] == t.v[2] || t.v[0] == t.v[2]; }
 
+// Empties each vector and frees its allocation (assigning {} keeps the capacity).
+template <class... Vectors>
+void release(Vectors&... vectors) {
+  ((Vectors().swap(vectors)), ...);
+}
+
 class PolygonMesher {
  public:
   // skip[f]: a face left out (collapsed, or a repeat of an earlier face's vertex set); the
@@ -61,7 +68,8 @@ class PolygonMesher {
         from_mesh_(true) {}
 
   // Out of core: everything from records (PolygonGraphInput); no faces.
-  // graph's loops are moved from; its positions and plane normals must outlive the mesher.
+  // graph's loops, roles, ids and per-patch arrays are moved from (or freed); its positions and
+  // plane normals must outlive the mesher.
   explicit PolygonMesher(PolygonGraphInput& graph)
       : in_(nullptr),
         tris_(nullptr),
@@ -115,10 +123,11 @@ class PolygonMesher {
       else if (graph.role[v] == VertexRole::kGuard) keep_[v] = Keep::kGuard;
     }
     std::vector<VertexRole>().swap(graph.role);  // keep_ holds what the mesher needs of it
-    interior_of_patch_ = graph.interior_samples;
+    interior_of_patch_ = std::move(graph.interior_samples);
     for (const auto& list : interior_of_patch_) result_.stats.interior_samples += list.size();
-    patch_area_ = graph.patch_area;
-    patch_has_faces_ = graph.patch_has_faces;
+    patch_area_.assign(graph.patch_area.begin(), graph.patch_area.end());
+    release(graph.patch_area);
+    patch_has_faces_ = std::move(graph.patch_has_faces);
     global_ = std::move(graph.global);
     result_.mesh.graph = graph.graph;
     corners_given_ = degree_.empty();
@@ -142,6 +151,10 @@ class PolygonMesher {
       std::vector<std::uint32_t> failed;
       bool retry = false;
       triangulate_all(failed, retry);
+      // Out of core, within a budget: a round grows its tables, and the allocator keeps what
+      // their growth freed; handed back after each round, the rounds' peak is what they hold,
+      // not that plus the old copies.
+      if (!from_mesh_) release_free_memory();
       if (!loop_status().is_ok()) return loop_status();
       if (failed.empty() && !retry) return finish();
       // Out of core, a patch that reaches the steps needing its input faces without them: stop
@@ -590,8 +603,8 @@ class PolygonMesher {
     PatchRecord& record = records_[p];
     if (can_replay(p)) {
       const PatchRecord& last = last_records_[p];
-      record.query_begin = record.query_end = static_cast<std::uint32_t>(queries_.size());
-      queries_.insert(queries_.end(), last_queries_.begin() + last.query_begin, last_queries_.begin() + last.query_end);
+      record.query_begin = static_cast<std::uint32_t>(queries_.size());
+      queries_.append(last_queries_, last.query_begin, last.query_end);
       record.query_end = static_cast<std::uint32_t>(queries_.size());
       record.outcome = last.outcome;
       record.tri_begin = static_cast<std::uint32_t>(patch_tris_.size());
@@ -623,7 +636,7 @@ class PolygonMesher {
     }
     const PatchRecord& last = last_records_[p];
     for (std::uint32_t q = last.query_begin; q < last.query_end; ++q) {
-      if (edges_.contains(last_queries_[q].key) != last_queries_[q].answer) return false;
+      if (edges_.contains(last_queries_.key(q)) != last_queries_.answer(q)) return false;
     }
     return true;
   }
@@ -875,16 +888,18 @@ class PolygonMesher {
 
   // Checks the triangles make a valid mesh, then runs the corner collapses on it.
   format::Result<PolygonMesherResult> finish() {
-    // The rounds are over: their tables and replay logs go before phase 2 builds its mesh.
-    edges_ = {};
-    queries_ = {};
-    last_queries_ = {};
-    patch_tris_ = {};
-    last_patch_tris_ = {};
-    records_ = {};
-    last_records_ = {};
-    reduced_vertices_ = {};
-    last_reduced_vertices_ = {};
+    // The rounds are over: their tables, replay logs and scratch go (capacity and all) before
+    // phase 2 builds its mesh, and out of core the allocator hands the pages back, so that
+    // phase 2 and the caller's output do not stack on what the rounds held at their peak.
+    edges_ = EdgeKeyMap();
+    local_index_ = EdgeKeyMap();
+    queries_.release();
+    last_queries_.release();
+    release(patch_tris_, last_patch_tris_, records_, last_records_, reduced_vertices_, last_reduced_vertices_,
+            reduced_offset_, last_reduced_offset_, failing_, prefetch_ids_, local_to_vertex_, local_points_, local_loops_,
+            loop_area_, plane_points_, tri_, loop_buffer_, loop_offset_, loop_patch_, patch_loop_offset_, degree_,
+            interior_of_patch_, patch_area_, refinements_, mode_);
+    if (!from_mesh_) release_free_memory();
     auto fail = [](const std::string& what) {
       return format::Status::error(format::Code::kProcessing, "polygon mesher", what);
     };
@@ -1003,7 +1018,7 @@ class PolygonMesher {
   const ForbiddenEdge forbidden_ = [this](std::uint32_t u, std::uint32_t v) {
     const std::uint64_t key = edge_key(local_to_vertex_[u], local_to_vertex_[v]);
     const bool answer = edges_.contains(key);
-    if (logging_) queries_.push_back({key, answer});
+    if (logging_) queries_.push_back(key, answer);
     return answer;
   };
   // What replay_or_triangulate_patch keeps of each patch's triangulation, this round and last.
@@ -1013,13 +1028,42 @@ class PolygonMesher {
     std::uint32_t tri_begin = 0, tri_end = 0;      // in patch_tris_
     Outcome outcome = Outcome::kNone;              // kNone: not triangulated this round
   };
-  struct Query {
-    std::uint64_t key;
-    bool answer;
+  // The forbidden-edge questions a round's triangulations asked, in order: keys and answers
+  // apart, 8 bytes and a bit each (a struct of both would take 16).
+  class QueryLog {
+   public:
+    std::size_t size() const { return keys_.size(); }
+    std::uint64_t key(std::size_t q) const { return keys_[q]; }
+    bool answer(std::size_t q) const { return answers_[q]; }
+    void push_back(std::uint64_t key, bool answer) {
+      keys_.push_back(key);
+      answers_.push_back(answer);
+    }
+    // Appends entries begin .. end - 1 of `from`.
+    void append(const QueryLog& from, std::size_t begin, std::size_t end) {
+      keys_.insert(keys_.end(), from.keys_.begin() + begin, from.keys_.begin() + end);
+      for (std::size_t q = begin; q < end; ++q) answers_.push_back(from.answers_[q]);
+    }
+    void clear() {
+      keys_.clear();
+      answers_.clear();
+    }
+    void reserve(std::size_t n) {
+      keys_.reserve(n);
+      answers_.reserve(n);
+    }
+    void release() {
+      std::vector<std::uint64_t>().swap(keys_);
+      std::vector<bool>().swap(answers_);
+    }
+
+   private:
+    std::vector<std::uint64_t> keys_;
+    std::vector<bool> answers_;
   };
   bool logging_ = false;
   std::vector<PatchRecord> records_, last_records_;
-  std::vector<Query> queries_, last_queries_;
+  QueryLog queries_, last_queries_;
   std::vector<std::array<std::uint32_t, 3>> patch_tris_, last_patch_tris_;
   std::vector<std::uint32_t> last_reduced_offset_, last_reduced_vertices_;
   std::vector<std::array<std::uint32_t, 3>> out_tris_;

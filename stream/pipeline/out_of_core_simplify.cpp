@@ -147,6 +147,8 @@ class SimplifyRun {
   format::Status for_each_chunk(const char* pass, const ChunkBody& body) const;
   format::Status for_each_chunk(std::size_t count, const std::function<ChunkInfo(std::size_t)>& info_of,
                                 const char* pass, const ChunkBody& body) const;
+  // Where the loop stitch leaves the loop summaries (spill_loop_summaries) for a fetch.
+  std::string summaries_path() const { return partition_.dir + "/loop-summaries.bin"; }
   // Chunk c as the loops and chains passes read it: its loop chunk where the sample pass wrote one.
   ChunkInfo loop_info_of(std::size_t c) const;
   // The sample pass's pieces and loop chunk for chunk c, from the sampler's arrays in ws.
@@ -550,8 +552,16 @@ format::Status SimplifyRun::loops() {
 }
 
 format::Status SimplifyRun::stitch() {
+  // The summaries go to a file first and the stitch reads them back: after it they are needed
+  // only if a fetch stitches the loops again, and are not held beside the mesher.
+  for (const ChunkLoopSummary& l : loops_)
+    out_.bytes_spilled += l.runs.size() * sizeof(LoopRunRecord) + l.vertices.size() * sizeof(LoopVertexRecord) +
+                          l.areas.size() * sizeof(l.areas[0]);
+  GM_RETURN_IF_ERROR(spill_loop_summaries(loops_, summaries_path()));
+  auto loops = read_loop_summaries(loops_, summaries_path());
+  if (!loops) return loops.status();
   LoopStitchStats stitch_stats;
-  auto graph = stitch_loops(loops_, merged_.patch_label.size(), plane_, partition_.dir, {}, &stitch_stats);
+  auto graph = stitch_loops(*loops, merged_.patch_label.size(), plane_, partition_.dir, {}, &stitch_stats);
   if (!graph) return graph.status();
   graph_ = std::move(graph).value();
   out_.stitch_runs = stitch_stats.runs;
@@ -606,6 +616,9 @@ format::Status SimplifyRun::mesh() {
   const std::string ids_path = partition_.dir + "/loop-ids.bin";
   auto id_count = spill_global_ids(graph_, ids_path);
   if (!id_count) return id_count.status();
+  // What the passes before freed goes back before the mesher, whose tables are output-sized and
+  // can be the run's largest (docs/meshing.md#memory).
+  release_free_memory();
   auto meshed = mesh_patch_loops(std::move(graph_));
   if (!meshed) return meshed.status();
   for (int attempt = 0; !meshed->needs_faces.empty(); ++attempt) {
@@ -623,7 +636,10 @@ format::Status SimplifyRun::mesh() {
     std::sort(extra.begin(), extra.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     extra.erase(std::unique(extra.begin(), extra.end(), [](const auto& a, const auto& b) { return a.first == b.first; }),
                 extra.end());
-    auto regraph = stitch_loops(loops_, merged_.patch_label.size(), plane_, partition_.dir, extra, nullptr);
+    auto loops = read_loop_summaries(loops_, summaries_path());
+    if (!loops) return loops.status();
+    auto regraph = stitch_loops(*loops, merged_.patch_label.size(), plane_, partition_.dir, extra, nullptr);
+    loops = std::vector<ChunkLoopSummary>();
     if (!regraph) return regraph.status();
     {
       const DenseIds dense(regraph->global);

@@ -1,9 +1,16 @@
 // The loops pass on one chunk, the loop chunk and the run files. See loop_chunks.h.
 #include "stream/stitch/loop_chunks.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cstring>
 #include <map>
+#include <type_traits>
+
+#include "format/file_io.h"
 
 namespace gaussmesh::stream {
 namespace {
@@ -303,6 +310,11 @@ format::Result<ChunkLoopSummary> spill_chunk_loops(ChunkLoops&& loops, format::R
   out.runs = std::move(loops.runs);
   out.vertices = std::move(loops.vertices);
   out.areas = std::move(loops.areas);
+  // Held by the run until the mesher is done (a fetch stitches the loops again): no slack from
+  // the vectors' growth.
+  out.runs.shrink_to_fit();
+  out.vertices.shrink_to_fit();
+  out.areas.shrink_to_fit();
   out.entries = loops.run_vertices.size();
   if (out.entries == 0) return out;
   out.path = file.path();
@@ -314,6 +326,78 @@ format::Result<ChunkLoopSummary> spill_chunk_loops(ChunkLoops&& loops, format::R
   out.bytes = (*writer)->bytes_written();
   out.segment = (*writer)->segment();
   loops.run_vertices = {};
+  return out;
+}
+
+namespace {
+
+// Whether a T can be written and read back as its bytes (std::pair's assignment is not trivial,
+// its copy is).
+template <class T>
+constexpr bool kBytewise = std::is_trivially_copyable_v<T>;
+template <class A, class B>
+constexpr bool kBytewise<std::pair<A, B>> = kBytewise<A> && kBytewise<B>;
+
+template <class T>
+std::uint64_t bytes_of(const std::vector<T>& v) {
+  static_assert(kBytewise<T>, "written as it is in memory");
+  return v.size() * sizeof(T);
+}
+
+}  // namespace
+
+format::Status spill_loop_summaries(std::vector<ChunkLoopSummary>& chunks, const std::string& path) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+  if (fd < 0) return format::Status::error(format::Code::kOutput, path, std::strerror(errno));
+  std::uint64_t at = 0;
+  bool ok = true;
+  for (ChunkLoopSummary& c : chunks) {
+    c.spilled_at = at;
+    c.spilled_runs = c.runs.size();
+    c.spilled_vertices = c.vertices.size();
+    c.spilled_areas = c.areas.size();
+    ok = ok && format::write_all(fd, c.runs.data(), bytes_of(c.runs), at);
+    at += bytes_of(c.runs);
+    ok = ok && format::write_all(fd, c.vertices.data(), bytes_of(c.vertices), at);
+    at += bytes_of(c.vertices);
+    ok = ok && format::write_all(fd, c.areas.data(), bytes_of(c.areas), at);
+    at += bytes_of(c.areas);
+    if (!ok) break;
+    std::vector<LoopRunRecord>().swap(c.runs);
+    std::vector<LoopVertexRecord>().swap(c.vertices);
+    std::vector<std::pair<std::uint32_t, std::array<double, 3>>>().swap(c.areas);
+  }
+  const int error = errno;
+  ::close(fd);
+  if (!ok) return format::Status::error(format::Code::kOutput, path, "write failed: " + std::string(std::strerror(error)));
+  return format::Status();
+}
+
+format::Result<std::vector<ChunkLoopSummary>> read_loop_summaries(const std::vector<ChunkLoopSummary>& chunks,
+                                                                  const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return format::Status::error(format::Code::kBadInput, path, std::strerror(errno));
+  std::vector<ChunkLoopSummary> out(chunks.size());
+  bool ok = true;
+  for (std::size_t k = 0; k < chunks.size() && ok; ++k) {
+    const ChunkLoopSummary& c = chunks[k];
+    ChunkLoopSummary& r = out[k];
+    r.path = c.path;
+    r.segment = c.segment;
+    r.entries = c.entries;
+    r.bytes = c.bytes;
+    r.runs.resize(c.spilled_runs);
+    r.vertices.resize(c.spilled_vertices);
+    r.areas.resize(c.spilled_areas);
+    std::uint64_t at = c.spilled_at;
+    ok = format::pread_all(fd, r.runs.data(), bytes_of(r.runs), at);
+    at += bytes_of(r.runs);
+    ok = ok && format::pread_all(fd, r.vertices.data(), bytes_of(r.vertices), at);
+    at += bytes_of(r.vertices);
+    ok = ok && format::pread_all(fd, r.areas.data(), bytes_of(r.areas), at);
+  }
+  ::close(fd);
+  if (!ok) return format::Status::error(format::Code::kBadInput, path, "shorter than the loop summaries written to it");
   return out;
 }
 

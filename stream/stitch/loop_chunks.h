@@ -98,7 +98,8 @@ format::Result<bool> write_loop_chunk(const ChunkMesh& chunk, const ChunkInfo& i
                                       const std::vector<GlobalSample>& samples, format::RecordSegmentFile& file,
                                       ChunkInfo& loop_info, std::vector<std::array<double, 3>>& piece_area);
 
-// What the stitch keeps of a chunk's loops: its run vertices go to a file, the rest stays.
+// What the stitch keeps of a chunk's loops: its run vertices go to a file, the rest stays (until
+// spill_loop_summaries moves that to a file too).
 struct ChunkLoopSummary {
   std::vector<LoopRunRecord> runs;
   std::vector<LoopVertexRecord> vertices;
@@ -107,10 +108,23 @@ struct ChunkLoopSummary {
   format::RecordSegment segment;
   std::uint64_t entries = 0;  // records in it
   std::uint64_t bytes = 0;    // its size on disk
+  // Where spill_loop_summaries put runs, vertices and areas (in that order) and how many of each.
+  std::uint64_t spilled_at = 0, spilled_runs = 0, spilled_vertices = 0, spilled_areas = 0;
 };
 inline constexpr std::uint32_t kLoopVertexRecordKind = 0x564C4D47u;  // "GMLV"
 
 // Writes a chunk's run vertices to path (a record file) and returns the summary.
 format::Result<ChunkLoopSummary> spill_chunk_loops(ChunkLoops&& loops, format::RecordSegmentFile& file);
+
+// The summaries' runs, vertex records and areas, which grow with the output's patches and
+// loops, to a plain file at path (chunk after chunk, each array as it is in memory), their
+// allocations freed and their counts kept in the summaries: the mesh pass then does not hold
+// them beside the mesher. kOutput when the file cannot be written.
+format::Status spill_loop_summaries(std::vector<ChunkLoopSummary>& chunks, const std::string& path);
+// The summaries as they were before spill_loop_summaries(chunks, path), read back from path
+// (for a second loop stitch); chunks is left as it is. Sizes come from the counts in chunks,
+// never from the file; a short file is kBadInput naming it.
+format::Result<std::vector<ChunkLoopSummary>> read_loop_summaries(const std::vector<ChunkLoopSummary>& chunks,
+                                                                  const std::string& path);
 
 }  // namespace gaussmesh::stream

@@ -64,19 +64,36 @@ class FilePositions final : public VertexPositionSource {
 };
 
 // The loop stitch's loop file: one dense vertex id (4 bytes) per entry, written at its place by
-// write and read back a loop at a time by the mesher.
+// write and read back a loop at a time by the mesher. The mesher walks the loops in file order,
+// round after round, and most loops are a few entries: reads are served from a window of
+// kWindowEntries (64 KiB) read ahead, one pread per window instead of one per loop (a million
+// system calls on a detailed input of 10M triangles).
 class FileLoopVertices final : public LoopVertexSource {
  public:
+  static constexpr std::uint64_t kWindowEntries = 16384;
+
   FileLoopVertices(int fd, std::string path, std::uint64_t entries) : fd_(fd), path_(std::move(path)), entries_(entries) {}
   ~FileLoopVertices() override { ::close(fd_); }
   format::Status write(std::uint64_t first, std::span<const std::uint32_t> ids) {
     if (first + ids.size() > entries_) return damaged("a loop run lies outside its loop");
+    window_.clear();
     if (!format::write_all(fd_, ids.data(), ids.size_bytes(), first * sizeof(std::uint32_t)))
       return format::Status::error(format::Code::kOutput, path_, "cannot write loop vertices: " + std::string(std::strerror(errno)));
     return format::Status();
   }
   bool read(std::uint64_t first, std::span<std::uint32_t> out) override {
-    if (first + out.size() <= entries_ && format::pread_all(fd_, out.data(), out.size_bytes(), first * sizeof(std::uint32_t))) return true;
+    if (first + out.size() <= entries_) {
+      if (first < window_first_ || first + out.size() > window_first_ + window_.size()) {
+        window_.resize(std::min(std::max<std::uint64_t>(out.size(), kWindowEntries), entries_ - first));
+        window_first_ = first;
+        if (!format::pread_all(fd_, window_.data(), window_.size() * sizeof(std::uint32_t), first * sizeof(std::uint32_t)))
+          window_.clear();
+      }
+      if (first >= window_first_ && first + out.size() <= window_first_ + window_.size()) {
+        std::copy_n(window_.begin() + static_cast<std::ptrdiff_t>(first - window_first_), out.size(), out.begin());
+        return true;
+      }
+    }
     if (status_.is_ok())
       status_ = format::Status::error(format::Code::kOutput, path_, "cannot read loop vertices " + std::to_string(first) + " on");
     return false;
@@ -88,6 +105,8 @@ class FileLoopVertices final : public LoopVertexSource {
   std::string path_;
   std::uint64_t entries_;
   format::Status status_;
+  std::vector<std::uint32_t> window_;  // entries window_first_ .. window_first_ + size - 1
+  std::uint64_t window_first_ = 0;
 };
 
 // Calls body(run index in chunk, index in run, entry) for every run vertex of a chunk's file,

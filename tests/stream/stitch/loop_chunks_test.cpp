@@ -230,5 +230,77 @@ TEST(LoopChunks, DamagedLoopChunksAreBadInput) {
   expect_bad(plain, "a loop chunk read as a chunk file");
 }
 
+TEST(LoopChunks, SpilledLoopSummariesComeBackAsTheyWere) {
+  // spill_loop_summaries frees the arrays and keeps their counts; read_loop_summaries gives every
+  // field back, including a chunk with nothing; a file cut short anywhere, or missing, is
+  // kBadInput naming it.
+  testing::ScratchDir tmp;
+  std::vector<ChunkLoopSummary> chunks(3);
+  for (std::uint32_t c = 0; c < 3; c += 2) {  // chunk 1 stays empty
+    for (std::uint32_t k = 0; k < 5 + c; ++k) {
+      LoopRunRecord r;
+      r.first = 3 * (100 * c + k), r.next = r.first + 7, r.min_id = r.first, r.offset = 4 * k;
+      r.min_index = k % 2, r.length = 4, r.patch = 10 + k, r.breaks = k % 3, r.chunk = c;
+      chunks[c].runs.push_back(r);
+      chunks[c].vertices.push_back({1000 * c + k, {float(k), 0.5f, -float(c)}, 3, k % 2 ? VertexRole::kSample : VertexRole::kCorner,
+                                    k == 2 ? 10u : 0xFFFFFFFFu});
+      chunks[c].areas.push_back({10 + k, {0.25 * k, -1.0, 1e-3 * c}});
+    }
+    chunks[c].path = "run-vertices-" + std::to_string(c);
+    chunks[c].segment = {64u * c, 32u};
+    chunks[c].entries = 4u * (5 + c);
+    chunks[c].bytes = 99;
+  }
+  const std::vector<ChunkLoopSummary> before = chunks;
+  const std::string path = tmp.file("summaries.bin");
+  ASSERT_TRUE(spill_loop_summaries(chunks, path).is_ok());
+  for (std::size_t c = 0; c < chunks.size(); ++c) {
+    EXPECT_EQ(chunks[c].runs.capacity() + chunks[c].vertices.capacity() + chunks[c].areas.capacity(), 0u);
+    EXPECT_EQ(chunks[c].path, before[c].path);
+  }
+  EXPECT_EQ(chunks[2].spilled_runs, 7u);
+  EXPECT_EQ(chunks[2].spilled_vertices, 7u);
+  EXPECT_EQ(chunks[2].spilled_areas, 7u);
+  auto read = read_loop_summaries(chunks, path);
+  ASSERT_TRUE(read.is_ok()) << read.status().to_string();
+  ASSERT_EQ(read->size(), before.size());
+  for (std::size_t c = 0; c < before.size(); ++c) {
+    const ChunkLoopSummary &r = (*read)[c], &b = before[c];
+    EXPECT_EQ(r.runs.size(), b.runs.size());
+    for (std::size_t k = 0; k < std::min(r.runs.size(), b.runs.size()); ++k) {
+      EXPECT_EQ(r.runs[k].first, b.runs[k].first);
+      EXPECT_EQ(r.runs[k].next, b.runs[k].next);
+      EXPECT_EQ(r.runs[k].offset, b.runs[k].offset);
+      EXPECT_EQ(r.runs[k].patch, b.runs[k].patch);
+      EXPECT_EQ(r.runs[k].chunk, b.runs[k].chunk);
+      EXPECT_EQ(r.runs[k].breaks, b.runs[k].breaks);
+    }
+    EXPECT_EQ(r.vertices.size(), b.vertices.size());
+    for (std::size_t k = 0; k < std::min(r.vertices.size(), b.vertices.size()); ++k) {
+      EXPECT_EQ(r.vertices[k].vertex, b.vertices[k].vertex);
+      EXPECT_EQ(r.vertices[k].position.x, b.vertices[k].position.x);
+      EXPECT_EQ(r.vertices[k].role, b.vertices[k].role);
+      EXPECT_EQ(r.vertices[k].interior_patch, b.vertices[k].interior_patch);
+    }
+    EXPECT_TRUE(r.areas == b.areas);
+    EXPECT_EQ(r.path, b.path);
+    EXPECT_EQ(r.segment.offset, b.segment.offset);
+    EXPECT_EQ(r.entries, b.entries);
+    EXPECT_EQ(r.bytes, b.bytes);
+  }
+  const auto size = std::filesystem::file_size(path);
+  for (const auto cut : {std::uintmax_t{0}, size / 2, size - 1}) {
+    std::filesystem::resize_file(path, cut);
+    auto short_read = read_loop_summaries(chunks, path);
+    ASSERT_FALSE(short_read.is_ok()) << "cut to " << cut;
+    EXPECT_EQ(short_read.status().code(), format::Code::kBadInput);
+    EXPECT_NE(short_read.status().to_string().find(path), std::string::npos) << short_read.status().to_string();
+  }
+  std::filesystem::remove(path);
+  auto missing = read_loop_summaries(chunks, path);
+  ASSERT_FALSE(missing.is_ok());
+  EXPECT_EQ(missing.status().code(), format::Code::kBadInput);
+}
+
 }  // namespace
 }  // namespace gaussmesh::stream

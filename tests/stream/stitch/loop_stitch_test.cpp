@@ -104,6 +104,49 @@ TEST(LoopStitch, StitchLoopsJoinsRunsAcrossChunksFromTheirLowestHalfEdge) {
   EXPECT_FALSE(g->position_source->status().is_ok());
 }
 
+TEST(LoopStitch, TheLoopFileGivesEveryLoopInAnyOrderAcrossItsReadWindows) {
+  // Thousands of small loops and one longer than the loop file's read-ahead window (16,384
+  // entries), each a run closing on itself in one chunk, one patch each: every loop reads back
+  // as its dense ids in file order, backwards and in a scattered order (reads that fall in,
+  // across and outside the window), and a read past the end still fails.
+  testing::ScratchDir dir;
+  std::vector<ChunkLoops> chunks(1);
+  std::vector<std::vector<std::uint32_t>> expected;
+  std::uint32_t vertex = 0;
+  const std::uint32_t patches = 3001;
+  for (std::uint32_t p = 0; p < patches; ++p) {
+    const std::uint32_t n = p == 1500 ? 40000 : 3 + p % 5;
+    LoopRunRecord r;
+    r.first = r.next = r.min_id = 3 * std::uint64_t{vertex};
+    r.offset = chunks[0].run_vertices.size();
+    r.length = n;
+    r.patch = p;
+    chunks[0].runs.push_back(r);
+    expected.emplace_back();
+    for (std::uint32_t k = 0; k < n; ++k, ++vertex) {
+      chunks[0].run_vertices.push_back({vertex, {float(k), float(p), 0}});
+      expected.back().push_back(vertex);  // ids ascending from 0: each is its own dense id
+    }
+  }
+  const auto summaries = spill(std::move(chunks), dir);
+  auto g = stitch_loops(summaries, patches, std::vector<format::Vec3f>(patches, {0, 0, 1}), dir.path().string());
+  ASSERT_TRUE(g.is_ok()) << g.status().to_string();
+  ASSERT_TRUE(g->loop_source);
+  ASSERT_EQ(g->loop_offset.size(), patches + 1u);
+  auto check = [&](std::size_t l) {
+    std::vector<std::uint32_t> loop(g->loop_offset[l + 1] - g->loop_offset[l]);
+    ASSERT_TRUE(g->loop_source->read(g->loop_offset[l], loop)) << "loop " << l;
+    ASSERT_EQ(loop, expected[l]) << "loop " << l;
+  };
+  for (std::size_t l = 0; l < patches; ++l) check(l);
+  for (std::size_t l = patches; l-- > 0;) check(l);
+  for (std::size_t k = 0; k < patches; ++k) check(k * 1237 % patches);
+  EXPECT_TRUE(g->loop_source->status().is_ok());
+  std::vector<std::uint32_t> beyond(2);
+  EXPECT_FALSE(g->loop_source->read(g->loop_offset.back() - 1, beyond));
+  EXPECT_FALSE(g->loop_source->status().is_ok());
+}
+
 TEST(LoopStitch, StitchLoopsRefusesRunsThatDoNotCloseOrDisagreeWithTheirFiles) {
   testing::ScratchDir dir;
   auto expect_bad = [&](std::vector<ChunkLoopSummary> s, const char* what) {
