@@ -311,12 +311,19 @@ format::Status build_piece(const RoundOutput& last, const Plan& plan, const Shif
     }
     take.assign(vs.size(), 0);
     shared.assign(vs.size(), 0);
-    // The faces' corners by binary search over the ids alone: the records are 112 B each.
+    // The faces' corners by binary search over the ids alone (the records are 112 B each),
+    // without branches: the comparisons go either way at random, and the faces are many.
     ids.resize(vs.size());
     for (std::size_t v = 0; v < vs.size(); ++v) ids[v] = vs[v].id;
     auto index_of = [&](std::uint32_t id) -> std::int64_t {
-      auto it = std::lower_bound(ids.begin(), ids.end(), id);
-      return it != ids.end() && *it == id ? it - ids.begin() : -1;
+      if (ids.empty()) return -1;
+      const std::uint32_t* base = ids.data();
+      for (std::size_t n = ids.size(); n > 1;) {
+        const std::size_t half = n / 2;
+        base = base[half] <= id ? base + half : base;
+        n -= half;
+      }
+      return *base == id ? base - ids.data() : -1;
     };
     for (const auto& f : fs) {
       std::int64_t i[3];
