@@ -236,6 +236,7 @@ class Decimator {
   void sweep(const DecimationOptions& options, std::uint64_t goal, std::uint64_t& faces, DecimationResult& r) {
     swept_.assign(m_.vertex_count(), 0);
     own_error_.assign(m_.vertex_count(), 0);
+    choice_.assign(m_.vertex_count(), CollapseMesh::kNone);
     std::vector<std::pair<double, std::uint32_t>> candidates;
     while (faces > goal && double(faces - goal) > kSweepRest * double(faces)) {
       ++sweep_;
@@ -244,8 +245,9 @@ class Decimator {
         if (m_.vertex_alive(v)) own_error_[v] = q_[v].error(p_[v]);
       for (std::uint32_t v = 0; v < m_.vertex_count(); ++v) {
         double cost;
-        if (m_.vertex_alive(v) && !locked(v) && cheapest_neighbour(v, cost) != CollapseMesh::kNone)
-          candidates.push_back({cost, v});
+        if (!m_.vertex_alive(v) || locked(v)) continue;
+        choice_[v] = cheapest_neighbour(v, cost);
+        if (choice_[v] != CollapseMesh::kNone) candidates.push_back({cost, v});
       }
       // Each collapse takes two faces (one on a boundary): the cost at the rank of the last one
       // needed, with slack for those that will be blocked or refused.
@@ -263,9 +265,14 @@ class Decimator {
       for (const auto& [ignored, v] : candidates) {
         if (faces <= goal) break;
         if (!m_.vertex_alive(v) || swept_[v] == sweep_) continue;
-        double cost;  // again: a neighbour may have taken a collapse since
-        const std::uint32_t w = cheapest_neighbour(v, cost);
-        if (w == CollapseMesh::kNone || cost > limit) continue;
+        // The choice stands while it is alive and took no collapse: v's quadric and its other
+        // free neighbours' are as they were, and any new neighbour took one. Else choose again.
+        std::uint32_t w = choice_[v];
+        if (!m_.vertex_alive(w) || swept_[w] == sweep_) {
+          double cost;
+          w = cheapest_neighbour(v, cost);
+          if (w == CollapseMesh::kNone || cost > limit) continue;
+        }
         Quadric q = q_[v];
         q += q_[w];
         const double error = decimation_error(q, p_[w]);
@@ -351,6 +358,7 @@ class Decimator {
   std::vector<std::uint32_t> stamp_;  // link_ok's one-ring marks
   std::vector<std::uint32_t> swept_;  // per vertex: the last sweep that collapsed onto it
   std::vector<double> own_error_;     // per vertex: its quadric's error at its own place
+  std::vector<std::uint32_t> choice_; // per vertex: the neighbour this sweep chose for it
   std::uint32_t sweep_ = 0;
   std::uint32_t epoch_ = 0;
   const QuadricFrame& frame_;
