@@ -129,12 +129,13 @@ std::vector<Piece> chunk_pieces(const ChunkMesh& chunk, const QuadricFrame& fram
   for (std::uint32_t p = 0; p < pieces; ++p) {
     std::size_t end = begin;
     while (end < owned.size() && piece_of[owned[end]] == p) ++end;
-    // Its vertices in ascending id (chunk order is ascending id).
+    // Its vertices in ascending id (chunk order is ascending id): each once, marked in `local`
+    // as it is first met, so that only the distinct ones are sorted.
     std::vector<std::uint32_t> vertices;
     for (std::size_t i = begin; i < end; ++i)
-      for (auto v : chunk.triangles[owned[i]].v) vertices.push_back(v);
+      for (auto v : chunk.triangles[owned[i]].v)
+        if (local[v] == kNone) local[v] = 0, vertices.push_back(v);
     std::sort(vertices.begin(), vertices.end());
-    vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
     Piece& piece = out[p];
     piece.vertices.resize(vertices.size());
     for (std::size_t k = 0; k < vertices.size(); ++k) {
