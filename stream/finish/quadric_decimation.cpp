@@ -403,6 +403,12 @@ std::vector<std::uint32_t> spatial_order(std::span<const Vec3f> positions) {
 
 }  // namespace
 
+double sweep_share_of_faces(std::uint64_t faces, std::uint64_t target) {
+  if (faces == 0 || target == 0) return 0;
+  const double share = kSweepShare * double(target) / double(faces);
+  return share <= kSweepMaxShareOfFaces ? share : 0;
+}
+
 double decimation_error(const Quadric& q, const Vec3dq& p) {
   return q.weight > 0 ? std::sqrt(q.error(p) / q.weight) : 0;
 }

@@ -59,11 +59,16 @@ std::uint64_t finish_min_samples(const FinishOptions& options, std::uint64_t inp
 }
 
 format::Result<FinishResult> finish_from_sums(MeshView approximation, const QuadricFrame& frame,
-                                              const std::vector<FixedQuadric>& sums, const FinishOptions& options) {
+                                              const std::vector<FixedQuadric>& sums, const FinishOptions& options,
+                                              bool sweeps) {
   const auto start = Clock::now();
   DecimationOptions d;
   d.target_faces = options.target_faces;
   d.max_error = options.max_error / kMaxErrorMargin / frame.scale;
+  if (sweeps) {
+    const std::uint64_t faces = approximation.triangles.size();
+    d.sweep_to_faces = std::uint64_t(std::ceil(sweep_share_of_faces(faces, options.target_faces) * double(faces)));
+  }
   auto decimated = decimate(approximation, sums, frame, d);
   if (!decimated) return decimated.status();
   FinishResult r;
@@ -161,7 +166,7 @@ format::Result<FinishResult> finish_input(MeshView compact, const FinishOptions&
   std::vector<FixedQuadric> sums(compact.positions.size());
   for (const auto& part : partial) add_sums(sums, part);
   const double seconds_quadrics = seconds_since(start);
-  auto r = finish_from_sums(compact, frame, sums, options);
+  auto r = finish_from_sums(compact, frame, sums, options, /*sweeps=*/true);
   if (r) r->seconds_quadrics = seconds_quadrics;
   return r;
 }

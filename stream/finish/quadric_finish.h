@@ -121,9 +121,12 @@ inline std::uint64_t input_finish_memory_estimate(std::uint64_t input_faces) {
 // when the input is not an oriented manifold (the caller then takes the Gauss approximation).
 format::Result<FinishResult> finish_input(MeshView compact, const FinishOptions& options);
 
-// The decimation half, once `sums` (in `frame`) holds every input face (FaceQuadrics::add_face).
+// The decimation half, once `sums` (in `frame`) holds every input face (FaceQuadrics::add_face);
+// with `sweeps`, the first collapses are sweeps (DecimationOptions::sweep_to_faces) where
+// sweep_share_of_faces allows them.
 format::Result<FinishResult> finish_from_sums(MeshView approximation, const QuadricFrame& frame,
-                                              const std::vector<FixedQuadric>& sums, const FinishOptions& options);
+                                              const std::vector<FixedQuadric>& sums, const FinishOptions& options,
+                                              bool sweeps = false);
 
 // Both halves in core: the input's faces are added on every core.
 format::Result<FinishResult> finish_in_core(MeshView input, MeshView approximation, const FinishOptions& options);

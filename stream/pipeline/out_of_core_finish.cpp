@@ -559,8 +559,10 @@ format::Result<ChunkedFinish> chunked_finish(const Partition& partition, const C
           if (target > 0) {
             const std::uint64_t at_locked = faces_at_locked(pieces[p]);
             d.target_faces = at_locked + std::max<std::uint64_t>(1, std::uint64_t(std::ceil(round_one_ratio * double(faces_in - at_locked))));
-            d.sweep_to_faces = at_locked + std::uint64_t(std::ceil(std::min(1.0, kRoundOneSweepShare / kRoundOneShare * round_one_ratio) *
-                                                                   double(faces_in - at_locked)));
+            // Sweeps first, to kSweepShare × the share (where that is at most half the faces).
+            const std::uint64_t free = faces_in - at_locked;
+            d.sweep_to_faces = at_locked + std::uint64_t(std::ceil(
+                sweep_share_of_faces(free, std::uint64_t(std::ceil(round_one_ratio / kRoundOneShare * double(free)))) * double(free)));
           }
           PieceResult r = decimate_piece(std::move(pieces[p]), frame, d);
           totals.add(r, faces_in);

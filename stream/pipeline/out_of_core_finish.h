@@ -33,10 +33,6 @@ namespace gaussmesh::stream {
 // Round 1 collapses each piece to this many times its share of the face target, so that round
 // 2 has room to place the rest where the error is least.
 inline constexpr double kRoundOneShare = 4;
-// Round 1 sweeps each piece down to this many times its share (DecimationOptions::sweep_to_faces)
-// before the queue takes it to kRoundOneShare: the bulk of the input's collapses at a fraction of
-// the queue's cost, while the queue still places the last halving (docs/finish.md).
-inline constexpr double kRoundOneSweepShare = 8;
 // A piece's working set per face at its peak (the collapse mesh, the quadrics, the queue, the records);
 // a chunk file's, per face, while its pieces are cut.
 inline constexpr std::uint64_t kPieceBytesPerFace = 400;
