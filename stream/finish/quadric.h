@@ -104,6 +104,16 @@ struct FixedQuadric {
   }
 };
 
+// float(d), kept as a float. GCC 12's SLP vectorizer (at -O2 and -O3) folds double(float(d))
+// back to d in vectorized lanes, so a position rounded to float and tested in double would be
+// tested unrounded: the empty asm makes the rounded value opaque (tests/stream/finish/
+// quadric_decimation_test.cpp, RoundedPositionsAreTheOnesTested).
+inline float to_float(double d) {
+  float f = float(d);
+  __asm__("" : "+m"(f));
+  return f;
+}
+
 // Maps positions into the unit-diagonal frame the quadrics live in: (p - origin) / scale.
 struct QuadricFrame {
   Vec3dq origin;

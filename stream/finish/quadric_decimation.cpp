@@ -121,8 +121,8 @@ class Decimator {
   // geometry tests see the faces as they will be written: a face thin enough to lose its area
   // to that rounding is refused, not written.
   Vec3dq to_output(const Vec3dq& x, Vec3f& out) const {
-    out = {float(frame_.origin.x + x.x * frame_.scale), float(frame_.origin.y + x.y * frame_.scale),
-           float(frame_.origin.z + x.z * frame_.scale)};
+    out = {to_float(frame_.origin.x + x.x * frame_.scale), to_float(frame_.origin.y + x.y * frame_.scale),
+           to_float(frame_.origin.z + x.z * frame_.scale)};
     return frame_.to_frame(out.x, out.y, out.z);
   }
 
