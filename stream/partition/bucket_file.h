@@ -71,7 +71,7 @@ class BucketFile {
     std::vector<std::byte> buffer(block_);
     const std::vector<std::uint32_t>& blocks = blocks_[bucket];
     for (std::size_t i = 0; i < blocks.size(); ++i) {
-      const std::size_t size = i + 1 == blocks.size() && last_bytes_[bucket] > 0 ? last_bytes_[bucket] : block_;
+      const std::size_t size = block_size(bucket, i);
       if (read_some(fd_, buffer.data(), size, std::uint64_t{blocks[i]} * block_) != static_cast<std::int64_t>(size)) {
         return format::Status::error(format::Code::kBadInput, path_, "temporary file is shorter than written");
       }
@@ -79,6 +79,64 @@ class BucketFile {
     }
     return {};
   }
+  // Calls fn(bytes) for each block of `bucket`, in order (finish() first), and writes the block
+  // back where it was: a pass that changes records in place writes over pages the page cache
+  // already holds, and its output needs no second file.
+  template <class Fn>
+  format::Status rewrite(std::size_t bucket, Fn&& fn) {
+    std::vector<std::byte> buffer(block_);
+    const std::vector<std::uint32_t>& blocks = blocks_[bucket];
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+      const std::size_t size = block_size(bucket, i);
+      const std::uint64_t at = std::uint64_t{blocks[i]} * block_;
+      if (read_some(fd_, buffer.data(), size, at) != static_cast<std::int64_t>(size)) {
+        return format::Status::error(format::Code::kBadInput, path_, "temporary file is shorter than written");
+      }
+      GM_RETURN_IF_ERROR(fn(std::span<std::byte>(buffer.data(), size)));
+      if (!format::write_all(fd_, buffer.data(), size, at, true)) {
+        return format::Status::error(format::Code::kOutput, path_, "write failed: " + errno_text());
+      }
+    }
+    return {};
+  }
+
+  // One bucket's records in order, pulled one at a time (finish() first): a pass that merges
+  // several buckets holds one block of each.
+  template <class Record>
+  class Cursor {
+   public:
+    Cursor(BucketFile& file, std::size_t bucket) : file_(&file), bucket_(bucket) {}
+    // The next record; false at the bucket's end or on a read error (status() tells).
+    bool next(Record& out) {
+      if (at_ == end_ && !load()) return false;
+      std::memcpy(&out, buffer_.data() + at_, sizeof(Record));
+      at_ += sizeof(Record);
+      return true;
+    }
+    const format::Status& status() const { return status_; }
+
+   private:
+    bool load() {
+      const std::vector<std::uint32_t>& blocks = file_->blocks_[bucket_];
+      if (!status_.is_ok() || block_ == blocks.size()) return false;
+      const std::size_t size = file_->block_size(bucket_, block_);
+      buffer_.resize(file_->block_);
+      if (read_some(file_->fd_, buffer_.data(), size, std::uint64_t{blocks[block_]} * file_->block_) != static_cast<std::int64_t>(size)) {
+        status_ = format::Status::error(format::Code::kBadInput, file_->path_, "temporary file is shorter than written");
+        return false;
+      }
+      ++block_;
+      at_ = 0;
+      end_ = size / sizeof(Record) * sizeof(Record);
+      return end_ > 0;
+    }
+    BucketFile* file_;
+    std::size_t bucket_;
+    std::size_t block_ = 0, at_ = 0, end_ = 0;
+    std::vector<std::byte> buffer_;
+    format::Status status_;
+  };
+
   // Closes and deletes the file, and frees the block lists (idempotent).
   void remove() {
     std::vector<std::vector<std::uint32_t>>().swap(blocks_);
@@ -89,6 +147,10 @@ class BucketFile {
   }
 
  private:
+  // The bytes of block i of `bucket`: the last one may be partly filled.
+  std::size_t block_size(std::size_t bucket, std::size_t i) const {
+    return i + 1 == blocks_[bucket].size() && last_bytes_[bucket] > 0 ? last_bytes_[bucket] : block_;
+  }
   // Writes the bucket's buffer as the file's next block (a partial one only from finish()).
   format::Status flush(std::size_t bucket) {
     const std::size_t size = used_[bucket];

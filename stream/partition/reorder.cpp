@@ -19,6 +19,7 @@
 #include "stream/partition/partition_run.h"
 #include "stream/partition/position_scan.h"
 #include "stream/partition/spatial_order.h"
+#include "stream/partition/spill_thread.h"
 #include "stream/partition/spill_writer.h"
 
 namespace gaussmesh::stream::detail {
@@ -29,13 +30,12 @@ struct PositionRecord {
   std::uint32_t id;     // the input's
   Vec3f p;
 };
-// A face corner (slot = face * 3 + corner) and its vertex's old id, then its new id; or in the
-// map's pass, an old id (slot) and its new id.
-struct CornerRecord {
-  std::uint32_t slot;
-  std::uint32_t id;
+// An old id and its new id, for the map.
+struct MapPair {
+  std::uint32_t old_id;
+  std::uint32_t new_id;
 };
-static_assert(sizeof(PositionRecord) == 20 && sizeof(CornerRecord) == 8);
+static_assert(sizeof(PositionRecord) == 20 && sizeof(MapPair) == 8);
 
 template <class Record>
 std::span<const Record> records_of(std::span<const std::byte> block) {
@@ -98,11 +98,9 @@ Status PartitionRun::reorder(bool weld) {
   // group of one fine code that is welded.
   const std::uint64_t range_vertices = std::max<std::uint64_t>(table / (sizeof(PositionRecord) + sizeof(OrderedVertex)), kMaxWeldGroup);
   const std::uint64_t range_ids = std::max<std::uint64_t>(table / sizeof(std::uint32_t), 1024);
-  // Ranges of faces, and of old ids for the corners' passes, are powers of two (a shift per
-  // record, not a division); a corner pass's slice of the map stays within 4 MiB, so that its
-  // look-ups mostly hit the cache while its buckets stay few enough for large blocks.
-  const std::uint32_t face_bits = floor_log2(std::max<std::uint64_t>(table / sizeof(Triangle), 1024));
-  const std::uint64_t range_faces = std::uint64_t{1} << face_bits;
+  // Slices of old ids for the corners' passes are powers of two (a shift per record, not a
+  // division) and stay within 4 MiB of the map, so that its look-ups mostly hit the cache while
+  // the slices stay few enough for large blocks.
   const std::uint32_t slice_bits = std::min<std::uint32_t>(floor_log2(range_ids), 20);
   // A run of faces to sort holds at least a group too large to be ordered (order_face_group).
   const std::uint64_t run_faces = std::max<std::uint64_t>(table / sizeof(Triangle), kMaxFaceGroup + 1);
@@ -162,7 +160,7 @@ Status PartitionRun::reorder(bool weld) {
   const std::string map_path = out_.dir + "/reorder-map.bin";
   const std::uint64_t old_ranges = ceil_div(vertices, range_ids);
   BucketFile pairs;
-  GM_RETURN_IF_ERROR(pairs.open(out_.dir + "/reorder-pairs.bin", old_ranges, sizeof(CornerRecord), buffers / old_ranges));
+  GM_RETURN_IF_ERROR(pairs.open(out_.dir + "/reorder-pairs.bin", old_ranges, sizeof(MapPair), buffers / old_ranges));
   std::uint32_t kept = 0;
   {
     SpillWriter positions[kPositionFiles];
@@ -175,7 +173,7 @@ Status PartitionRun::reorder(bool weld) {
         failed = positions[position_file(kept)].write(&v.p, sizeof(Vec3f));
         ++kept;
       }
-      if (failed.is_ok()) failed = pairs.append(v.key.id / range_ids, CornerRecord{v.key.id, kept - 1});
+      if (failed.is_ok()) failed = pairs.append(v.key.id / range_ids, MapPair{v.key.id, kept - 1});
     };
     const auto fine_of = [&](const Vec3f& p) { return grid.sub_code(p, kReorderFineBits); };
     std::vector<PositionRecord> range;
@@ -292,8 +290,8 @@ Status PartitionRun::reorder(bool weld) {
       const std::uint64_t first = r * range_ids, count = std::min(range_ids, vertices - first);
       std::uint64_t got = 0;
       GM_RETURN_IF_ERROR(pairs.read(r, [&](std::span<const std::byte> block) {
-        for (const CornerRecord& c : records_of<CornerRecord>(block)) slice[c.slot - first] = c.id;
-        got += block.size() / sizeof(CornerRecord);
+        for (const MapPair& c : records_of<MapPair>(block)) slice[c.old_id - first] = c.new_id;
+        got += block.size() / sizeof(MapPair);
         return Status{};
       }));
       if (got != count) return Status::error(Code::kProcessing, "reorder", "a range of the map lost a vertex");
@@ -311,9 +309,10 @@ Status PartitionRun::reorder(bool weld) {
   const std::uint64_t lowest_ranges = std::max<std::uint64_t>(ceil_div(new_vertices, range_lowest), 1);
 
   // 4–6. Faces renamed, in input order, by range of their lowest corner. When the whole map fits
-  // the table, corners are renamed as the face spill is read; else every corner goes by range of
-  // old ids (4), is renamed one range of the map at a time, by range of faces (5), and faces are
-  // put together again one range at a time (6).
+  // the table, corners are renamed as the face spill is read; else every corner's old id goes to
+  // its slice of old ids (4), each slice is renamed in place from its part of the map (5), and
+  // the faces are put together again from the slices in input order (6): records of 4 bytes, no
+  // face or corner number carried along.
   BucketFile grouped;
   GM_RETURN_IF_ERROR(grouped.open(out_.dir + "/reorder-faces.bin", lowest_ranges, sizeof(Triangle), buffers / 2 / lowest_ranges));
   if (old_ranges <= 1) {
@@ -325,59 +324,85 @@ Status PartitionRun::reorder(bool weld) {
       return grouped.append(lowest_corner(t) >> lowest_bits, t);
     }));
   } else {
-    // 4. Every corner, by slice of old ids.
+    // 4. Every corner's old id, by slice of old ids, and in face order which slice it went to
+    // (Tag: a byte, or two past 256 slices).
     const std::uint64_t slices = ceil_div(vertices, std::uint64_t{1} << slice_bits);
-    BucketFile corners;
-    GM_RETURN_IF_ERROR(corners.open(out_.dir + "/reorder-corners.bin", slices, sizeof(CornerRecord), buffers / slices));
-    GM_RETURN_IF_ERROR(for_each_spilled_face([&](std::uint64_t f, const Triangle& t) {
-      for (std::uint32_t k = 0; k < 3; ++k)
-        GM_RETURN_IF_ERROR(corners.append(t.v[k] >> slice_bits, CornerRecord{static_cast<std::uint32_t>(3 * f + k), t.v[k]}));
-      return Status{};
-    }));
-    GM_RETURN_IF_ERROR(corners.finish());
-    bytes_spilled_ += corners.bytes();
-
-    // 5. New ids for the corners, from the map one slice at a time, by range of faces.
-    BucketFile renamed_corners;
-    const std::uint64_t face_ranges = std::max<std::uint64_t>(ceil_div(faces, range_faces), 1);
-    GM_RETURN_IF_ERROR(renamed_corners.open(out_.dir + "/reorder-renamed.bin", face_ranges, sizeof(CornerRecord), buffers / 2 / face_ranges));
-    {
-      std::vector<std::uint32_t> slice(std::min(std::uint64_t{1} << slice_bits, vertices));
-      for (std::size_t r = 0; r < slices; ++r) {
-        const std::uint64_t first = std::uint64_t{r} << slice_bits, count = std::min(std::uint64_t{1} << slice_bits, vertices - first);
-        GM_RETURN_IF_ERROR(read_map(map_path, slice.data(), first, count));
-        GM_RETURN_IF_ERROR(corners.read(r, [&](std::span<const std::byte> block) {
-          for (const CornerRecord& c : records_of<CornerRecord>(block)) {
-            GM_RETURN_IF_ERROR(renamed_corners.append((c.slot / 3) >> face_bits, CornerRecord{c.slot, slice[c.id - first]}));
+    const std::string corners_path = out_.dir + "/reorder-corners.bin", tags_path = out_.dir + "/reorder-slices.bin";
+    const auto rename_by_slices = [&]<class Tag>(Tag) -> Status {
+      BucketFile corners;
+      GM_RETURN_IF_ERROR(corners.open(corners_path, slices, sizeof(std::uint32_t), buffers / 2 / slices));
+      std::vector<Tag> tags(std::max<std::size_t>(buffers / 2 / sizeof(Tag) / 3, 1) * 3);
+      {
+        SpillWriter tag_file;
+        GM_RETURN_IF_ERROR(tag_file.open(tags_path, 1 << 16));
+        std::size_t used = 0;
+        GM_RETURN_IF_ERROR(for_each_spilled_face([&](std::uint64_t, const Triangle& t) {
+          for (const std::uint32_t v : t.v) {
+            GM_RETURN_IF_ERROR(corners.append(v >> slice_bits, v));
+            tags[used++] = static_cast<Tag>(v >> slice_bits);
           }
-          return Status{};
+          if (used < tags.size()) return Status{};
+          used = 0;
+          return tag_file.write(tags.data(), tags.size() * sizeof(Tag));
         }));
+        GM_RETURN_IF_ERROR(tag_file.write(tags.data(), used * sizeof(Tag)));
+        GM_RETURN_IF_ERROR(tag_file.close());
+        bytes_spilled_ += tag_file.bytes();
       }
-    }
-    corners.remove();
-    ::unlink(map_path.c_str());
-    GM_RETURN_IF_ERROR(renamed_corners.finish());
-    bytes_spilled_ += renamed_corners.bytes();
+      GM_RETURN_IF_ERROR(corners.finish());
+      bytes_spilled_ += corners.bytes();
 
-    // 6. Whole faces again, in input order.
-    {
-      std::vector<std::uint32_t> corner(3 * std::min(range_faces, faces));
-      for (std::size_t r = 0; r < face_ranges; ++r) {
-        const std::uint64_t first = r * range_faces, count = std::min(range_faces, faces - first);
-        std::uint64_t got = 0;
-        GM_RETURN_IF_ERROR(renamed_corners.read(r, [&](std::span<const std::byte> block) {
-          for (const CornerRecord& c : records_of<CornerRecord>(block)) corner[c.slot - 3 * first] = c.id;
-          got += block.size() / sizeof(CornerRecord);
-          return Status{};
-        }));
-        if (got != 3 * count) return Status::error(Code::kProcessing, "reorder", "a range of faces lost a corner");
-        for (std::uint64_t i = 0; i < count; ++i) {
-          const Triangle t{{corner[3 * i], corner[3 * i + 1], corner[3 * i + 2]}};
-          GM_RETURN_IF_ERROR(grouped.append(lowest_corner(t) >> lowest_bits, t));
+      // 5. Each slice's corners renamed in place from that slice of the map.
+      {
+        std::vector<std::uint32_t> slice(std::min(std::uint64_t{1} << slice_bits, vertices));
+        for (std::size_t r = 0; r < slices; ++r) {
+          const std::uint64_t first = std::uint64_t{r} << slice_bits, count = std::min(std::uint64_t{1} << slice_bits, vertices - first);
+          GM_RETURN_IF_ERROR(read_map(map_path, slice.data(), first, count));
+          GM_RETURN_IF_ERROR(corners.rewrite(r, [&](std::span<std::byte> block) {
+            const std::span<std::uint32_t> ids{reinterpret_cast<std::uint32_t*>(block.data()), block.size() / sizeof(std::uint32_t)};
+            for (std::uint32_t& id : ids) {
+              if (id - first >= count) return Status::error(Code::kBadInput, corners_path, "a corner is in the wrong slice");
+              id = slice[id - first];
+            }
+            return Status{};
+          }));
         }
       }
-    }
-    renamed_corners.remove();
+      ::unlink(map_path.c_str());
+
+      // 6. Whole faces again, in input order: each corner the next renamed id of its slice.
+      std::vector<BucketFile::Cursor<std::uint32_t>> cursor;
+      cursor.reserve(slices);
+      for (std::size_t r = 0; r < slices; ++r) cursor.emplace_back(corners, r);
+      const int fd = ::open(tags_path.c_str(), O_RDONLY | O_CLOEXEC);
+      if (fd < 0) return Status::error(Code::kBadInput, tags_path, "cannot open temporary file: " + errno_text());
+      FdCloser closer{fd};
+      const std::uint64_t per_read = tags.size() / 3;
+      for (std::uint64_t done = 0; done < faces;) {
+        const std::uint64_t take = std::min(per_read, faces - done), bytes = 3 * take * sizeof(Tag);
+        if (read_some(fd, tags.data(), bytes, 3 * done * sizeof(Tag)) != static_cast<std::int64_t>(bytes)) {
+          return Status::error(Code::kBadInput, tags_path, "temporary file is shorter than written");
+        }
+        for (std::uint64_t i = 0; i < 3 * take; i += 3) {
+          Triangle t;
+          for (std::uint32_t k = 0; k < 3; ++k) {
+            const Tag r = tags[i + k];
+            if (r >= slices || !cursor[r].next(t.v[k])) {
+              if (r < slices) GM_RETURN_IF_ERROR(cursor[r].status());
+              return Status::error(Code::kBadInput, tags_path, "a corner is missing from its slice");
+            }
+          }
+          GM_RETURN_IF_ERROR(grouped.append(lowest_corner(t) >> lowest_bits, t));
+        }
+        done += take;
+      }
+      std::uint32_t extra = 0;
+      for (auto& c : cursor)
+        if (c.next(extra)) return Status::error(Code::kBadInput, corners_path, "a slice holds a corner too many");
+      ::unlink(tags_path.c_str());
+      return Status{};
+    };
+    GM_RETURN_IF_ERROR(slices <= 256 ? rename_by_slices(std::uint8_t{}) : rename_by_slices(std::uint16_t{}));
   }
   GM_RETURN_IF_ERROR(grouped.finish());
   bytes_spilled_ += grouped.bytes();
@@ -390,6 +415,15 @@ Status PartitionRun::reorder(bool weld) {
   FaceSpill ordered;
   GM_RETURN_IF_ERROR(ordered.open(ordered_path));
   {
+    // The spill's compression runs on a thread of its own (with --threads > 1), beside the
+    // sorting; it gets the faces in pieces, of which SpillThread copies a few at a time.
+    SpillWriter no_positions;
+    SpillThread spills(no_positions, ordered, options_.threads > 1);
+    const auto write_ordered = [&](std::span<const Triangle> faces) -> Status {
+      constexpr std::size_t kPiece = std::size_t{1} << 16;
+      for (std::size_t at = 0; at < faces.size(); at += kPiece) GM_RETURN_IF_ERROR(spills.triangles(faces.subspan(at, std::min(kPiece, faces.size() - at))));
+      return Status{};
+    };
     std::vector<Triangle> run;
     std::vector<std::uint32_t> at(range_lowest + 1);
     for (std::size_t b = 0; b < lowest_ranges; ++b) {
@@ -416,7 +450,7 @@ Status PartitionRun::reorder(bool weld) {
             run.clear();
             for (const Triangle& t : in)
               if (lowest_corner(t) - base == v0) run.push_back(t);
-            return ordered.write(run);
+            return write_ordered(run);
           }
           for (const Triangle& t : in) {
             const std::uint64_t v = lowest_corner(t) - base;
@@ -429,11 +463,12 @@ Status PartitionRun::reorder(bool weld) {
             order_face_group(std::span<Triangle>(run.data() + begin, offset[v - v0] - begin));
             begin = offset[v - v0];
           }
-          GM_RETURN_IF_ERROR(ordered.write(run));
+          GM_RETURN_IF_ERROR(write_ordered(run));
         }
         v0 = v1;
       }
     }
+    GM_RETURN_IF_ERROR(spills.finish());
   }
   GM_RETURN_IF_ERROR(ordered.close());
   grouped.remove();
