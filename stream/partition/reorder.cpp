@@ -308,7 +308,8 @@ Status PartitionRun::reorder(bool weld) {
   const std::uint64_t range_lowest = std::uint64_t{1} << lowest_bits;
   const std::uint64_t lowest_ranges = std::max<std::uint64_t>(ceil_div(new_vertices, range_lowest), 1);
 
-  // 4–6. Faces renamed, in input order, by range of their lowest corner. When the whole map fits
+  // 4–6. Faces renamed and turned to start at their lowest corner, in input order, by range of
+  // that corner. When the whole map fits
   // the table, corners are renamed as the face spill is read; else every corner's old id goes to
   // its slice of old ids (4), each slice is renamed in place from its part of the map (5), and
   // the faces are put together again from the slices in input order (6): records of 4 bytes, no
@@ -321,7 +322,7 @@ Status PartitionRun::reorder(bool weld) {
     ::unlink(map_path.c_str());
     GM_RETURN_IF_ERROR(for_each_spilled_face([&](std::uint64_t, Triangle t) {
       for (std::uint32_t& v : t.v) v = whole[v];
-      return grouped.append(lowest_corner(t) >> lowest_bits, t);
+      return grouped.append(lowest_corner(t) >> lowest_bits, lowest_first(t));
     }));
   } else {
     // 4. Every corner's old id, by slice of old ids, and in face order which slice it went to
@@ -392,7 +393,7 @@ Status PartitionRun::reorder(bool weld) {
               return Status::error(Code::kBadInput, tags_path, "a corner is missing from its slice");
             }
           }
-          GM_RETURN_IF_ERROR(grouped.append(lowest_corner(t) >> lowest_bits, t));
+          GM_RETURN_IF_ERROR(grouped.append(lowest_corner(t) >> lowest_bits, lowest_first(t)));
         }
         done += take;
       }

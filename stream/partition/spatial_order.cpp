@@ -43,11 +43,13 @@ std::uint64_t reorder_spatially(std::vector<format::Vec3f>& positions, std::vect
   moved = {};
   order = {};
 
-  // Faces: corners renamed, a stable counting sort by their lowest corner, each group ordered.
+  // Faces: corners renamed, each turned to start at its lowest, a stable counting sort by that
+  // corner, each group ordered.
   std::vector<std::uint64_t> first(positions.size() + 1, 0);
   for (format::Triangle& t : faces) {
     for (std::uint32_t& v : t.v)
       if (v < renamed.size()) v = renamed[v];
+    t = lowest_first(t);
     ++first[std::min<std::size_t>(lowest_corner(t), positions.size() - 1) + 1];
   }
   for (std::size_t i = 1; i < first.size(); ++i) first[i] += first[i - 1];

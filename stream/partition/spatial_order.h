@@ -7,8 +7,9 @@
 //     says: the cell grid is the partition's (Grid::make over the bounds of the finite
 //     positions), fixed by the bounds alone, so the order does not depend on --memory;
 //   - with welding, vertices at exactly the same position become one (the first in that order);
-//   - faces by their lowest new corner id, then as order_face_group says: corners keep their
-//     order, so every face keeps its orientation.
+//   - faces by their lowest new corner id, then as order_face_group says, each turned to start
+//     at that corner (lowest_first): a turn keeps the orientation, and the face spill, whose
+//     columns are differences from the previous face's, compresses several times smaller.
 // Whether an input is scattered is decided by OrderProbe on the faces in input order, with a
 // fixed window, so the decision is the same for every engine and budget; a triangle soup is
 // renumbered to be welded (should_weld).
@@ -37,6 +38,11 @@ inline constexpr std::uint32_t kMaxFaceGroup = 1u << 16;
 inline std::pair<std::uint32_t, std::uint32_t> face_tail(const format::Triangle& t) {
   const int i = t.v[0] <= t.v[1] && t.v[0] <= t.v[2] ? 0 : t.v[1] <= t.v[2] ? 1 : 2;
   return {t.v[(i + 1) % 3], t.v[(i + 2) % 3]};
+}
+// The face turned to start at its (first) lowest corner, as renumbered faces are stored.
+inline format::Triangle lowest_first(const format::Triangle& t) {
+  const int i = t.v[0] <= t.v[1] && t.v[0] <= t.v[2] ? 0 : t.v[1] <= t.v[2] ? 1 : 2;
+  return {{t.v[i], t.v[(i + 1) % 3], t.v[(i + 2) % 3]}};
 }
 // Orders the faces of one lowest corner, given in input order.
 inline void order_face_group(std::span<format::Triangle> group) {
