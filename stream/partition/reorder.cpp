@@ -13,6 +13,9 @@
 #include <string>
 #include <vector>
 
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
 #include "format/record_file.h"
 #include "stream/partition/bucket_file.h"
 #include "stream/partition/face_spill.h"
@@ -178,6 +181,14 @@ Status PartitionRun::reorder(bool weld) {
     const auto fine_of = [&](const Vec3f& p) { return grid.sub_code(p, kReorderFineBits); };
     std::vector<PositionRecord> range;
     std::vector<OrderedVertex> run;
+    // fn(from, to) on pieces of [0, cells), on the run's threads when there are several.
+    const auto for_cells = [&](std::size_t cells, auto&& fn) {
+      if (options_.threads <= 1) return fn(std::size_t{0}, cells);
+      if (!arena_) arena_ = std::make_unique<tbb::task_arena>(static_cast<int>(options_.threads));
+      arena_->execute([&] {
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells, 16), [&](const tbb::blocked_range<std::size_t>& b) { fn(b.begin(), b.end()); });
+      });
+    };
     // The vertices of bucket r whose fine code is in [lo, hi), ordered.
     const auto order_codes = [&](std::size_t r, std::uint32_t lo, std::uint64_t hi) -> Status {
       run.clear();
@@ -256,17 +267,32 @@ Status PartitionRun::reorder(bool weld) {
       range.resize(count);
       std::uint64_t got = 0;
       GM_RETURN_IF_ERROR(moved.read(r, [&](std::span<const std::byte> block) {
-        for (const PositionRecord& p : records_of<PositionRecord>(block)) range[p.place - first] = p;
+        for (const PositionRecord& p : records_of<PositionRecord>(block)) {
+          if (p.place - first >= count) return Status::error(Code::kBadInput, out_.dir + "/reorder-positions.bin", "a vertex is in the wrong range");
+          range[p.place - first] = p;
+        }
         got += block.size() / sizeof(PositionRecord);
         return Status{};
       }));
       if (got != count) return Status::error(Code::kProcessing, "reorder", "a range of positions lost a vertex");
-      for (std::uint32_t m = range_cell[r]; m < range_cell[r + 1]; ++m) {
+      // The cells are sorted on the run's threads, then emitted in order on this one.
+      const std::uint32_t cell0 = range_cell[r], cells = range_cell[r + 1] - cell0;
+      const auto cell_span = [&](std::uint32_t m) {
         const std::uint64_t begin = cell_start[m] - first;
         const std::uint64_t end = (m + 1 < cell_start.size() ? cell_start[m + 1] : range_first[ranges]) - first;
-        run.clear();
-        for (std::uint64_t i = begin; i < end; ++i) run.push_back({VertexKey::of(fine_of(range[i].p), range[i].p, range[i].id), range[i].p});
-        order_run(run, weld, emit);
+        return std::span<OrderedVertex>(run.data() + begin, end - begin);
+      };
+      run.resize(count);
+      for_cells(cells, [&](std::size_t from, std::size_t to) {
+        for (std::size_t c = from; c < to; ++c) {
+          const std::span<OrderedVertex> cell = cell_span(static_cast<std::uint32_t>(cell0 + c));
+          const PositionRecord* in = range.data() + (cell.data() - run.data());
+          for (std::size_t i = 0; i < cell.size(); ++i) cell[i] = {VertexKey::of(fine_of(in[i].p), in[i].p, in[i].id), in[i].p};
+          sort_run(cell);
+        }
+      });
+      for (std::uint32_t c = 0; c < cells; ++c) {
+        emit_run(cell_span(cell0 + c), weld, emit);
         GM_RETURN_IF_ERROR(failed);
       }
     }

@@ -98,22 +98,37 @@ struct OrderedVertex {
   format::Vec3f p;
 };
 
-// Orders `run` (vertices of one cell, whole groups of equal fine codes) and calls
-// emit(vertex, joined) for each in the new order; joined: welded into the last vertex emitted
-// unjoined.
-template <class Emit>
-void order_run(std::span<OrderedVertex> run, bool weld, Emit&& emit) {
+// Orders `run` (vertices of one cell, whole groups of equal fine codes): by key, and a group of
+// one fine code larger than kMaxWeldGroup by id.
+inline void sort_run(std::span<OrderedVertex> run) {
   std::sort(run.begin(), run.end(), [](const OrderedVertex& a, const OrderedVertex& b) { return a.key < b.key; });
   for (std::size_t i = 0; i < run.size();) {
     std::size_t j = i + 1;
     while (j < run.size() && run[j].key.fine == run[i].key.fine) ++j;
-    const bool large = j - i > kMaxWeldGroup;
-    if (large) {
+    if (j - i > kMaxWeldGroup) {
       std::sort(run.begin() + i, run.begin() + j, [](const OrderedVertex& a, const OrderedVertex& b) { return a.key.id < b.key.id; });
     }
+    i = j;
+  }
+}
+
+// Calls emit(vertex, joined) for each vertex of a run sorted by sort_run, in order; joined:
+// welded into the last vertex emitted unjoined (never within a group past kMaxWeldGroup).
+template <class Emit>
+void emit_run(std::span<const OrderedVertex> run, bool weld, Emit&& emit) {
+  for (std::size_t i = 0; i < run.size();) {
+    std::size_t j = i + 1;
+    while (j < run.size() && run[j].key.fine == run[i].key.fine) ++j;
+    const bool large = j - i > kMaxWeldGroup;
     for (std::size_t k = i; k < j; ++k) emit(run[k], weld && !large && k > i && run[k].key.same_position(run[k - 1].key));
     i = j;
   }
+}
+
+template <class Emit>
+void order_run(std::span<OrderedVertex> run, bool weld, Emit&& emit) {
+  sort_run(run);
+  emit_run(run, weld, emit);
 }
 
 // Welding joins vertices whose coordinates are equal in every bit (-0 taken as +0; NaNs only
