@@ -352,7 +352,7 @@ Status PartitionRun::reorder(bool weld) {
     }));
   } else {
     // 4. Every corner's old id, by slice of old ids, and in face order which slice it went to
-    // (Tag: a byte, or two past 256 slices).
+    // (Tag: a byte, or two past 256 slices; four only for a test's tiny table).
     const std::uint64_t slices = ceil_div(vertices, std::uint64_t{1} << slice_bits);
     const std::string corners_path = out_.dir + "/reorder-corners.bin", tags_path = out_.dir + "/reorder-slices.bin";
     const auto rename_by_slices = [&]<class Tag>(Tag) -> Status {
@@ -429,7 +429,9 @@ Status PartitionRun::reorder(bool weld) {
       ::unlink(tags_path.c_str());
       return Status{};
     };
-    GM_RETURN_IF_ERROR(slices <= 256 ? rename_by_slices(std::uint8_t{}) : rename_by_slices(std::uint16_t{}));
+    GM_RETURN_IF_ERROR(slices <= 256     ? rename_by_slices(std::uint8_t{})
+                       : slices <= 65536 ? rename_by_slices(std::uint16_t{})
+                                         : rename_by_slices(std::uint32_t{}));
   }
   GM_RETURN_IF_ERROR(grouped.finish());
   bytes_spilled_ += grouped.bytes();
