@@ -112,6 +112,7 @@ std::uint32_t thread_count(std::uint32_t threads) {
 }  // namespace api
 
 void install_signal_cleanup() { format::install_signal_cleanup(); }
+void remove_temporary_files() { format::remove_registered_temp_paths(); }
 
 Status write_report(const std::string& path, const std::string& report_json) {
   auto out = format::OutputFile::create(path, false);

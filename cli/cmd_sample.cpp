@@ -4,6 +4,7 @@
 #include <string>
 
 #include "cli/commands.h"
+#include "cli/memory_guard.h"
 #include "cli/resource_options.h"
 #include "cli/sampling_options.h"
 
@@ -30,7 +31,11 @@ int run_sample(const SampleCommandOptions& o) {
   options.resources = *resources;
   options.patches_path = o.patches;
   Progress progress;
-  options.resources.progress = progress.callback();
+  MemoryGuard guard(options.resources.memory_bytes);
+  options.resources.progress = [&progress, &guard](const char* pass, std::uint64_t done, std::uint64_t total, std::uint64_t triangles) {
+    guard.set_pass(pass);
+    progress.update(pass, done, total, triangles);
+  };
   auto stats = sample(Source::file(o.input), o.output, options);
   if (!stats) return report_error(stats.status());
   if (verbosity() >= 2) {

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "cli/commands.h"
+#include "cli/memory_guard.h"
 #include "cli/resource_options.h"
 #include "cli/sampling_options.h"
 
@@ -95,7 +96,11 @@ int run_simplify(const SimplifyArgs& args, const std::function<bool(const char*)
     }
   }
   Progress progress;
-  options.resources.progress = progress.callback();
+  MemoryGuard guard(options.resources.memory_bytes);
+  options.resources.progress = [&progress, &guard](const char* pass, std::uint64_t done, std::uint64_t total, std::uint64_t triangles) {
+    guard.set_pass(pass);
+    progress.update(pass, done, total, triangles);
+  };
   const Sink sink = Sink::file(args.output, *output_format);
   auto stats = simplify(Source::file(args.input, input_format), sink, options);
   if (!stats) return report_error(stats.status());

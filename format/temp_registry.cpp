@@ -99,6 +99,8 @@ void install_signal_cleanup() {
   for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGPIPE}) ::sigaction(sig, &action, nullptr);
 }
 
+void remove_registered_temp_paths() { remove_all_registered(); }
+
 int register_temp_path(const std::string& path, bool is_directory) {
   if (path.size() + 1 > kPathMax) return -1;
   std::lock_guard<std::mutex> lock(g_mutex);

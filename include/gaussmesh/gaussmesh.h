@@ -319,6 +319,9 @@ Result<Distance> compare(const Source& a, const Source& b, const CompareOptions&
 // Removes the temporary files of running jobs on SIGINT, SIGTERM and SIGHUP, then exits with the
 // signal's status. For programs that want the command's behaviour; call once, early.
 void install_signal_cleanup();
+// Removes the temporary files and directories of running jobs now, as those signals do: for a
+// program about to end the process without unwinding (std::_Exit).
+void remove_temporary_files();
 
 // Writes a stats struct's report_json (and a newline) to `path` ("-": standard output) through a
 // temporary name and a rename, as every output is written.

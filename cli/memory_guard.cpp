@@ -1,0 +1,71 @@
+// The resident-memory guard of an explicit --memory (memory_guard.h).
+#include "cli/memory_guard.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+
+#include "gaussmesh/gaussmesh.h"
+
+namespace gaussmesh::cli {
+namespace {
+
+// Resident bytes of this process (the second field of /proc/self/statm), or 0 if unreadable.
+std::uint64_t resident_bytes(int statm) {
+  char text[128];
+  const ssize_t got = ::pread(statm, text, sizeof text - 1, 0);
+  if (got <= 0) return 0;
+  text[got] = '\0';
+  unsigned long long size = 0, resident = 0;
+  if (std::sscanf(text, "%llu %llu", &size, &resident) != 2) return 0;
+  return resident * static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
+}
+
+}  // namespace
+
+std::uint64_t guarded_limit(std::uint64_t budget) { return budget + budget / 4 + (std::uint64_t{32} << 20); }
+
+MemoryGuard::MemoryGuard(std::uint64_t budget) : budget_(budget), limit_(guarded_limit(budget)) {
+  if (budget_ > 0) thread_ = std::thread([this] { watch(); });
+}
+
+MemoryGuard::~MemoryGuard() {
+  if (!thread_.joinable()) return;
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  stop_.notify_all();
+  thread_.join();
+}
+
+void MemoryGuard::set_pass(const char* pass) {
+  if (!thread_.joinable()) return;
+  std::lock_guard lock(mutex_);
+  std::snprintf(pass_, sizeof pass_, "%s", pass);
+}
+
+void MemoryGuard::watch() {
+  const int statm = ::open("/proc/self/statm", O_RDONLY | O_CLOEXEC);
+  if (statm < 0) return;  // no /proc: nothing to watch with
+  std::unique_lock lock(mutex_);
+  while (!stop_.wait_for(lock, std::chrono::milliseconds(10), [this] { return stopping_; })) {
+    const std::uint64_t resident = resident_bytes(statm);
+    if (resident <= limit_) continue;
+    const char* pass = pass_[0] != '\0' ? pass_ : nullptr;
+    std::fprintf(stderr,
+                 "gaussmesh: --memory: %llu MiB resident%s%s%s, past the budget of %llu MiB (a run may pass it by a quarter "
+                 "and 32 MiB): this input needs more memory than the passes can keep within it; raise --memory\n",
+                 static_cast<unsigned long long>(resident >> 20), pass ? " in the " : "", pass ? pass : "", pass ? " pass" : "",
+                 static_cast<unsigned long long>(budget_ >> 20));
+    remove_temporary_files();
+    std::_Exit(5);  // Code::kResources, as every refusal of the budget
+  }
+  ::close(statm);
+}
+
+}  // namespace gaussmesh::cli
