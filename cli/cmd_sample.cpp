@@ -31,7 +31,7 @@ int run_sample(const SampleCommandOptions& o) {
   options.resources = *resources;
   options.patches_path = o.patches;
   Progress progress;
-  MemoryGuard guard(options.resources.memory_bytes);
+  MemoryGuard guard(guarded_budget(options.resources));
   options.resources.progress = [&progress, &guard](const char* pass, std::uint64_t done, std::uint64_t total, std::uint64_t triangles) {
     guard.set_pass(pass);
     progress.update(pass, done, total, triangles);

@@ -96,7 +96,7 @@ int run_simplify(const SimplifyArgs& args, const std::function<bool(const char*)
     }
   }
   Progress progress;
-  MemoryGuard guard(options.resources.memory_bytes);
+  MemoryGuard guard(guarded_budget(options.resources));
   options.resources.progress = [&progress, &guard](const char* pass, std::uint64_t done, std::uint64_t total, std::uint64_t triangles) {
     guard.set_pass(pass);
     progress.update(pass, done, total, triangles);

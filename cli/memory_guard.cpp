@@ -29,6 +29,10 @@ std::uint64_t resident_bytes(int statm) {
 
 std::uint64_t guarded_limit(std::uint64_t budget) { return budget + budget / 4 + (std::uint64_t{32} << 20); }
 
+std::uint64_t guarded_budget(const ResourceOptions& resources) {
+  return resources.engine == Engine::kInCore ? 0 : resources.memory_bytes;
+}
+
 MemoryGuard::MemoryGuard(std::uint64_t budget) : budget_(budget), limit_(guarded_limit(budget)) {
   if (budget_ > 0) thread_ = std::thread([this] { watch(); });
 }

@@ -9,12 +9,19 @@
 #include <mutex>
 #include <thread>
 
+#include "gaussmesh/gaussmesh.h"
+
 namespace gaussmesh::cli {
 
 // What a run under `budget` bytes may hold resident: a quarter more for what the passes do not
 // count (the allocator's slack, buffers in flight), and 32 MiB for the process itself (code,
 // libraries, thread stacks), which the smallest budgets do not cover.
 std::uint64_t guarded_limit(std::uint64_t budget);
+
+// The budget the guard holds a run to: the explicit --memory, except under --engine in-core (the
+// budget is a contract on the streaming engine; a forced in-core run holds the whole mesh), and
+// 0 (none) under --memory auto.
+std::uint64_t guarded_budget(const ResourceOptions& resources);
 
 class MemoryGuard {
  public:
