@@ -1,9 +1,6 @@
 // The resident-memory guard of an explicit --memory (memory_guard.h).
 #include "cli/memory_guard.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -12,20 +9,6 @@
 #include "gaussmesh/gaussmesh.h"
 
 namespace gaussmesh::cli {
-namespace {
-
-// Resident bytes of this process (the second field of /proc/self/statm), or 0 if unreadable.
-std::uint64_t resident_bytes(int statm) {
-  char text[128];
-  const ssize_t got = ::pread(statm, text, sizeof text - 1, 0);
-  if (got <= 0) return 0;
-  text[got] = '\0';
-  unsigned long long size = 0, resident = 0;
-  if (std::sscanf(text, "%llu %llu", &size, &resident) != 2) return 0;
-  return resident * static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
-}
-
-}  // namespace
 
 std::uint64_t guarded_limit(std::uint64_t budget) { return budget + budget / 4 + (std::uint64_t{32} << 20); }
 
@@ -54,11 +37,10 @@ void MemoryGuard::set_pass(const char* pass) {
 }
 
 void MemoryGuard::watch() {
-  const int statm = ::open("/proc/self/statm", O_RDONLY | O_CLOEXEC);
-  if (statm < 0) return;  // no /proc: nothing to watch with
   std::unique_lock lock(mutex_);
   while (!stop_.wait_for(lock, std::chrono::milliseconds(10), [this] { return stopping_; })) {
-    const std::uint64_t resident = resident_bytes(statm);
+    // The peak (getrusage: no /proc needed, as in a bare chroot) includes the current resident set.
+    const std::uint64_t resident = peak_rss_bytes();
     if (resident <= limit_) continue;
     const char* pass = pass_[0] != '\0' ? pass_ : nullptr;
     std::fprintf(stderr,
@@ -69,7 +51,6 @@ void MemoryGuard::watch() {
     remove_temporary_files();
     std::_Exit(5);  // Code::kResources, as every refusal of the budget
   }
-  ::close(statm);
 }
 
 }  // namespace gaussmesh::cli

@@ -1,5 +1,5 @@
-// The command's guard on an explicit --memory: a thread that reads the process's resident memory
-// every few milliseconds and ends the run when it passes what the budget allows, so that an input
+// The command's guard on an explicit --memory: a thread that reads the process's peak resident
+// memory every few milliseconds and ends the run when it passes what the budget allows, so that an input
 // the passes cannot keep within the budget (docs/pipeline.md, "Memory") is refused with exit 5
 // and one line instead of running on far past it or being killed by the OOM killer.
 #pragma once
