@@ -69,13 +69,9 @@ class BucketFile {
   template <class Fn>
   format::Status read(std::size_t bucket, Fn&& fn) {
     std::vector<std::byte> buffer(block_);
-    const std::vector<std::uint32_t>& blocks = blocks_[bucket];
-    for (std::size_t i = 0; i < blocks.size(); ++i) {
-      const std::size_t size = block_size(bucket, i);
-      if (read_some(fd_, buffer.data(), size, std::uint64_t{blocks[i]} * block_) != static_cast<std::int64_t>(size)) {
-        return format::Status::error(format::Code::kBadInput, path_, "temporary file is shorter than written");
-      }
-      GM_RETURN_IF_ERROR(fn(std::span<const std::byte>(buffer.data(), size)));
+    for (std::size_t i = 0; i < blocks_[bucket].size(); ++i) {
+      GM_RETURN_IF_ERROR(read_block(bucket, i, buffer.data()));
+      GM_RETURN_IF_ERROR(fn(std::span<const std::byte>(buffer.data(), block_size(bucket, i))));
     }
     return {};
   }
@@ -85,15 +81,11 @@ class BucketFile {
   template <class Fn>
   format::Status rewrite(std::size_t bucket, Fn&& fn) {
     std::vector<std::byte> buffer(block_);
-    const std::vector<std::uint32_t>& blocks = blocks_[bucket];
-    for (std::size_t i = 0; i < blocks.size(); ++i) {
+    for (std::size_t i = 0; i < blocks_[bucket].size(); ++i) {
+      GM_RETURN_IF_ERROR(read_block(bucket, i, buffer.data()));
       const std::size_t size = block_size(bucket, i);
-      const std::uint64_t at = std::uint64_t{blocks[i]} * block_;
-      if (read_some(fd_, buffer.data(), size, at) != static_cast<std::int64_t>(size)) {
-        return format::Status::error(format::Code::kBadInput, path_, "temporary file is shorter than written");
-      }
       GM_RETURN_IF_ERROR(fn(std::span<std::byte>(buffer.data(), size)));
-      if (!format::write_all(fd_, buffer.data(), size, at, true)) {
+      if (!format::write_all(fd_, buffer.data(), size, std::uint64_t{blocks_[bucket][i]} * block_, true)) {
         return format::Status::error(format::Code::kOutput, path_, "write failed: " + errno_text());
       }
     }
@@ -117,14 +109,11 @@ class BucketFile {
 
    private:
     bool load() {
-      const std::vector<std::uint32_t>& blocks = file_->blocks_[bucket_];
-      if (!status_.is_ok() || block_ == blocks.size()) return false;
+      if (!status_.is_ok() || block_ == file_->blocks_[bucket_].size()) return false;
       const std::size_t size = file_->block_size(bucket_, block_);
       buffer_.resize(file_->block_);
-      if (read_some(file_->fd_, buffer_.data(), size, std::uint64_t{blocks[block_]} * file_->block_) != static_cast<std::int64_t>(size)) {
-        status_ = format::Status::error(format::Code::kBadInput, file_->path_, "temporary file is shorter than written");
-        return false;
-      }
+      status_ = file_->read_block(bucket_, block_, buffer_.data());
+      if (!status_.is_ok()) return false;
       ++block_;
       at_ = 0;
       end_ = size / sizeof(Record) * sizeof(Record);
@@ -150,6 +139,14 @@ class BucketFile {
   // The bytes of block i of `bucket`: the last one may be partly filled.
   std::size_t block_size(std::size_t bucket, std::size_t i) const {
     return i + 1 == blocks_[bucket].size() && last_bytes_[bucket] > 0 ? last_bytes_[bucket] : block_;
+  }
+  // Block i of `bucket` into out (block_size bytes).
+  format::Status read_block(std::size_t bucket, std::size_t i, std::byte* out) {
+    const std::size_t size = block_size(bucket, i);
+    if (read_some(fd_, out, size, std::uint64_t{blocks_[bucket][i]} * block_) != static_cast<std::int64_t>(size)) {
+      return format::Status::error(format::Code::kBadInput, path_, "temporary file is shorter than written");
+    }
+    return {};
   }
   // Writes the bucket's buffer as the file's next block (a partial one only from finish()).
   format::Status flush(std::size_t bucket) {

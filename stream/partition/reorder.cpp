@@ -335,11 +335,10 @@ Status PartitionRun::reorder(bool weld) {
   const std::uint64_t lowest_ranges = std::max<std::uint64_t>(ceil_div(new_vertices, range_lowest), 1);
 
   // 4–6. Faces renamed and turned to start at their lowest corner, in input order, by range of
-  // that corner. When the whole map fits
-  // the table, corners are renamed as the face spill is read; else every corner's old id goes to
-  // its slice of old ids (4), each slice is renamed in place from its part of the map (5), and
-  // the faces are put together again from the slices in input order (6): records of 4 bytes, no
-  // face or corner number carried along.
+  // that corner. When the whole map fits the table, corners are renamed as the face spill is
+  // read; else every corner's old id goes to its slice of old ids (4), each slice is renamed in
+  // place from its part of the map (5), and the faces are put together again from the slices in
+  // input order (6): records of 4 bytes, no face or corner number carried along.
   BucketFile grouped;
   GM_RETURN_IF_ERROR(grouped.open(out_.dir + "/reorder-faces.bin", lowest_ranges, sizeof(Triangle), buffers / 2 / lowest_ranges));
   if (old_ranges <= 1) {

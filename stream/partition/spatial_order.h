@@ -29,6 +29,11 @@ namespace gaussmesh::stream {
 
 // A face's lowest corner id (after renaming): faces are sorted by it first.
 inline std::uint32_t lowest_corner(const format::Triangle& t) { return std::min({t.v[0], t.v[1], t.v[2]}); }
+// The face turned to start at its (first) lowest corner, as renumbered faces are stored.
+inline format::Triangle lowest_first(const format::Triangle& t) {
+  const int i = t.v[0] <= t.v[1] && t.v[0] <= t.v[2] ? 0 : t.v[1] <= t.v[2] ? 1 : 2;
+  return {{t.v[i], t.v[(i + 1) % 3], t.v[(i + 2) % 3]}};
+}
 
 // Faces with the same lowest corner then go by the corner after it and the one after that (in
 // the face's own order, from the first lowest corner), ties in input order; a vertex that is the
@@ -36,14 +41,10 @@ inline std::uint32_t lowest_corner(const format::Triangle& t) { return std::min(
 // needs more than a bounded table. The face order then does not depend on the input's.
 inline constexpr std::uint32_t kMaxFaceGroup = 1u << 16;
 inline std::pair<std::uint32_t, std::uint32_t> face_tail(const format::Triangle& t) {
-  const int i = t.v[0] <= t.v[1] && t.v[0] <= t.v[2] ? 0 : t.v[1] <= t.v[2] ? 1 : 2;
-  return {t.v[(i + 1) % 3], t.v[(i + 2) % 3]};
+  const format::Triangle turned = lowest_first(t);
+  return {turned.v[1], turned.v[2]};
 }
-// The face turned to start at its (first) lowest corner, as renumbered faces are stored.
-inline format::Triangle lowest_first(const format::Triangle& t) {
-  const int i = t.v[0] <= t.v[1] && t.v[0] <= t.v[2] ? 0 : t.v[1] <= t.v[2] ? 1 : 2;
-  return {{t.v[i], t.v[(i + 1) % 3], t.v[(i + 2) % 3]}};
-}
+
 // Orders the faces of one lowest corner, given in input order.
 inline void order_face_group(std::span<format::Triangle> group) {
   if (group.size() < 2 || group.size() > kMaxFaceGroup) return;
