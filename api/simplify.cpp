@@ -167,6 +167,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
     const auto& c = *result->chunked;
     report["chunked_finish"] = {{"round_pieces", c.round_pieces},
                                 {"round_faces", c.round_faces},
+                                {"round_locked_faces", c.round_locked_faces},
                                 {"round_seconds", c.seconds_rounds},
                                 {"largest_piece", c.largest_piece},
                                 {"unheld_pieces", c.unheld_pieces}};

@@ -628,12 +628,17 @@ format::Result<ChunkedFinish> chunked_finish(const Partition& partition, const C
       all_locked += locked_faces[k];
       free_before[k + 1] = free_before[k] + (plan.faces[k] - locked_faces[k]);
     }
-    // When the locked faces of round 2 take more than half the target, it cannot place the
-    // target well: it takes the free faces to half round 1's density and leaves the rest to round
-    // 3, whose borders lie elsewhere. From round 3 on every round aims at the target.
+    // When the locked faces of round 2 take more than their share of the target (see
+    // kLastRoundLockedShare), it cannot place the target well: it takes the free faces to half
+    // round 1's density and leaves the rest to round 3, whose borders lie elsewhere. From round 3
+    // on every round aims at the target.
     const double ratio =
         target > 0 ? std::min(1.0, kRoundOneShare / 2 * double(target) / double(std::max<std::uint64_t>(total, 1))) : 1;
-    const bool last_squeeze = 2 * all_locked <= target || ratio >= 1 || round >= 3;
+    // Taking the free faces to twice the target's density leaves at most all_locked + 2 × target
+    // faces: when those fit one piece, round 3 has no locked vertex.
+    const double locked_share =
+        all_locked + 2 * target <= max_faces ? options.last_round_locked_share_before_one_piece : kLastRoundLockedShare;
+    const bool last_squeeze = double(all_locked) <= locked_share * double(target) || ratio >= 1 || round >= 3;
     RoundOutput now;
     now.pool = std::make_unique<format::RecordSegmentPool>(partition.dir + "/finish-" + std::to_string(round) + "-");
     now.units.resize(pieces);
@@ -688,6 +693,7 @@ format::Result<ChunkedFinish> chunked_finish(const Partition& partition, const C
     last = std::move(now);
     out.round_faces.push_back(last.faces);
     out.round_pieces.push_back(pieces);
+    out.round_locked_faces.push_back(all_locked);
     out.seconds_rounds.push_back(seconds_since(start));
     release_free_memory();
     // Stop once the target is met, when a round removed under 1 % of what it had, or at the

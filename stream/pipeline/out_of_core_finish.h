@@ -42,9 +42,20 @@ inline constexpr std::uint64_t kChunkFileBytesPerFace = 80;
 // in one piece within a thread's share of the budget.
 std::uint64_t chunked_finish_chunk_faces(const MemoryBudget& budget);
 
+// Round 2 aims at the face target only when the faces at its locked vertices are at most a share
+// of the target: those faces keep round 1's density (several times the target's), which the
+// output then spends on the pieces' borders instead of where the error is. Otherwise round 2
+// takes the free faces to twice the target's density and leaves the target to round 3, whose
+// borders lie elsewhere. The share is a half, or a tenth when what round 2 would leave (its
+// locked faces and twice the target) fits one piece: round 3 is then one piece with no locked
+// vertex at all, and costs little (docs/finish.md).
+inline constexpr double kLastRoundLockedShare = 0.5;
+inline constexpr double kLastRoundLockedShareBeforeOnePiece = 0.1;
+
 struct ChunkedFinishOptions {
   FinishOptions finish;
   std::uint32_t threads = 1;
+  double last_round_locked_share_before_one_piece = kLastRoundLockedShareBeforeOnePiece;
   MemoryBudget memory;
   std::function<void(const char*, std::size_t, std::size_t)> progress;  // (round, pieces done, pieces)
 };
@@ -84,8 +95,9 @@ struct ChunkedFinish {
   std::uint64_t collapses = 0, refused = 0, over_error = 0;
   double estimated_error = 0;  // input units
   std::uint64_t input_faces = 0;  // the owned faces without a repeated corner
-  // Per round: its pieces, the faces left after it, its seconds.
-  std::vector<std::uint64_t> round_pieces, round_faces;
+  // Per round: its pieces, the faces left after it, its seconds; from round 2 on, the faces at
+  // its locked vertices when it shared the target by them (0 when it did not need to).
+  std::vector<std::uint64_t> round_pieces, round_faces, round_locked_faces;
   std::vector<double> seconds_rounds;
   std::uint64_t largest_piece = 0;  // faces of the largest piece after round 1
   std::uint64_t unheld_pieces = 0;  // pieces that are not oriented manifolds, left as they were

@@ -866,6 +866,7 @@ format::Status simplify_input(Partition& partition, const OutOfCoreSimplifyOptio
     ChunkedFinishOptions chunked;
     chunked.finish = out.finish_options;
     chunked.threads = options.threads;
+    chunked.last_round_locked_share_before_one_piece = options.last_round_locked_share_before_one_piece;
     chunked.memory = options.memory_explicit ? options.memory : MemoryBudget::of(limit);
     if (options.progress)
       chunked.progress = [&](const char* pass, std::size_t done_pieces, std::size_t total) {
@@ -884,8 +885,8 @@ format::Status simplify_input(Partition& partition, const OutOfCoreSimplifyOptio
                                     : finished->over_error > 0 ? "max_error" : "topology";
     r.seconds_quadrics = finished->seconds_rounds.front();
     for (std::size_t i = 1; i < finished->seconds_rounds.size(); ++i) r.seconds_decimate += finished->seconds_rounds[i];
-    out.chunked = ChunkedFinishFigures{finished->round_pieces, finished->round_faces, finished->seconds_rounds,
-                                       finished->largest_piece, finished->unheld_pieces};
+    out.chunked = ChunkedFinishFigures{finished->round_pieces, finished->round_faces, finished->round_locked_faces,
+                                       finished->seconds_rounds, finished->largest_piece, finished->unheld_pieces};
     out.finish = std::move(r);
     out.seconds_mesh = seconds_since(start);
     out.bytes_spilled = partition.bytes_spilled;

@@ -37,6 +37,7 @@
 #include "stream/finish/quadric_finish.h"
 #include "stream/meshing/polygon_mesher.h"
 #include "stream/partition/chunk_partition.h"
+#include "stream/pipeline/out_of_core_finish.h"
 #include "stream/sampling/chunk_sampler.h"
 #include "stream/sampling/sampler.h"
 
@@ -61,6 +62,10 @@ struct OutOfCoreSimplifyOptions {
   // Collapse the input chunk by chunk (stream/pipeline/out_of_core_finish.h) even when it would fit
   // whole: tests set it to exercise the chunked finish on small inputs.
   bool always_chunked_finish = false;
+  // Round 2 of the chunked finish, before a round of one piece, aims at the target only with at
+  // most this share of it at locked vertices (kLastRoundLockedShareBeforeOnePiece; tests compare
+  // other shares).
+  double last_round_locked_share_before_one_piece = kLastRoundLockedShareBeforeOnePiece;
   // What the output costs a face when its writer needs it whole (Draco, a memory sink; 0 when it
   // streams): with an explicit budget a chunked finish whose target would not fit is refused
   // before it starts, not after.
@@ -77,6 +82,7 @@ struct OutOfCoreSimplifyOptions {
 // The chunked finish's figures (out_of_core_finish.h), when it ran.
 struct ChunkedFinishFigures {
   std::vector<std::uint64_t> round_pieces, round_faces;  // per round: pieces, faces left after it
+  std::vector<std::uint64_t> round_locked_faces;         // rounds 2, 3, …: faces at locked vertices
   std::vector<double> seconds_rounds;
   std::uint64_t largest_piece = 0, unheld_pieces = 0;
 };
