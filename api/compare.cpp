@@ -11,12 +11,13 @@ namespace gaussmesh {
 namespace {
 
 OneSidedDistance public_side(const stream::OneSidedDistance& d) {
-  return {d.max, d.rms, d.mean, d.area_samples, d.feature_samples};
+  return {d.max, {d.max_at.x, d.max_at.y, d.max_at.z}, d.rms, d.mean, d.area_samples, d.feature_samples};
 }
 
 api::Json side_json(const OneSidedDistance& d, const Distance& all) {
   api::Json j;
   j["max_pct"] = all.pct(d.max);
+  j["max_at"] = d.max_at;
   j["rms_pct"] = all.pct(d.rms);
   j["mean_pct"] = all.pct(d.mean);
   j["area_samples"] = d.area_samples;

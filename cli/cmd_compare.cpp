@@ -23,9 +23,10 @@ void print_summary(const CompareArgs& args, const Distance& d) {
   std::printf("rms        %.6g %% (%.6g)\n", d.pct(d.rms), d.rms);
   const std::pair<const char*, const OneSidedDistance*> sides[] = {{"A -> B", &d.a_to_b}, {"B -> A", &d.b_to_a}};
   for (const auto& [label, side] : sides) {
-    std::printf("%s     max %.6g %%  rms %.6g %%  mean %.6g %%  (%llu area + %llu vertex/edge samples)\n", label,
-                d.pct(side->max), d.pct(side->rms), d.pct(side->mean),
-                static_cast<unsigned long long>(side->area_samples), static_cast<unsigned long long>(side->feature_samples));
+    std::printf("%s     max %.6g %% at (%.6g, %.6g, %.6g)  rms %.6g %%  mean %.6g %%  (%llu area + %llu vertex/edge samples)\n",
+                label, d.pct(side->max), side->max_at[0], side->max_at[1], side->max_at[2], d.pct(side->rms),
+                d.pct(side->mean), static_cast<unsigned long long>(side->area_samples),
+                static_cast<unsigned long long>(side->feature_samples));
   }
 }
 

@@ -295,6 +295,7 @@ struct CompareOptions {
 // From the samples of one mesh to the surface of the other.
 struct OneSidedDistance {
   double max = 0;   // over area samples, vertices and edge midpoints (so sharp features count)
+  std::array<double, 3> max_at{};  // where on the measured mesh the sample `max` away lies
   double rms = 0;   // over area samples (area-weighted)
   double mean = 0;  // over area samples
   std::uint64_t area_samples = 0, feature_samples = 0;

@@ -278,22 +278,27 @@ double triangle_area(MeshView mesh, const Triangle& t) {
 
 struct Accumulator {
   double max_squared = 0;
+  Vec3d max_at{};          // where max_squared was sampled: the first such sample in triangle order
   double sum_squared = 0;  // area samples only
   double sum = 0;          // area samples only
   std::size_t area_samples = 0, feature_samples = 0;
 
-  void add_area(double d2) {
-    max_squared = std::max(max_squared, d2);
+  void add_max(double d2, const Vec3d& p) {
+    if (d2 > max_squared) max_squared = d2, max_at = p;
+  }
+  void add_area(double d2, const Vec3d& p) {
+    add_max(d2, p);
     sum_squared += d2;
     sum += std::sqrt(d2);
     ++area_samples;
   }
-  void add_feature(double d2) {
-    max_squared = std::max(max_squared, d2);
+  void add_feature(double d2, const Vec3d& p) {
+    add_max(d2, p);
     ++feature_samples;
   }
+  // `other` covers the triangles after this one's (a deterministic reduction keeps that order).
   void join(const Accumulator& other) {
-    max_squared = std::max(max_squared, other.max_squared);
+    add_max(other.max_squared, other.max_at);
     sum_squared += other.sum_squared;
     sum += other.sum;
     area_samples += other.area_samples;
@@ -324,12 +329,12 @@ OneSidedDistance one_sided(MeshView from, const std::vector<double>& areas, doub
           for (int k = 0; k < 3; ++k) {
             const format::VertexIndex v = tri.v[k];
             if (first_face[v] == t && (k == 0 || v != tri.v[0]) && (k < 2 || v != tri.v[1])) {
-              acc.add_feature(tree.nearest_distance_squared(to_d(from.positions[v]), &hint));
+              const Vec3d p = to_d(from.positions[v]);
+              acc.add_feature(tree.nearest_distance_squared(p, &hint), p);
             }
           }
-          acc.add_feature(tree.nearest_distance_squared(0.5 * (a + b), &hint));
-          acc.add_feature(tree.nearest_distance_squared(0.5 * (b + c), &hint));
-          acc.add_feature(tree.nearest_distance_squared(0.5 * (c + a), &hint));
+          for (const Vec3d& p : {0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a)})
+            acc.add_feature(tree.nearest_distance_squared(p, &hint), p);
           // floor(expected) samples, plus one with the fractional part's probability.
           TriangleRandom random(seed, side, t);
           const double expected = areas[t] * density;
@@ -339,7 +344,7 @@ OneSidedDistance one_sided(MeshView from, const std::vector<double>& areas, doub
             // Uniform in the triangle: sqrt warps the first coordinate (Turk 1990).
             const double s = std::sqrt(random.uniform()), r = random.uniform();
             const Vec3d p = (1 - s) * a + (s * (1 - r)) * b + (s * r) * c;
-            acc.add_area(tree.nearest_distance_squared(p, &hint));
+            acc.add_area(tree.nearest_distance_squared(p, &hint), p);
           }
         }
         return acc;
@@ -350,6 +355,7 @@ OneSidedDistance one_sided(MeshView from, const std::vector<double>& areas, doub
       });
   OneSidedDistance out;
   out.max = std::sqrt(total.max_squared);
+  out.max_at = total.max_at;
   out.area_samples = total.area_samples;
   out.feature_samples = total.feature_samples;
   if (total.area_samples > 0) {

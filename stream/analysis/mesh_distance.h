@@ -57,6 +57,7 @@ struct DistanceOptions {
 // Distances measured from the samples of one mesh to the surface of the other.
 struct OneSidedDistance {
   double max = 0;   // over area samples, vertices and edge midpoints (so sharp features count)
+  Vec3d max_at{};   // the sample that is `max` away (the first in triangle order on a tie)
   double rms = 0;   // root mean square over area samples only (area-weighted)
   double mean = 0;  // mean over area samples only
   std::size_t area_samples = 0;

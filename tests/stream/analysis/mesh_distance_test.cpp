@@ -210,6 +210,38 @@ TEST(MeshDistance, SampleCountsFollowAreaAndFeatures) {
   EXPECT_EQ(result->b_to_a.feature_samples, b.positions.size() + 3 * b.triangles.size());
 }
 
+TEST(MeshDistance, NamesWhereTheLargestDistanceLies) {
+  // One vertex of a sphere pulled outwards: B's farthest sample from A is that vertex, and A's
+  // farthest sample from B lies on A below it, nearer to it than to anything else of A.
+  ShapeOptions shape;
+  shape.vertices = 2000;
+  const Mesh a = testing::make_sphere(shape);
+  Mesh b = a;
+  const std::size_t pulled = a.positions.size() / 3;
+  const Vec3f& p = a.positions[pulled];
+  b.positions[pulled] = {1.2f * p.x, 1.2f * p.y, 1.2f * p.z};
+  auto result = mesh_distance(a.view(), b.view(), few_samples());
+  ASSERT_TRUE(result) << result.status().to_string();
+  EXPECT_EQ(result->b_to_a.max_at.x, b.positions[pulled].x);
+  EXPECT_EQ(result->b_to_a.max_at.y, b.positions[pulled].y);
+  EXPECT_EQ(result->b_to_a.max_at.z, b.positions[pulled].z);
+  std::size_t nearest = 0;
+  for (std::size_t v = 1; v < a.positions.size(); ++v) {
+    if (distance(to_double(a.positions[v]), result->a_to_b.max_at) <
+        distance(to_double(a.positions[nearest]), result->a_to_b.max_at))
+      nearest = v;
+  }
+  EXPECT_EQ(nearest, pulled);
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    auto one = mesh_distance(a.view(), b.view(), few_samples());
+    ASSERT_TRUE(one);
+    EXPECT_EQ(one->a_to_b.max_at.x, result->a_to_b.max_at.x);
+    EXPECT_EQ(one->a_to_b.max_at.y, result->a_to_b.max_at.y);
+    EXPECT_EQ(one->a_to_b.max_at.z, result->a_to_b.max_at.z);
+  }
+}
+
 TEST(MeshDistance, DeterministicWhateverTheThreadCount) {
   ShapeOptions shape;
   shape.vertices = 3000;
