@@ -11,7 +11,14 @@ namespace gaussmesh {
 namespace {
 
 OneSidedDistance public_side(const stream::OneSidedDistance& d) {
-  return {d.max, {d.max_at.x, d.max_at.y, d.max_at.z}, d.rms, d.mean, d.area_samples, d.feature_samples};
+  return {d.max,
+          {d.max_at.x, d.max_at.y, d.max_at.z},
+          d.rms,
+          d.mean,
+          d.area_samples,
+          d.feature_samples,
+          d.facing_away,
+          d.area > 0 ? 100 * d.facing_away_area / d.area : 0};
 }
 
 api::Json side_json(const OneSidedDistance& d, const Distance& all) {
@@ -22,6 +29,8 @@ api::Json side_json(const OneSidedDistance& d, const Distance& all) {
   j["mean_pct"] = all.pct(d.mean);
   j["area_samples"] = d.area_samples;
   j["feature_samples"] = d.feature_samples;
+  j["facing_away_faces"] = d.facing_away_faces;
+  j["facing_away_area_pct"] = d.facing_away_area_pct;
   return j;
 }
 

@@ -28,6 +28,9 @@ void print_summary(const CompareArgs& args, const Distance& d) {
                 d.pct(side->mean), static_cast<unsigned long long>(side->area_samples),
                 static_cast<unsigned long long>(side->feature_samples));
   }
+  std::printf("facing away  A: %llu faces (%.3g %% of its area)  B: %llu faces (%.3g %% of its area)\n",
+              static_cast<unsigned long long>(d.a_to_b.facing_away_faces), d.a_to_b.facing_away_area_pct,
+              static_cast<unsigned long long>(d.b_to_a.facing_away_faces), d.b_to_a.facing_away_area_pct);
 }
 
 int run_compare(const CompareArgs& args) {

@@ -299,6 +299,10 @@ struct OneSidedDistance {
   double rms = 0;   // over area samples (area-weighted)
   double mean = 0;  // over area samples
   std::uint64_t area_samples = 0, feature_samples = 0;
+  // Faces whose normal points away from that of the other mesh's face nearest their centroid
+  // (folds, flipped faces), and their share of this mesh's area in percent.
+  std::uint64_t facing_away_faces = 0;
+  double facing_away_area_pct = 0;
 };
 
 struct Distance {

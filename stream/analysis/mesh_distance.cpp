@@ -185,6 +185,12 @@ TriangleTree::~TriangleTree() = default;
 
 std::size_t TriangleTree::triangle_count() const { return impl_->corners.size(); }
 
+Vec3d TriangleTree::leaf_normal(std::uint32_t leaf) const {
+  const auto& c = impl_->corners.at(leaf);
+  const Vec3d a{c[0], c[1], c[2]}, b{c[3], c[4], c[5]}, d{c[6], c[7], c[8]};
+  return cross(b - a, d - a);
+}
+
 double TriangleTree::nearest_distance_squared(const Vec3d& p, std::uint32_t* hint) const {
   const Impl& tree = *impl_;
   if (tree.corners.empty()) return kInfinity;
@@ -282,6 +288,8 @@ struct Accumulator {
   double sum_squared = 0;  // area samples only
   double sum = 0;          // area samples only
   std::size_t area_samples = 0, feature_samples = 0;
+  std::size_t facing_away = 0;
+  double facing_away_area = 0;
 
   void add_max(double d2, const Vec3d& p) {
     if (d2 > max_squared) max_squared = d2, max_at = p;
@@ -303,6 +311,8 @@ struct Accumulator {
     sum += other.sum;
     area_samples += other.area_samples;
     feature_samples += other.feature_samples;
+    facing_away += other.facing_away;
+    facing_away_area += other.facing_away_area;
   }
 };
 
@@ -335,6 +345,12 @@ OneSidedDistance one_sided(MeshView from, const std::vector<double>& areas, doub
           }
           for (const Vec3d& p : {0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a)})
             acc.add_feature(tree.nearest_distance_squared(p, &hint), p);
+          // Facing away: against the normal of the other surface's triangle nearest the centroid.
+          const Vec3d normal = cross(b - a, c - a);
+          if (length_squared(normal) > 0) {
+            tree.nearest_distance_squared((1.0 / 3) * (a + b + c), &hint);
+            if (dot(normal, tree.leaf_normal(hint)) < 0) ++acc.facing_away, acc.facing_away_area += areas[t];
+          }
           // floor(expected) samples, plus one with the fractional part's probability.
           TriangleRandom random(seed, side, t);
           const double expected = areas[t] * density;
@@ -358,6 +374,9 @@ OneSidedDistance one_sided(MeshView from, const std::vector<double>& areas, doub
   out.max_at = total.max_at;
   out.area_samples = total.area_samples;
   out.feature_samples = total.feature_samples;
+  out.facing_away = total.facing_away;
+  out.facing_away_area = total.facing_away_area;
+  for (const double area : areas) out.area += area;
   if (total.area_samples > 0) {
     out.rms = std::sqrt(total.sum_squared / static_cast<double>(total.area_samples));
     out.mean = total.sum / static_cast<double>(total.area_samples);

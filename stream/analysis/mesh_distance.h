@@ -38,6 +38,9 @@ class TriangleTree {
   // leaf-order triangle index to start from (e.g. the previous answer for a nearby query; any
   // value is valid) and receives the index of the nearest triangle.
   double nearest_distance_squared(const Vec3d& p, std::uint32_t* hint = nullptr) const;
+  // The normal (corners' cross product, not normalised) of the triangle at leaf-order index
+  // `leaf`, as a query's hint names it.
+  Vec3d leaf_normal(std::uint32_t leaf) const;
   std::size_t triangle_count() const;
 
  private:
@@ -62,6 +65,12 @@ struct OneSidedDistance {
   double mean = 0;  // mean over area samples only
   std::size_t area_samples = 0;
   std::size_t feature_samples = 0;  // referenced vertices + one midpoint per edge
+  // Triangles that face away from the other surface: their normal and that of the other mesh's
+  // triangle nearest their centroid point apart (negative dot product). A fold, a flipped face,
+  // or a sliver turned over; degenerate triangles are left out. Their area in the same units
+  // squared, and the whole mesh's area, for the share.
+  std::size_t facing_away = 0;
+  double facing_away_area = 0, area = 0;
 };
 
 struct MeshDistance {

@@ -6,7 +6,8 @@
 //   2. meshopt_file IN --target-faces F, then with --sloppy (meshopt_simplify and
 //      meshopt_simplifySloppy, reading and writing included), F = gaussmesh's output_faces;
 //   3. gaussmesh compare IN OUT --report - after each, for Hausdorff and RMS in % of the input's
-//      bounding-box diagonal,
+//      bounding-box diagonal, and the share of the output's area that faces away from the input
+//      (folds and flipped faces),
 // and prints one markdown table on stdout, then per ratio how gaussmesh's Hausdorff and RMS
 // compare with meshopt_simplify's (gaussmesh / meshopt: the worst and the median over the
 // inputs, and on how many inputs gaussmesh's Hausdorff is not larger). The command line is
@@ -118,6 +119,7 @@ struct Row {
   std::optional<bool> within;  // gaussmesh rows
   std::string stopped_by;      // gaussmesh rows
   std::optional<double> hausdorff_pct, rms_pct;
+  std::optional<double> facing_away_pct;  // of the output's area: faces turned against the input
   double seconds = 0, peak_rss_mib = 0;
 };
 
@@ -350,6 +352,7 @@ class Runner {
     }
     row.hausdorff_pct = json->value("hausdorff_pct", -1.0);
     row.rms_pct = json->value("rms_pct", -1.0);
+    if (json->contains("b_to_a")) row.facing_away_pct = (*json)["b_to_a"].value("facing_away_area_pct", -1.0);
     fs::remove(work_ / "compare.out");
   }
 
@@ -370,20 +373,21 @@ class Runner {
 
 void print_table(const std::vector<Row>& rows) {
   std::printf("| input | input faces | ratio | tool | target | output faces | within 1 %% | stopped_by "
-              "| Hausdorff %% | RMS %% | seconds | peak RSS MiB |\n");
-  std::printf("| --- | ---: | ---: | --- | ---: | ---: | --- | --- | ---: | ---: | ---: | ---: |\n");
+              "| Hausdorff %% | RMS %% | facing away, %% of area | seconds | peak RSS MiB |\n");
+  std::printf("| --- | ---: | ---: | --- | ---: | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: |\n");
   for (const Row& r : rows) {
     const std::string target = r.target ? std::to_string(r.target) : "";
     if (!r.note.empty()) {
-      std::printf("| %s | %llu | %s | %s | %s | %s | | | | | | |\n", r.input.c_str(), (unsigned long long)r.input_faces,
+      std::printf("| %s | %llu | %s | %s | %s | %s | | | | | | | |\n", r.input.c_str(), (unsigned long long)r.input_faces,
                   r.ratio.c_str(), r.tool.c_str(), target.c_str(), r.note.c_str());
       continue;
     }
-    std::printf("| %s | %llu | %s | %s | %s | %llu | %s | %s | %s | %s | %s | %s |\n", r.input.c_str(),
+    std::printf("| %s | %llu | %s | %s | %s | %llu | %s | %s | %s | %s | %s | %s | %s |\n", r.input.c_str(),
                 (unsigned long long)r.input_faces, r.ratio.c_str(), r.tool.c_str(), target.c_str(),
                 (unsigned long long)r.output_faces, r.within ? (*r.within ? "yes" : "no") : "",
                 r.stopped_by.c_str(), r.hausdorff_pct ? fixed(*r.hausdorff_pct, 3).c_str() : kNone,
-                r.rms_pct ? fixed(*r.rms_pct, 4).c_str() : kNone, fixed(r.seconds, 2).c_str(),
+                r.rms_pct ? fixed(*r.rms_pct, 4).c_str() : kNone,
+                r.facing_away_pct ? fixed(*r.facing_away_pct, 4).c_str() : kNone, fixed(r.seconds, 2).c_str(),
                 fixed(r.peak_rss_mib, 1).c_str());
   }
 }

@@ -242,6 +242,38 @@ TEST(MeshDistance, NamesWhereTheLargestDistanceLies) {
   }
 }
 
+TEST(MeshDistance, CountsTheFacesThatFaceAway) {
+  // The same sphere with three faces turned over (two corners swapped): each side counts exactly
+  // those three, and their share of the area; the sphere against itself counts none.
+  ShapeOptions shape;
+  shape.vertices = 2000;
+  const Mesh a = testing::make_sphere(shape);
+  Mesh b = a;
+  double turned_area = 0, area = 0;
+  for (std::size_t t = 0; t < b.triangles.size(); ++t) {
+    const Vec3d p = to_double(a.positions[a.triangles[t].v[0]]), q = to_double(a.positions[a.triangles[t].v[1]]),
+                r = to_double(a.positions[a.triangles[t].v[2]]);
+    const Vec3d n = cross(q - p, r - p);
+    const double face_area = 0.5 * std::sqrt(dot(n, n));
+    area += face_area;
+    if (t % 500 == 7) {
+      std::swap(b.triangles[t].v[1], b.triangles[t].v[2]);
+      turned_area += face_area;
+    }
+  }
+  auto same = mesh_distance(a.view(), a.view(), few_samples());
+  ASSERT_TRUE(same);
+  EXPECT_EQ(same->a_to_b.facing_away, 0u);
+  EXPECT_EQ(same->b_to_a.facing_away, 0u);
+  auto turned = mesh_distance(a.view(), b.view(), few_samples());
+  ASSERT_TRUE(turned);
+  const std::size_t expected = (b.triangles.size() + 492) / 500;
+  EXPECT_EQ(turned->b_to_a.facing_away, expected);
+  EXPECT_EQ(turned->a_to_b.facing_away, expected);
+  EXPECT_NEAR(turned->b_to_a.facing_away_area, turned_area, 1e-9 * area);
+  EXPECT_NEAR(turned->b_to_a.area, area, 1e-9 * area);
+}
+
 TEST(MeshDistance, DeterministicWhateverTheThreadCount) {
   ShapeOptions shape;
   shape.vertices = 3000;
