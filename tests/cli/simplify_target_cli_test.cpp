@@ -186,7 +186,11 @@ TEST(SimplifyTargetCli, MeasureReportsTheDistanceToTheInput) {
   // The same figure `gaussmesh compare` gives for the written file (PLY: no quantization).
   auto cmp = run_command(binary() + " compare " + in + " " + q(dir.file("o.ply")) + " --report -");
   ASSERT_EQ(cmp.exit_code, 0) << cmp.err;
-  EXPECT_NEAR(nlohmann::json::parse(cmp.out)["hausdorff"].get<double>(), hausdorff, 1e-6 + 1e-3 * hausdorff);
+  const auto compared = nlohmann::json::parse(cmp.out);
+  EXPECT_NEAR(compared["hausdorff"].get<double>(), hausdorff, 1e-6 + 1e-3 * hausdorff);
+  // So is the count of output faces facing away from the input (a face count: the same faces).
+  ASSERT_TRUE(json["measured"].contains("facing_away_faces"));
+  EXPECT_EQ(json["measured"]["facing_away_faces"].get<long>(), compared["b_to_a"]["facing_away_faces"].get<long>());
   // Out of core there is no input to measure against.
   auto ooc = run_command(binary() + " simplify " + in + " --target-faces 600 --measure --engine out-of-core -o " +
                          q(dir.file("p.drc")));
