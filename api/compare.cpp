@@ -18,7 +18,7 @@ OneSidedDistance public_side(const stream::OneSidedDistance& d) {
           d.area_samples,
           d.feature_samples,
           d.facing_away,
-          d.area > 0 ? 100 * d.facing_away_area / d.area : 0};
+          d.facing_away_pct()};
 }
 
 api::Json side_json(const OneSidedDistance& d, const Distance& all) {

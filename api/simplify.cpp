@@ -318,9 +318,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
                           {"hausdorff_pct", measured->hausdorff_pct()},
                           {"rms_pct", measured->rms_pct()},
                           {"facing_away_faces", measured->b_to_a.facing_away},
-                          {"facing_away_area_pct", measured->b_to_a.area > 0
-                                                       ? 100 * measured->b_to_a.facing_away_area / measured->b_to_a.area
-                                                       : 0.0}};
+                          {"facing_away_area_pct", measured->b_to_a.facing_away_pct()}};
   }
   report["mesher"] = stream::mesher_name(options.mesher);
   report["out_of_core"] = false;

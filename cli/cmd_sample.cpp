@@ -32,10 +32,7 @@ int run_sample(const SampleCommandOptions& o) {
   options.patches_path = o.patches;
   Progress progress;
   MemoryGuard guard(guarded_budget(options.resources));
-  options.resources.progress = [&progress, &guard](const char* pass, std::uint64_t done, std::uint64_t total, std::uint64_t triangles) {
-    guard.set_pass(pass);
-    progress.update(pass, done, total, triangles);
-  };
+  options.resources.progress = guard.noting_pass(progress.callback());
   auto stats = sample(Source::file(o.input), o.output, options);
   if (!stats) return report_error(stats.status());
   if (verbosity() >= 2) {

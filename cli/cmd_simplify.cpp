@@ -97,10 +97,7 @@ int run_simplify(const SimplifyArgs& args, const std::function<bool(const char*)
   }
   Progress progress;
   MemoryGuard guard(guarded_budget(options.resources));
-  options.resources.progress = [&progress, &guard](const char* pass, std::uint64_t done, std::uint64_t total, std::uint64_t triangles) {
-    guard.set_pass(pass);
-    progress.update(pass, done, total, triangles);
-  };
+  options.resources.progress = guard.noting_pass(progress.callback());
   const Sink sink = Sink::file(args.output, *output_format);
   auto stats = simplify(Source::file(args.input, input_format), sink, options);
   if (!stats) return report_error(stats.status());

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <utility>
 
 #include "gaussmesh/gaussmesh.h"
 
@@ -33,6 +34,14 @@ void MemoryGuard::set_pass(const char* pass) {
   if (!thread_.joinable()) return;
   std::lock_guard lock(mutex_);
   std::snprintf(pass_, sizeof pass_, "%s", pass);
+}
+
+ProgressFn MemoryGuard::noting_pass(ProgressFn progress) {
+  return [this, progress = std::move(progress)](const char* pass, std::uint64_t done, std::uint64_t total,
+                                                 std::uint64_t triangles) {
+    set_pass(pass);
+    progress(pass, done, total, triangles);
+  };
 }
 
 void MemoryGuard::watch() {

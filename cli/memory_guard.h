@@ -30,10 +30,11 @@ class MemoryGuard {
   ~MemoryGuard();
   MemoryGuard(const MemoryGuard&) = delete;
   MemoryGuard& operator=(const MemoryGuard&) = delete;
-  // The pass the run is in, for the line.
-  void set_pass(const char* pass);
+  // `progress` with the pass noted first (the line names it): the callback to hand the run.
+  ProgressFn noting_pass(ProgressFn progress);
 
  private:
+  void set_pass(const char* pass);
   void watch();
 
   std::uint64_t budget_ = 0, limit_ = 0;

@@ -317,8 +317,8 @@ struct Accumulator {
 };
 
 // Samples `from` (area samples at `density` per unit area, every referenced vertex, every
-// triangle's edge midpoints) and measures each against `tree`.
-OneSidedDistance one_sided(MeshView from, const std::vector<double>& areas, double density,
+// triangle's edge midpoints) and measures each against `tree`; `area` is the sum of `areas`.
+OneSidedDistance one_sided(MeshView from, const std::vector<double>& areas, double area, double density,
                            const TriangleTree& tree, std::uint64_t seed, std::uint64_t side) {
   // Each vertex is measured by the first triangle that uses it.
   constexpr std::uint32_t kUnused = std::numeric_limits<std::uint32_t>::max();
@@ -376,7 +376,7 @@ OneSidedDistance one_sided(MeshView from, const std::vector<double>& areas, doub
   out.feature_samples = total.feature_samples;
   out.facing_away = total.facing_away;
   out.facing_away_area = total.facing_away_area;
-  for (const double area : areas) out.area += area;
+  out.area = area;
   if (total.area_samples > 0) {
     out.rms = std::sqrt(total.sum_squared / static_cast<double>(total.area_samples));
     out.mean = total.sum / static_cast<double>(total.area_samples);
@@ -421,8 +421,8 @@ format::Result<MeshDistance> mesh_distance(MeshView a, MeshView b, const Distanc
   const double density_a = area_a > 0 ? samples / area_a : 0.0;
   const double density_b = area_b > 0 ? std::min(density_a, 4 * samples / area_b) : 0.0;
   const TriangleTree tree_a(a), tree_b(b);
-  result.a_to_b = one_sided(a, areas_a, density_a, tree_b, options.seed, 0);
-  result.b_to_a = one_sided(b, areas_b, density_b, tree_a, options.seed, 1);
+  result.a_to_b = one_sided(a, areas_a, area_a, density_a, tree_b, options.seed, 0);
+  result.b_to_a = one_sided(b, areas_b, area_b, density_b, tree_a, options.seed, 1);
   result.hausdorff = std::max(result.a_to_b.max, result.b_to_a.max);
   result.rms = std::sqrt((result.a_to_b.rms * result.a_to_b.rms +
                           result.b_to_a.rms * result.b_to_a.rms) / 2);

@@ -71,6 +71,7 @@ struct OneSidedDistance {
   // squared, and the whole mesh's area, for the share.
   std::size_t facing_away = 0;
   double facing_away_area = 0, area = 0;
+  double facing_away_pct() const { return area > 0 ? 100 * facing_away_area / area : 0; }
 };
 
 struct MeshDistance {
