@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "stream/core/canonical_order.h"
 #include "stream/core/edge_key_map.h"
 #include "stream/core/hash_mix.h"
 #include "stream/core/mesh_adjacency.h"
@@ -186,6 +187,69 @@ class PolygonMesher {
     return fetched_[slot];
   }
   std::uint32_t neighbor(std::uint32_t f, int i) const { return adj_.edge_neighbor[3 * std::size_t{f} + i]; }
+
+  // The order every canonical choice below uses (a chain's direction, a loop's start, a
+  // stretch's middle, the order patches are triangulated in, the output's vertex order): by
+  // position, x then y then z, and by id only between vertices at the same position. Choices by
+  // id would follow the input's numbering, and a renumbered copy of a mesh (shuffled, welded
+  // from a soup) would come out different.
+  bool before(std::uint32_t u, std::uint32_t v) {
+    if (u == v) return false;
+    const format::Vec3f a = pos(u), b = pos(v);
+    const auto ka = std::tuple(ordered_bits(a.x), ordered_bits(a.y), ordered_bits(a.z), u);
+    const auto kb = std::tuple(ordered_bits(b.x), ordered_bits(b.y), ordered_bits(b.z), v);
+    return ka < kb;
+  }
+  // The first of `vertices` in that order (the lowest index among repeats); n/a when empty.
+  std::size_t least(std::span<const std::uint32_t> vertices) {
+    std::size_t best = 0;
+    for (std::size_t k = 1; k < vertices.size(); ++k)
+      if (before(vertices[k], vertices[best])) best = k;
+    return best;
+  }
+  // Each vertex's place among `vertices` in the order of before().
+  std::vector<std::uint32_t> ranks(std::span<const std::uint32_t> vertices) {
+    std::vector<std::tuple<std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t>> key;
+    key.reserve(vertices.size());
+    for (std::uint32_t v : vertices) {
+      const format::Vec3f q = pos(v);
+      key.emplace_back(ordered_bits(q.x), ordered_bits(q.y), ordered_bits(q.z), v);
+    }
+    std::vector<std::uint32_t> order(vertices.size()), rank(vertices.size());
+    for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return key[a] < key[b]; });
+    for (std::uint32_t i = 0; i < order.size(); ++i) rank[order[i]] = i;
+    return rank;
+  }
+  // least() over a loop read out of core, whose positions need not stay cached: read in one
+  // batch into scratch (a loop with no stop has no vertex the rounds keep, bar its guards).
+  std::size_t least_on_loop(std::span<const std::uint32_t> loop) {
+    if (!source_) return least(loop);
+    std::vector<std::uint32_t> ids(loop.begin(), loop.end());
+    std::sort(ids.begin(), ids.end());
+    ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+    std::vector<format::Vec3f> at(ids.size());
+    source_->positions(ids, at);
+    auto key = [&](std::uint32_t v) {
+      const format::Vec3f p = at[std::lower_bound(ids.begin(), ids.end(), v) - ids.begin()];
+      return std::tuple(ordered_bits(p.x), ordered_bits(p.y), ordered_bits(p.z), v);
+    };
+    std::size_t best = 0;
+    for (std::size_t k = 1; k < loop.size(); ++k)
+      if (key(loop[k]) < key(loop[best])) best = k;
+    return best;
+  }
+  // Out of core: the positions of `ids` that are not cached yet, read in one batch into the cache.
+  void fetch(std::vector<std::uint32_t>& ids) {
+    if (!source_) return;
+    std::erase_if(ids, [&](std::uint32_t v) { return fetched_slot_.contains(v); });
+    std::sort(ids.begin(), ids.end());
+    ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+    const std::size_t first = fetched_.size();
+    fetched_.resize(first + ids.size());
+    source_->positions(ids, std::span(fetched_).subspan(first));
+    for (std::size_t i = 0; i < ids.size(); ++i) fetched_slot_.emplace(ids[i], static_cast<std::uint32_t>(first + i));
+  }
 
   std::size_t loop_count() const { return loop_patch_.size(); }
   // Loop l's vertices: in memory, or read from the loop source into buffer (until the next
@@ -375,8 +439,14 @@ class PolygonMesher {
       auto key() const { return std::tie(front, back, edges, second, hash); }
     };
     std::vector<Chain> chains;
-    std::vector<std::uint32_t> closed_loop_min;  // lowest id of each loop without a stop
+    std::vector<std::uint32_t> closed_loop_min;  // least vertex of each loop without a stop
     std::vector<std::uint32_t> guards;
+    if (source_) {  // the stops' positions decide the chains' directions: read them in one batch
+      std::vector<std::uint32_t> stops;
+      for (std::uint32_t v = 0; v < keep_.size(); ++v)
+        if (is_stop(v)) stops.push_back(v);
+      fetch(stops);
+    }
     for (std::size_t l = 0; l < loop_count(); ++l) {
       const std::span<const std::uint32_t> loop = loop_vertices(l, loop_buffer_);
       const std::size_t n = loop.size();
@@ -389,11 +459,11 @@ class PolygonMesher {
         }
       }
       if (first == n) {
-        // A closed loop with no corner: 3 vertices, spread from its lowest id, walking towards
-        // its lower-id neighbour (the same on both sides of the loop).
-        const auto low = std::min_element(loop.begin(), loop.end()) - loop.begin();
+        // A closed loop with no corner: 3 vertices, spread from its least vertex, walking
+        // towards its lesser neighbour (the same on both sides of the loop).
+        const auto low = static_cast<std::ptrdiff_t>(least_on_loop(loop));
         const std::uint32_t next = loop[(low + 1) % n], prev = loop[(low + n - 1) % n];
-        const std::ptrdiff_t step = next < prev ? 1 : -1;
+        const std::ptrdiff_t step = before(next, prev) ? 1 : -1;
         closed_loop_min.push_back(loop[low]);
         for (std::size_t j = 0; j < std::min<std::size_t>(n, 3); ++j) {
           const std::ptrdiff_t where = (low + step * static_cast<std::ptrdiff_t>(j * n / 3)) % static_cast<std::ptrdiff_t>(n);
@@ -413,7 +483,7 @@ class PolygonMesher {
         // Vertex i (0 .. edges) of the chain, read backwards from its end when reversed.
         auto at = [&](std::uint32_t i) { return loop[(start + (reversed ? edges - i : i)) % n]; };
         const std::uint32_t a = at(0), b = at(edges);
-        reversed = a > b || (a == b && edges > 2 && at(1) > at(edges - 1));
+        reversed = before(b, a) || (a == b && edges > 2 && before(at(edges - 1), at(1)));
         std::uint64_t hash = 0;
         for (std::uint32_t i = 0; i <= edges; ++i) hash = mix64(hash + at(i) + 0x9E3779B97F4A7C15ull);
         chains.push_back({at(0), at(edges), edges, at(1), hash, at(edges / 3), at(2 * edges / 3), at(edges / 2)});
@@ -486,7 +556,7 @@ class PolygonMesher {
     }
   }
 
-  // Keeps the middle vertex (by index, from the lower-id end) of every stretch of the loop
+  // Keeps the middle vertex (by index, from the lesser end) of every stretch of the loop
   // between two kept vertices that has inner vertices. The choice depends on the stretch alone,
   // whichever side it is read from. Returns whether anything was added.
   bool refine(std::span<const std::uint32_t> loop) {
@@ -500,9 +570,9 @@ class PolygonMesher {
       const std::size_t a = at[i], b = i + 1 < at.size() ? at[i + 1] : at[0] + n;
       const std::size_t m = b - a;  // edges in the stretch
       if (m < 2) continue;
-      // Walk from the end with the lower vertex id so both sides pick the same vertex.
+      // Walk from the lesser end so both sides pick the same vertex.
       const std::uint32_t va = loop[a % n], vb = loop[b % n];
-      const std::size_t mid = va <= vb ? a + m / 2 : b - m / 2;
+      const std::size_t mid = !before(vb, va) ? a + m / 2 : b - m / 2;
       chosen.push_back(loop[mid % n]);
     }
     for (std::uint32_t v : chosen) keep(v, Keep::kGuard);
@@ -561,9 +631,10 @@ class PolygonMesher {
         if (a == b || *edges_.find(edge_key(a, b)) > 2) failing_[p] = 1;
       }
     }
+    if (patch_order_.empty()) order_patches();
     if (source_) prefetch_positions();
     // Patches that keep their input triangles go first: their edges are fixed.
-    for (std::uint32_t p = 0; p < patch_count_; ++p) {
+    for (std::uint32_t p : patch_order_) {
       if (mode_[p] != PatchMode::kOriginal || !has_faces(p)) continue;
       for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
         const auto& t = tris_[patch_faces_[k]];
@@ -573,13 +644,13 @@ class PolygonMesher {
       }
     }
     // Then those built by collapses on their own faces, every loop vertex kept.
-    for (std::uint32_t p = 0; p < patch_count_; ++p) {
+    for (std::uint32_t p : patch_order_) {
       if (mode_[p] != PatchMode::kCollapsed) continue;
       const Collapse c = collapse_patch(p);
       if (c == Collapse::kFailed) failed.push_back(p);
       if (c == Collapse::kRetry) retry = true;
     }
-    for (std::uint32_t p = 0; p < patch_count_; ++p) {
+    for (std::uint32_t p : patch_order_) {
       if (mode_[p] == PatchMode::kOriginal || mode_[p] == PatchMode::kCollapsed ||
           (from_mesh_ ? patch_offset_[p] == patch_offset_[p + 1] : !patch_has_faces_[p]))
         continue;
@@ -589,6 +660,35 @@ class PolygonMesher {
         ++result_.mesh.planar_patches;
       }
     }
+  }
+
+  // The order patches are triangulated in, each against the edges made before it: by the least
+  // kept vertex on its loops and the one after it on that loop (the patch on the left, so two
+  // patches sharing that vertex differ there), as the first round's reduced loops give them.
+  // Patches with no loop go last, by id. Fixed for the later rounds.
+  void order_patches() {
+    if (source_) {
+      std::vector<std::uint32_t> ids(reduced_vertices_);
+      fetch(ids);
+    }
+    std::vector<std::array<std::uint32_t, 2>> key(patch_count_, {kNone, kNone});
+    for (std::size_t l = 0; l < loop_count(); ++l) {
+      const std::span<const std::uint32_t> r = reduced(l);
+      if (r.empty()) continue;
+      const std::size_t k = least(r);
+      const std::array<std::uint32_t, 2> here{r[k], r[(k + 1) % r.size()]};
+      std::array<std::uint32_t, 2>& best = key[loop_patch_[l]];
+      if (best[0] == kNone || before(here[0], best[0]) || (here[0] == best[0] && before(here[1], best[1]))) best = here;
+    }
+    patch_order_.resize(patch_count_);
+    for (std::uint32_t p = 0; p < patch_count_; ++p) patch_order_[p] = p;
+    std::sort(patch_order_.begin(), patch_order_.end(), [&](std::uint32_t x, std::uint32_t y) {
+      const auto& a = key[x];
+      const auto& b = key[y];
+      if ((a[0] == kNone) != (b[0] == kNone)) return b[0] == kNone;
+      if (a[0] == kNone || a == b) return x < y;
+      return a[0] != b[0] ? before(a[0], b[0]) : before(a[1], b[1]);
+    });
   }
 
   // triangulate_patch(p), or its result from the last round when that is provably what it
@@ -664,13 +764,7 @@ class PolygonMesher {
       for (std::uint32_t v : interior_of_patch_[p])
         if (!fetched_slot_.contains(v)) prefetch_ids_.push_back(v);
     }
-    std::sort(prefetch_ids_.begin(), prefetch_ids_.end());
-    prefetch_ids_.erase(std::unique(prefetch_ids_.begin(), prefetch_ids_.end()), prefetch_ids_.end());
-    const std::size_t first = fetched_.size();
-    fetched_.resize(first + prefetch_ids_.size());
-    source_->positions(prefetch_ids_, std::span(fetched_).subspan(first));
-    for (std::size_t i = 0; i < prefetch_ids_.size(); ++i)
-      fetched_slot_.emplace(prefetch_ids_[i], static_cast<std::uint32_t>(first + i));
+    fetch(prefetch_ids_);
   }
 
   // Loop l reduced to its kept vertices (this round's; empty for a patch keeping its faces).
@@ -692,15 +786,34 @@ class PolygonMesher {
       for (std::uint32_t v : tris_[patch_faces_[k]].v) vertices.push_back(v);
     std::sort(vertices.begin(), vertices.end());
     vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+    // Local ids in the order of before(), faces turned and sorted as finish() does: the
+    // collapses depend on the patch, not on the input's numbering.
+    {
+      const std::vector<std::uint32_t> rank = ranks(vertices);
+      std::vector<std::uint32_t> by_rank(vertices.size());
+      for (std::size_t i = 0; i < vertices.size(); ++i) by_rank[rank[i]] = vertices[i];
+      vertices = std::move(by_rank);
+    }
+    std::vector<std::uint32_t> sorted_ids(vertices);
+    std::sort(sorted_ids.begin(), sorted_ids.end());
+    std::vector<std::uint32_t> local_of(vertices.size());
+    for (std::size_t i = 0; i < vertices.size(); ++i)
+      local_of[std::lower_bound(sorted_ids.begin(), sorted_ids.end(), vertices[i]) - sorted_ids.begin()] = static_cast<std::uint32_t>(i);
     auto local = [&](std::uint32_t v) {
-      return static_cast<format::VertexIndex>(std::lower_bound(vertices.begin(), vertices.end(), v) - vertices.begin());
+      return static_cast<format::VertexIndex>(local_of[std::lower_bound(sorted_ids.begin(), sorted_ids.end(), v) - sorted_ids.begin()]);
     };
     Mesh sub;
     for (std::uint32_t v : vertices) sub.positions.push_back(pos(v));
     for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
       const auto& t = tris_[patch_faces_[k]];
-      sub.triangles.push_back({{local(t.v[0]), local(t.v[1]), local(t.v[2])}});
+      std::array<format::VertexIndex, 3> g{local(t.v[0]), local(t.v[1]), local(t.v[2])};
+      std::rotate(g.begin(), std::min_element(g.begin(), g.end()), g.end());
+      sub.triangles.push_back({{g[0], g[1], g[2]}});
     }
+    std::sort(sub.triangles.begin(), sub.triangles.end(),
+              [](const format::Triangle& a, const format::Triangle& b) {
+                return std::tie(a.v[0], a.v[1], a.v[2]) < std::tie(b.v[0], b.v[1], b.v[2]);
+              });
     std::vector<VertexRole> roles(vertices.size(), VertexRole::kNone);
     std::vector<std::uint8_t> on_loop(vertices.size(), 0);
     for (std::uint32_t l = patch_loop_offset_[p]; l < patch_loop_offset_[p + 1]; ++l) {
@@ -813,33 +926,53 @@ class PolygonMesher {
     if (lb == le) return false;  // a closed patch with no border: nothing to build it from
     if (!(normal[0] != 0 || normal[1] != 0 || normal[2] != 0) || !std::isfinite(normal[0] + normal[1] + normal[2]))
       return false;
-    local_to_vertex_.clear();
-    local_points_.clear();
-    local_index_.reset();
+    // Each loop read from its least vertex, the outer loop (the largest area about the normal)
+    // first and the holes by their least vertex, local ids in that order: the triangulation is
+    // then the same whichever vertex a loop was walked from and however the input numbers them.
     const std::size_t loop_count = le - lb;
-    if (local_loops_.size() < loop_count) local_loops_.resize(loop_count);
+    loop_start_.clear();
     loop_area_.clear();
+    loop_order_.clear();
     for (std::uint32_t l = lb; l < le; ++l) {
-      std::vector<std::uint32_t>& local = local_loops_[l - lb];
-      local.clear();
-      double newell[3] = {0, 0, 0};
       const std::span<const std::uint32_t> r = reduced(l);
-      for (std::size_t k = 0; k < r.size(); ++k) {
-        local.push_back(local_id(r[k]));
-        const format::Vec3f a = pos(r[k]);
-        const format::Vec3f b = pos(r[(k + 1) % r.size()]);
+      const std::size_t start = least(r);
+      double newell[3] = {0, 0, 0};
+      for (std::size_t i = 0; i < r.size(); ++i) {
+        const format::Vec3f a = pos(r[(start + i) % r.size()]);
+        const format::Vec3f b = pos(r[(start + i + 1) % r.size()]);
         newell[0] += double(a.y) * b.z - double(a.z) * b.y;
         newell[1] += double(a.z) * b.x - double(a.x) * b.z;
         newell[2] += double(a.x) * b.y - double(a.y) * b.x;
       }
+      loop_start_.push_back(static_cast<std::uint32_t>(start));
       loop_area_.push_back(newell[0] * normal[0] + newell[1] * normal[1] + newell[2] * normal[2]);
+      loop_order_.push_back(l - lb);
     }
     const std::size_t outer = std::max_element(loop_area_.begin(), loop_area_.end()) - loop_area_.begin();
     if (!(loop_area_[outer] > 0)) return false;
-    std::swap(local_loops_[0], local_loops_[outer]);
+    std::swap(loop_order_[0], loop_order_[outer]);
+    // (Every loop has 3 kept vertices or more here: shorter ones mark the patch failing.)
+    auto first_of = [&](std::uint32_t i) { return reduced(lb + i)[loop_start_[i]]; };
+    std::sort(loop_order_.begin() + 1, loop_order_.end(), [&](std::uint32_t x, std::uint32_t y) {
+      const std::uint32_t a = first_of(x), b = first_of(y);
+      return a != b ? before(a, b) : x < y;
+    });
+    local_to_vertex_.clear();
+    local_points_.clear();
+    local_index_.reset();
+    if (local_loops_.size() < loop_count) local_loops_.resize(loop_count);
+    for (std::size_t i = 0; i < loop_count; ++i) {
+      std::vector<std::uint32_t>& local = local_loops_[i];
+      local.clear();
+      const std::span<const std::uint32_t> r = reduced(lb + loop_order_[i]);
+      const std::size_t start = loop_start_[loop_order_[i]];
+      for (std::size_t k = 0; k < r.size(); ++k) local.push_back(local_id(r[(start + k) % r.size()]));
+    }
     const std::size_t loop_points = local_points_.size();
-    for (std::uint32_t v : interior_of_patch_[p]) local_id(v);
-    if (local_points_.size() != loop_points + interior_of_patch_[p].size()) return false;  // a sample on a loop twice
+    interior_.assign(interior_of_patch_[p].begin(), interior_of_patch_[p].end());
+    std::sort(interior_.begin(), interior_.end(), [&](std::uint32_t a, std::uint32_t b) { return before(a, b); });
+    for (std::uint32_t v : interior_) local_id(v);
+    if (local_points_.size() != loop_points + interior_.size()) return false;  // a sample on a loop twice
     project_to_plane(local_points_, normal, local_points_[local_loops_[0][0]], plane_points_);
     const std::span<const std::vector<std::uint32_t>> loops = std::span(local_loops_).first(loop_count);
     if (!triangulate_polygon_2d(std::span(plane_points_).first(loop_points), loops, forbidden_, workspace_, tri_).is_ok())
@@ -897,8 +1030,8 @@ class PolygonMesher {
     last_queries_.release();
     release(patch_tris_, last_patch_tris_, records_, last_records_, reduced_vertices_, last_reduced_vertices_,
             reduced_offset_, last_reduced_offset_, failing_, prefetch_ids_, local_to_vertex_, local_points_, local_loops_,
-            loop_area_, plane_points_, tri_, loop_buffer_, loop_offset_, loop_patch_, patch_loop_offset_, degree_,
-            interior_of_patch_, patch_area_, refinements_, mode_);
+            loop_area_, loop_start_, loop_order_, interior_, plane_points_, tri_, loop_buffer_, loop_offset_, loop_patch_, patch_loop_offset_, degree_,
+            interior_of_patch_, patch_area_, refinements_, patch_order_, mode_);
     if (!from_mesh_) release_free_memory();
     auto fail = [](const std::string& what) {
       return format::Status::error(format::Code::kProcessing, "polygon mesher", what);
@@ -926,17 +1059,21 @@ class PolygonMesher {
     }
     std::sort(sorted.begin(), sorted.end());
     if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()) return fail("a triangle made twice");
-    // Output vertices: those used, in input id order.
-    std::vector<std::uint32_t> used;
-    used.reserve(3 * out_tris_.size());
-    for (const auto& t : out_tris_) used.insert(used.end(), t.begin(), t.end());
-    std::sort(used.begin(), used.end());
-    used.erase(std::unique(used.begin(), used.end()), used.end());
+    // Output vertices: those used, in the order of before(); faces turned to start at their
+    // first vertex in that order, then sorted. Phase two then gets the same mesh whatever the
+    // input's numbering and the order the patches were made in.
+    std::vector<std::uint32_t> by_id;
+    by_id.reserve(3 * out_tris_.size());
+    for (const auto& t : out_tris_) by_id.insert(by_id.end(), t.begin(), t.end());
+    std::sort(by_id.begin(), by_id.end());
+    by_id.erase(std::unique(by_id.begin(), by_id.end()), by_id.end());
+    std::vector<std::uint32_t> rank = ranks(by_id);  // by_id[i]'s index in the output
+    std::vector<std::uint32_t> used(by_id.size());
+    for (std::size_t i = 0; i < by_id.size(); ++i) used[rank[i]] = by_id[i];
     Mesh mesh;
     std::vector<VertexRole> roles;
     mesh.positions.reserve(used.size());
     roles.reserve(used.size());
-    mesh.triangles.reserve(out_tris_.size());
     for (std::uint32_t v : used) {
       mesh.positions.push_back(pos(v));
       roles.push_back(keep_[v] == Keep::kSample   ? VertexRole::kSample
@@ -944,11 +1081,28 @@ class PolygonMesher {
                                                   : VertexRole::kGuard);
     }
     auto index_of = [&](std::uint32_t v) {
-      return static_cast<format::VertexIndex>(std::lower_bound(used.begin(), used.end(), v) - used.begin());
+      return static_cast<format::VertexIndex>(rank[std::lower_bound(by_id.begin(), by_id.end(), v) - by_id.begin()]);
     };
-    for (const auto& t : out_tris_) mesh.triangles.push_back({{index_of(t[0]), index_of(t[1]), index_of(t[2])}});
+    std::vector<std::pair<std::array<format::VertexIndex, 3>, std::uint32_t>> faces;  // and the patch
+    faces.reserve(out_tris_.size());
+    for (std::size_t f = 0; f < out_tris_.size(); ++f) {
+      const auto& t = out_tris_[f];
+      std::array<format::VertexIndex, 3> g{index_of(t[0]), index_of(t[1]), index_of(t[2])};
+      std::rotate(g.begin(), std::min_element(g.begin(), g.end()), g.end());
+      faces.emplace_back(g, out_patch_[f]);
+    }
+    release(out_tris_, out_patch_, rank, by_id);
+    std::sort(faces.begin(), faces.end());
+    mesh.triangles.reserve(faces.size());
+    std::vector<std::uint32_t> face_patch;
+    face_patch.reserve(faces.size());
+    for (const auto& [g, patch] : faces) {
+      mesh.triangles.push_back({{g[0], g[1], g[2]}});
+      face_patch.push_back(patch);
+    }
+    release(faces);
     std::vector<format::Vec3f> plane(plane_.begin(), plane_.end());
-    PatchMesherInput phase_two{mesh.view(), out_patch_, roles, plane, true};
+    PatchMesherInput phase_two{mesh.view(), face_patch, roles, plane, true};
     auto collapsed = mesh_patches_by_collapse(phase_two);
     if (!collapsed) return collapsed.status();
     if (collapsed->skipped_input_faces > 0) return fail("a vertex of the output would not be manifold");
@@ -1001,6 +1155,7 @@ class PolygonMesher {
   std::vector<std::vector<std::uint32_t>> interior_of_patch_;
   std::vector<PatchMode> mode_;
   std::vector<std::uint8_t> refinements_;
+  std::vector<std::uint32_t> patch_order_;  // order_patches()
   // Every edge made so far this round (value: on how many reduced loop sides it lies).
   EdgeKeyMap edges_;
   std::vector<std::uint32_t> reduced_offset_, reduced_vertices_;  // per loop: its kept vertices
@@ -1011,6 +1166,7 @@ class PolygonMesher {
   std::vector<PolygonPoint3> local_points_;
   std::vector<std::vector<std::uint32_t>> local_loops_;
   std::vector<double> loop_area_;
+  std::vector<std::uint32_t> loop_start_, loop_order_, interior_;
   std::vector<PolygonPoint2> plane_points_;
   std::vector<PolygonTriangle> tri_;
   PolygonWorkspace workspace_;

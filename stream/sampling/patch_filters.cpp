@@ -1,6 +1,7 @@
 // Patch-level steps of the sampler (paper §4, "Untriangulatable Patch Filtering" Fig. 6 and
 // "Noisy Sample Filtering" Figs. 9-10): the steps that need a traversal beyond the 1-ring.
 #include "stream/sampling/patch_filters.h"
+#include "stream/core/canonical_order.h"
 #include "stream/core/disjoint_sets.h"
 
 #include <algorithm>
@@ -10,8 +11,44 @@
 
 namespace gaussmesh::stream {
 
+void face_order_keys(format::MeshView mesh, std::vector<std::uint64_t>& keys) {
+  keys.resize(mesh.triangles.size());
+  for (std::size_t f = 0; f < keys.size(); ++f) {
+    const auto& t = mesh.triangles[f];
+    keys[f] = face_order_key(mesh.positions[t.v[0]], mesh.positions[t.v[1]], mesh.positions[t.v[2]]);
+  }
+}
+
+namespace {
+
+// Patches renumbered in order of their first face by (face_key, face id).
+void number_by_key(std::span<const std::uint64_t> face_key, Patches& p, std::vector<std::uint32_t>& scratch) {
+  const std::size_t np = p.patch_label.size();
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> first(np, {~std::uint64_t{0}, ~std::uint32_t{0}});
+  for (std::uint32_t f = 0; f < p.face_patch.size(); ++f) {
+    auto& best = first[p.face_patch[f]];
+    best = std::min(best, std::pair(face_key[f], f));
+  }
+  std::vector<std::uint32_t>& order = scratch;
+  order.resize(np);
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return first[a] < first[b]; });
+  std::vector<std::uint32_t> rank(np), label(np), size(np);
+  for (std::uint32_t k = 0; k < np; ++k) {
+    rank[order[k]] = k;
+    label[k] = p.patch_label[order[k]];
+    size[k] = p.patch_size[order[k]];
+  }
+  for (std::uint32_t& q : p.face_patch) q = rank[q];
+  p.patch_label.swap(label);
+  p.patch_size.swap(size);
+}
+
+}  // namespace
+
 void find_patches(const MeshAdjacency& adjacency, const std::vector<std::uint32_t>& labels,
-                  const std::vector<std::uint8_t>& feature, Patches& p, std::vector<std::uint32_t>& stack) {
+                  const std::vector<std::uint8_t>& feature, Patches& p, std::vector<std::uint32_t>& stack,
+                  std::span<const std::uint64_t> face_key) {
   const std::size_t nf = labels.size();
   p.face_patch.assign(nf, kNoPatch);
   p.patch_label.clear();
@@ -46,13 +83,14 @@ void find_patches(const MeshAdjacency& adjacency, const std::vector<std::uint32_
     }
     p.patch_size.push_back(size);
   }
+  if (!face_key.empty()) number_by_key(face_key, p, stack);
 }
 
 Patches find_patches(const MeshAdjacency& adjacency, const std::vector<std::uint32_t>& labels,
-                     const std::vector<std::uint8_t>& feature) {
+                     const std::vector<std::uint8_t>& feature, std::span<const std::uint64_t> face_key) {
   Patches p;
   std::vector<std::uint32_t> stack;
-  find_patches(adjacency, labels, feature, p, stack);
+  find_patches(adjacency, labels, feature, p, stack, face_key);
   return p;
 }
 

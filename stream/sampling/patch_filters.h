@@ -23,13 +23,19 @@ struct Patches {
   std::vector<std::uint32_t> patch_size;   // faces per patch
 };
 
-// Connected components of faces across manifold edges whose feature bit is clear, numbered in
-// order of their lowest face. Collapsed faces are patches of their own.
+// Connected components of faces across manifold edges whose feature bit is clear. Collapsed
+// faces are patches of their own. Numbered in order of their first face, faces ordered by
+// (face_key[f], f) — face_order_keys gives the keys that make the numbering, and so every
+// choice made in patch order, independent of the input's order (stream/core/canonical_order.h) —
+// or by id alone when face_key is empty.
 Patches find_patches(const MeshAdjacency& adjacency, const std::vector<std::uint32_t>& labels,
-                     const std::vector<std::uint8_t>& feature);
+                     const std::vector<std::uint8_t>& feature, std::span<const std::uint64_t> face_key = {});
 // The same into `out`, reusing its arrays and the traversal stack (no allocation when warm).
 void find_patches(const MeshAdjacency& adjacency, const std::vector<std::uint32_t>& labels,
-                  const std::vector<std::uint8_t>& feature, Patches& out, std::vector<std::uint32_t>& stack);
+                  const std::vector<std::uint8_t>& feature, Patches& out, std::vector<std::uint32_t>& stack,
+                  std::span<const std::uint64_t> face_key = {});
+// face_order_key of every face of mesh, into keys.
+void face_order_keys(format::MeshView mesh, std::vector<std::uint64_t>& keys);
 
 // Per patch: kNoPatch if its boundary carries >= 3 candidates (is_candidate[v] != 0) or it has
 // no neighbour across a manifold feature edge; otherwise the neighbour it should join: the one

@@ -961,7 +961,8 @@ format::Status sample_mesh(format::MeshView mesh, const GaussSphere& gauss, cons
     ws.candidate_record.push_back(static_cast<std::uint32_t>(k));
   }
   Patches& patches = ws.patches;
-  find_patches(adj, labels, feature, patches, ws.stack);
+  face_order_keys(mesh, ws.face_key);
+  find_patches(adj, labels, feature, patches, ws.stack, ws.face_key);
   const double built_cpu = thread_cpu_seconds();
   ws.patch_seconds.find_patches = built_cpu - stage_cpu;
   build_patch_graph(mesh, adj, patches, feature, ws.candidate_vertex, ws.graph_input, ws.graph_scratch);

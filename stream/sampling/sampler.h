@@ -189,6 +189,7 @@ struct SamplerWorkspace {
   std::vector<std::uint8_t> is_candidate;
   Patches patches;  // of the first find_patches (before the merge)
   std::vector<std::uint32_t> stack, touched, candidate_vertex, candidate_record;
+  std::vector<std::uint64_t> face_key;  // face_order_keys: patches are numbered by them
   PatchGraphInput graph_input;
   PatchGraphBuildScratch graph_scratch;
   PatchMergeGraph graph;

@@ -5,6 +5,7 @@
 #include <numeric>
 #include <string>
 
+#include "stream/core/canonical_order.h"
 #include "stream/core/process_memory.h"
 #include "stream/stitch/piece_joins.h"
 
@@ -74,13 +75,22 @@ void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const
       PieceRecord piece;
       piece.piece = id(static_cast<std::uint32_t>(out.pieces.size() - first));
       piece.label = labels[f];
-      piece.min_face = chunk.global_face[f];  // faces are in ascending global id
+      piece.min_face = chunk.global_face[f];
+      piece.min_key = ~std::uint64_t{0};
       piece_of[f] = static_cast<std::uint32_t>(out.pieces.size() - first);
       out.pieces.push_back(piece);
     } else {
       piece_of[f] = piece_of[r];
     }
-    ++out.pieces[first + piece_of[f]].faces;
+    PieceRecord& piece = out.pieces[first + piece_of[f]];
+    ++piece.faces;
+    // The piece's first face by (key, global id): faces come in ascending global id.
+    const auto& t = chunk.triangles[f].v;
+    const std::uint64_t key = face_order_key(chunk.positions[t[0]], chunk.positions[t[1]], chunk.positions[t[2]]);
+    if (key < piece.min_key) {
+      piece.min_key = key;
+      piece.min_face = chunk.global_face[f];
+    }
   }
   // Candidates: owned vertices with >= 3 feature edges, counted as evaluate_vertex counts them.
   const std::uint32_t* corners = adjacency.vertex_corners.data();
@@ -202,9 +212,10 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
   // is its chunk's first plus its index (no sort, no id table). The chunks' copies are freed.
   StitchedPatches out;
   struct Piece {
-    std::uint64_t min_face;  // then, on a root: the patch's lowest face
-    std::uint64_t faces;     // then, on a root: the patch's faces
+    std::uint64_t min_key, min_face;  // then, on a root: the patch's first face by (key, id)
+    std::uint64_t faces;              // then, on a root: the patch's faces
     std::uint32_t label;
+    auto first() const { return std::pair(min_key, min_face); }
   };
   std::vector<Piece> pieces;
   // Feature edges between pieces, (a, b, edges) with a < b; summed up now and then so that
@@ -255,7 +266,7 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
     for (std::size_t i = 0; i < c.pieces.size(); ++i) {
       const PieceRecord& r = c.pieces[i];
       if (r.piece != (PieceId{chunk} << 32 | i)) return damaged("a chunk's piece ids are not its indices");
-      pieces.push_back({r.min_face, r.faces, r.label});
+      pieces.push_back({r.min_key, r.min_face, r.faces, r.label});
     }
     for (const auto* list : {&c.adjacency, &spilled_adjacency}) {
       for (const PieceAdjacencyRecord& r : *list) {
@@ -295,21 +306,25 @@ format::Result<StitchedPatches> stitch_pieces(std::vector<ChunkPieces>& chunks, 
       },
       threads));
   release_free_memory();  // the buckets the join read and sorted
-  // Patches, numbered by lowest face: each root gathers its pieces' lowest face and size.
+  // Patches, numbered by their first face by (key, id), as find_patches numbers them: each root
+  // gathers its pieces' first face and size.
   for (std::uint32_t i = 0; i < np; ++i) {
     const std::uint32_t r = find(i);
     if (r == i) continue;
-    pieces[r].min_face = std::min(pieces[r].min_face, pieces[i].min_face);
+    if (pieces[i].first() < pieces[r].first()) {
+      pieces[r].min_key = pieces[i].min_key;
+      pieces[r].min_face = pieces[i].min_face;
+    }
     pieces[r].faces += pieces[i].faces;
   }
   std::vector<std::uint32_t> roots;
   for (std::uint32_t i = 0; i < np; ++i)
     if (parent[i] == i) roots.push_back(i);
-  std::sort(roots.begin(), roots.end(), [&](std::uint32_t a, std::uint32_t b) { return pieces[a].min_face < pieces[b].min_face; });
+  std::sort(roots.begin(), roots.end(), [&](std::uint32_t a, std::uint32_t b) { return pieces[a].first() < pieces[b].first(); });
   out.patches.reserve(roots.size());
   for (std::size_t k = 0; k < roots.size(); ++k) {
     const Piece& r = pieces[roots[k]];
-    out.patches.push_back({r.min_face, r.faces, r.label});
+    out.patches.push_back({r.min_key, r.min_face, r.faces, r.label});
     out.piece_patch[roots[k]] = static_cast<std::uint32_t>(k);
   }
   std::vector<std::uint32_t>().swap(roots);

@@ -36,7 +36,10 @@ struct PieceRecord {
   PieceId piece = 0;
   std::uint32_t label = 0;     // Gaussian triangle, or kNoLabel
   std::uint64_t faces = 0;     // owned faces in the piece
-  std::uint64_t min_face = 0;  // lowest global face id
+  // The piece's first face in the order of (face_order_key, global id), and its key: patches
+  // are numbered by it (find_patches' numbering).
+  std::uint64_t min_face = 0;
+  std::uint64_t min_key = 0;
   // Vector area (its faces' cross products summed in face order): set by write_loop_chunk for
   // the loops pass, zero otherwise.
   std::array<double, 3> area = {0, 0, 0};
@@ -145,16 +148,16 @@ format::Status chunk_face_pieces(const Partition& partition, const ChunkMesh& ch
                                  const std::vector<std::uint32_t>& piece_index, const PieceJoinFiles& joins,
                                  std::vector<PieceId>& pieces);
 
-// A patch of the stitched graph; patches are numbered by lowest face, as find_patches numbers
-// them.
+// A patch of the stitched graph; patches are numbered by their first face by (key, id), as
+// find_patches numbers them given face_order_keys.
 struct StitchedPatch {
-  std::uint64_t min_face = 0;
+  std::uint64_t min_key = 0, min_face = 0;
   std::uint64_t faces = 0;
   std::uint32_t label = 0;
 };
 
 struct StitchedPatches {
-  std::vector<StitchedPatch> patches;  // ascending min_face
+  std::vector<StitchedPatch> patches;  // ascending (min_key, min_face)
   // (p, q, shared manifold feature edges), p < q, sorted.
   struct Adjacent {
     std::uint32_t p = 0, q = 0;

@@ -250,6 +250,7 @@ Status PieceJoinFiles::read_pieces(std::uint32_t chunk, std::vector<PieceRecord>
                                     r.faces = get_u64(at + 16);
                                     std::memcpy(&r.label, at + 24, 4);
                                     std::memcpy(r.area.data(), at + 28, 24);
+                                    r.min_key = get_u64(at + 52);
                                     pieces.push_back(r);
                                   }));
   return {};
@@ -373,6 +374,7 @@ Status PieceJoinFiles::spill(std::uint32_t chunk, ChunkPieces& pieces) {
                                  put_u64(at + 16, r.faces);
                                  std::memcpy(at + 24, &r.label, 4);
                                  std::memcpy(at + 28, r.area.data(), 24);
+                                 put_u64(at + 52, r.min_key);
                                });
     GM_RETURN_IF_ERROR(stored(Part::kPieces, piece_entries_, pieces.pieces.size(), segment));
   }

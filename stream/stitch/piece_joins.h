@@ -44,12 +44,12 @@ inline constexpr std::uint32_t kStarRecordBytes = 24;
 // (the chunk's star file holds them candidate after candidate).
 inline constexpr std::uint32_t kCandidateRecordKind = 0x44434D47u;
 inline constexpr std::uint32_t kCandidateRecordBytes = 8;
-// A chunk's pieces ("GMPC": u64 piece id, u64 lowest face, u64 faces, u32 label, 3 × f64 vector
+// A chunk's pieces ("GMPC": u64 piece id, u64 first face, u64 faces, u32 label, 3 × f64 vector
 // area — zero unless the sample pass wrote a loop chunk, for which the loops pass reads the pieces
-// again) and its
+// again —, u64 the first face's key; PieceRecord) and its
 // manifold feature edges between two of its pieces ("GMPA": u64 piece a, u64 piece b, u64 edges).
 inline constexpr std::uint32_t kPieceRecordKind = 0x43504D47u;
-inline constexpr std::uint32_t kPieceRecordBytes = 52;
+inline constexpr std::uint32_t kPieceRecordBytes = 60;
 inline constexpr std::uint32_t kPieceAdjacencyRecordKind = 0x41504D47u;
 inline constexpr std::uint32_t kPieceAdjacencyRecordBytes = 24;
 // The piece of each owned face of a chunk, in the chunk's face order ("GMFP": u32 index of the

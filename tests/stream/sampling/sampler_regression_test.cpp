@@ -619,7 +619,9 @@ SamplingResult mesh_round_sample(const Mesh& m, const GaussSphere& g, const Samp
     res.stats.exact_samples += r.is_exact_sample;
     is_candidate[v] = r.is_candidate;
   }
-  Patches p = find_patches(a, labels, feature);
+  std::vector<std::uint64_t> keys;
+  face_order_keys(m.view(), keys);
+  Patches p = find_patches(a, labels, feature, keys);
   for (int round = 0; round < kMaxMergeRounds; ++round) {
     const std::vector<std::uint32_t> plan = plan_untriangulatable_merges(m.view(), a, p, feature, is_candidate);
     const auto merging =
@@ -664,7 +666,7 @@ SamplingResult mesh_round_sample(const Mesh& m, const GaussSphere& g, const Samp
         }
       }
     }
-    p = find_patches(a, labels, feature);
+    p = find_patches(a, labels, feature, keys);
   }
   res.face_label = labels;
   res.face_feature = feature;

@@ -34,14 +34,19 @@ InCore in_core_patches(const Mesh& mesh, const GaussSphere& gauss, const Sampler
   const FaceNormals normals = compute_face_normals(mesh.view(), adj, options.smooth_iterations);
   const auto labels = compute_face_labels(normals, gauss);
   const auto feature = compute_feature_edges(adj, labels);
-  const Patches p = find_patches(adj, labels, feature);
+  std::vector<std::uint64_t> keys;
+  face_order_keys(mesh.view(), keys);
+  const Patches p = find_patches(adj, labels, feature, keys);
   InCore out;
   out.face_patch = p.face_patch;
   out.patches.resize(p.patch_label.size());
-  for (std::size_t k = 0; k < p.patch_label.size(); ++k) out.patches[k] = {~std::uint64_t{0}, 0, p.patch_label[k]};
+  for (std::size_t k = 0; k < p.patch_label.size(); ++k) out.patches[k] = {~std::uint64_t{0}, 0, 0, p.patch_label[k]};
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
     StitchedPatch& s = out.patches[p.face_patch[f]];
-    s.min_face = std::min<std::uint64_t>(s.min_face, f);
+    if (keys[f] < s.min_key) {  // the first face by (key, id): faces in ascending id
+      s.min_key = keys[f];
+      s.min_face = f;
+    }
     ++s.faces;
     for (int i = 0; i < 3; ++i) {
       const std::uint32_t g = adj.edge_neighbor[3 * f + i];
@@ -131,6 +136,7 @@ void expect_stitch_equals_in_core(const std::string& path, std::uint32_t smooth,
   ASSERT_EQ(stitched->patches.size(), want.patches.size());
   for (std::size_t k = 0; k < want.patches.size(); ++k) {
     EXPECT_EQ(stitched->patches[k].min_face, want.patches[k].min_face) << "patch " << k;
+    EXPECT_EQ(stitched->patches[k].min_key, want.patches[k].min_key) << "patch " << k;
     EXPECT_EQ(stitched->patches[k].faces, want.patches[k].faces) << "patch " << k;
     EXPECT_EQ(stitched->patches[k].label, want.patches[k].label) << "patch " << k;
   }

@@ -364,7 +364,7 @@ TEST(PieceJoins, StarsComeBackAsSpilledAndDamageIsBadInput) {
 TEST(PieceJoins, PiecesAndTheirAdjacencyComeBackAsSpilled) {
   testing::ScratchDir dir;
   ChunkPieces chunk;
-  chunk.pieces = {{PieceId{1} << 32, 7, 120, 1ull << 35}, {PieceId{1} << 32 | 1, 0xFFFFFFFFu, 3, 9}};
+  chunk.pieces = {{PieceId{1} << 32, 7, 120, 1ull << 35, 0xFEDCBA9876543210ull}, {PieceId{1} << 32 | 1, 0xFFFFFFFFu, 3, 9}};
   chunk.adjacency = {{PieceId{1} << 32, PieceId{1} << 32 | 1, 4}};
   auto joins = PieceJoinFiles::create(dir.path().string(), 2, 1);
   ASSERT_TRUE(joins.is_ok());
@@ -382,6 +382,7 @@ TEST(PieceJoins, PiecesAndTheirAdjacencyComeBackAsSpilled) {
   EXPECT_EQ(pieces[0].label, 7u);
   EXPECT_EQ(pieces[0].faces, 120u);
   EXPECT_EQ(pieces[0].min_face, 1ull << 35);
+  EXPECT_EQ(pieces[0].min_key, 0xFEDCBA9876543210ull);
   EXPECT_EQ(pieces[1].label, 0xFFFFFFFFu);
   ASSERT_EQ(adjacency.size(), 1u);
   EXPECT_EQ(adjacency[0].b, PieceId{1} << 32 | 1);
