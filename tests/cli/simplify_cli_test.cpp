@@ -188,7 +188,7 @@ TEST(SimplifyCli, AFullTemporaryDiskAtAnyStepIsExitFourAndLeavesNothing) {
   // An out-of-core run with --tmp on a tmpfs too small for it, at sizes from where the
   // partition's first spill fails up to the first size that holds the whole run: every failing
   // run exits 4 with one line naming the file it could not write, leaves no temporary file and
-  // no output. The fine steps near the top reach the stitch's own files (positions, loops, ids).
+  // no output. The fine steps below the top reach the stitch's own files (positions, loops, ids).
   if (::geteuid() != 0) GTEST_SKIP() << "not root: cannot mount a small tmpfs";
   ScratchDir dir;
   const std::string mount_point = dir.file("small");
@@ -224,12 +224,17 @@ TEST(SimplifyCli, AFullTemporaryDiskAtAnyStepIsExitFourAndLeavesNothing) {
     if (r == 1) top = kb;
   }
   ASSERT_GT(top, 128) << "the run fits in 128 KiB: nothing was tested";
-  for (int kb = std::max(128, top - 192); kb < top; kb += 4) run_at(kb);
+  // Then down from there a page at a time until each of the stitch's last files has failed (it
+  // writes them last, so they fail just below the top), at most 1 MiB down.
+  const char* const last_files[] = {"loop-positions.bin", "loop-vertices.bin", "loop-ids.bin"};
+  auto all_failed = [&] {
+    return std::all_of(std::begin(last_files), std::end(last_files), [&](const char* f) { return failed_files.count(f) > 0; });
+  };
+  for (int kb = top - 4; kb >= std::max(128, top - 1024) && !all_failed(); kb -= 4) run_at(kb);
   std::string seen;
   for (const auto& f : failed_files) seen += f + " ";
   std::printf("holds at %d KiB; failures in %s\n", top, seen.c_str());
-  for (const char* f : {"loop-positions.bin", "loop-vertices.bin", "loop-ids.bin"})
-    EXPECT_TRUE(failed_files.count(f)) << f << " never failed; failures in " << seen;
+  for (const char* f : last_files) EXPECT_TRUE(failed_files.count(f)) << f << " never failed; failures in " << seen;
 }
 
 TEST(SimplifyCli, OutOfCoreGivesTheInCoreBytesFromFilesAndPipes) {

@@ -22,6 +22,7 @@
 
 #include "stream/core/exact_predicates.h"
 #include "stream/core/mesh_adjacency.h"
+#include "stream/core/canonical_order.h"
 #include "stream/sampling/patch_filters.h"
 #include "stream/sampling/sampler.h"
 #include "tests/support/shapes.h"
@@ -405,7 +406,7 @@ std::vector<VertexRecord> ref_vertices(const Mesh& m, const MeshAdjacency& a, co
 // ---- Reference patches and merge plan -------------------------------------------------------
 
 Patches ref_patches(const MeshAdjacency& a, const std::vector<std::uint32_t>& labels,
-                    const std::vector<std::uint8_t>& feature) {
+                    const std::vector<std::uint8_t>& feature, const Mesh* keyed = nullptr) {
   const std::size_t nf = labels.size();
   Patches p;
   p.face_patch.assign(nf, kNoPatch);
@@ -427,7 +428,25 @@ Patches ref_patches(const MeshAdjacency& a, const std::vector<std::uint32_t>& la
     }
     p.patch_size.push_back(static_cast<std::uint32_t>(queue.size()));
   }
-  return p;
+  if (!keyed) return p;
+  // Renumbered by each patch's first face in the order of (face_order_key, id).
+  std::map<std::pair<std::uint64_t, std::uint32_t>, std::uint32_t> first;  // -> patch
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> least(p.patch_label.size(), {~0ull, ~0u});
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    const auto& t = keyed->triangles[f].v;
+    const auto key = std::pair(face_order_key(keyed->positions[t[0]], keyed->positions[t[1]], keyed->positions[t[2]]), f);
+    least[p.face_patch[f]] = std::min(least[p.face_patch[f]], key);
+  }
+  for (std::uint32_t q = 0; q < least.size(); ++q) first[least[q]] = q;
+  std::vector<std::uint32_t> renamed(least.size());
+  Patches out;
+  for (const auto& [key, q] : first) {
+    renamed[q] = static_cast<std::uint32_t>(out.patch_label.size());
+    out.patch_label.push_back(p.patch_label[q]);
+    out.patch_size.push_back(p.patch_size[q]);
+  }
+  for (std::uint32_t q : p.face_patch) out.face_patch.push_back(renamed[q]);
+  return out;
 }
 
 std::vector<std::uint32_t> ref_plan(const Mesh& m, const MeshAdjacency& a, const Patches& p,
@@ -487,7 +506,7 @@ SamplingResult ref_sample(const Mesh& m, const GaussSphere& g, const SamplerOpti
     return c;
   };
   std::vector<std::uint8_t> is_candidate = candidate_flags();
-  Patches p = ref_patches(a, labels, feature);
+  Patches p = ref_patches(a, labels, feature, &m);
   for (int round = 0; round < 64; ++round) {
     const std::vector<std::uint32_t> plan = ref_plan(m, a, p, feature, is_candidate);
     std::set<std::uint32_t> touched;
@@ -524,7 +543,7 @@ SamplingResult ref_sample(const Mesh& m, const GaussSphere& g, const SamplerOpti
       }
     }
     is_candidate = candidate_flags();
-    p = ref_patches(a, labels, feature);
+    p = ref_patches(a, labels, feature, &m);
   }
   res.face_label = labels;
   res.face_feature = feature;
