@@ -27,7 +27,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <functional>
+#include <limits>
 #include <map>
+#include <queue>
 #include <string>
 #include <utility>
 
@@ -290,7 +293,9 @@ class Mesher {
   }
 
   // Tries every allowed target of vh, shortest edge first.
-  bool try_remove(VH vh, bool along_features_only) {
+  bool try_remove(VH vh, bool along_features_only) { return try_remove_to(vh, along_features_only).is_valid(); }
+  // The same, returning the vertex vh went into (invalid when none).
+  VH try_remove_to(VH vh, bool along_features_only) {
     std::vector<std::pair<double, HH>>& options = options_;
     options.clear();
     for (HH h : mesh_.voh_range(vh)) {
@@ -302,11 +307,12 @@ class Mesher {
               [](const auto& a, const auto& b) { return a.first < b.first; });
     for (auto& [length, h] : options) {
       if (collapse_ok(h)) {
+        const VH to = mesh_.to_vertex_handle(h);
         mesh_.collapse(h);
-        return true;
+        return to;
       }
     }
-    return false;
+    return VH();
   }
 
   void phase_one() {
@@ -490,15 +496,51 @@ class Mesher {
     // (fandisk), while 45° keeps only a few more faces (docs/meshing.md).
     static constexpr double kMaxTurnDegrees = 45;
     max_turn_cos_ = std::cos(kMaxTurnDegrees * 3.14159265358979323846 / 180);
-    for (bool progress = true; progress;) {
-      progress = false;
-      for (VH vh : mesh_.vertices()) {
-        if (mesh_.status(vh).deleted() || mesh_.is_isolated(vh) || keep_[vh.idx()] != Keep::kCorner) continue;
-        // Corners on a boundary stay: they are where patch borders cross the boundary curve,
-        // its sampling in the L2,1 metric (Fig. 19); without them a hole's rim goes straight.
-        if (mesh_.is_boundary(vh)) continue;
-        if (try_remove(vh, true)) progress = true;
+    // Corners go in the order of their shortest feature edge, shortest first (the collapse that
+    // moves the surface least), each along its shortest allowed feature edge; a corner that
+    // cannot go now is tried again when a collapse changes its neighbourhood (its 2-ring). The
+    // order is the geometry's, not the vertex numbering's (ties aside): a sweep in index order
+    // made the result follow the numbering, and a sweep in position order strings collapses
+    // along a feature line one after the other (docs/meshing.md).
+    auto eligible = [&](VH vh) {
+      return !mesh_.status(vh).deleted() && !mesh_.is_isolated(vh) && keep_[vh.idx()] == Keep::kCorner && !mesh_.is_boundary(vh);
+    };
+    auto shortest = [&](VH vh) {
+      double best = std::numeric_limits<double>::infinity();
+      for (HH h : mesh_.voh_range(vh)) {
+        if (!is_feature(mesh_.edge_handle(h))) continue;
+        const Vec d = mesh_.point(mesh_.to_vertex_handle(h)) - mesh_.point(vh);
+        best = std::min(best, dot3(d, d));
       }
+      return best;
+    };
+    using Entry = std::pair<double, int>;
+    std::priority_queue<Entry, std::vector<Entry>, std::greater<>> queue;
+    for (VH vh : mesh_.vertices())
+      if (eligible(vh)) queue.push({shortest(vh), vh.idx()});
+    std::vector<VH> ring;
+    while (!queue.empty()) {
+      const auto [length, index] = queue.top();
+      queue.pop();
+      const VH vh(index);
+      if (!eligible(vh)) continue;
+      const double now = shortest(vh);
+      if (now != length) {
+        queue.push({now, index});
+        continue;
+      }
+      const VH to = try_remove_to(vh, true);
+      if (!to.is_valid()) continue;
+      ring.clear();
+      ring.push_back(to);
+      for (VH w : mesh_.vv_range(to)) {
+        ring.push_back(w);
+        for (VH x : mesh_.vv_range(w)) ring.push_back(x);
+      }
+      std::sort(ring.begin(), ring.end());
+      ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
+      for (VH w : ring)
+        if (eligible(w)) queue.push({shortest(w), w.idx()});
     }
   }
 
