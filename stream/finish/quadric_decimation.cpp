@@ -1,10 +1,12 @@
 #include "stream/finish/quadric_decimation.h"
 
+#include "stream/core/canonical_order.h"
 #include "stream/core/morton.h"
 #include "stream/finish/collapse_mesh.h"
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 
 namespace gaussmesh::stream {
 namespace {
@@ -368,8 +370,8 @@ class Decimator {
   const double cos_relaxed_ = std::cos(kRelaxedTurnDegrees * M_PI / 180.0);
 };
 
-// The vertices in Morton order of their positions over their bounding box (ties, and positions
-// that are not finite, by id).
+// The vertices in Morton order of their positions over their bounding box, ties by position
+// (and positions that are not finite, last, by id).
 std::vector<std::uint32_t> spatial_order(std::span<const Vec3f> positions) {
   float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
   bool first = true;
@@ -395,7 +397,14 @@ std::vector<std::uint32_t> spatial_order(std::span<const Vec3f> positions) {
     }
     keys[v] = {code, v};
   }
-  std::sort(keys.begin(), keys.end());
+  // Within a cell by position, so that the order (and the collapses) do not follow the ids.
+  std::sort(keys.begin(), keys.end(), [&](const auto& a, const auto& b) {
+    if (a.first != b.first) return a.first < b.first;
+    const Vec3f& p = positions[a.second];
+    const Vec3f& q = positions[b.second];
+    return std::tuple(ordered_bits(p.x), ordered_bits(p.y), ordered_bits(p.z), a.second) <
+           std::tuple(ordered_bits(q.x), ordered_bits(q.y), ordered_bits(q.z), b.second);
+  });
   std::vector<std::uint32_t> order(positions.size());
   for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = keys[i].second;
   return order;
@@ -446,7 +455,6 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
   std::vector<std::uint32_t> order = spatial_order(approximation.positions), rank(n);
   for (std::uint32_t i = 0; i < n; ++i) rank[order[i]] = i;
   const std::size_t nf = approximation.triangles.size();
-  std::vector<std::uint32_t> face_rank(nf);  // per input face: its place in the copy
   std::vector<format::Triangle> faces(nf);
   {
     // Each face from its lowest new number on (the same orientation), sorted by its three.
@@ -464,7 +472,6 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
     std::vector<format::Triangle> sorted(nf);
     for (std::uint32_t i = 0; i < nf; ++i) {
       const auto f = std::uint32_t(keys[i].second);
-      face_rank[f] = i;
       sorted[i] = faces[f];
     }
     faces = std::move(sorted);
@@ -505,19 +512,19 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
 
   Decimator decimator(mesh, std::move(points), std::move(ranked), locked, frame, std::move(positions));
   DecimationResult result = decimator.run(options, approximation.triangles.size());
-  // Survivors in the order of their input ids, then the live faces in the input's order.
+  // Survivors and live faces in the copy's order: the output is then the same for every
+  // numbering of the same mesh.
   std::vector<std::uint32_t> index(n, CollapseMesh::kNone);
-  for (std::uint32_t v = 0; v < n; ++v) {
-    const std::uint32_t i = rank[v];
+  for (std::uint32_t i = 0; i < n; ++i) {
     if (!mesh.vertex_alive(i)) continue;
     index[i] = std::uint32_t(result.mesh.positions.size());
-    result.source.push_back(v);
+    result.source.push_back(order[i]);
     result.quadrics.push_back(decimator.quadrics()[i]);
     result.mesh.positions.push_back(decimator.positions()[i]);
   }
-  for (std::uint32_t f = 0; f < nf; ++f) {
-    if (!mesh.face_alive(face_rank[f])) continue;
-    const auto& t = mesh.face(face_rank[f]);
+  for (std::uint32_t i = 0; i < nf; ++i) {
+    if (!mesh.face_alive(i)) continue;
+    const auto& t = mesh.face(i);
     result.mesh.triangles.push_back({{index[t.v[0]], index[t.v[1]], index[t.v[2]]}});
   }
   return result;
