@@ -498,7 +498,8 @@ class Mesher {
     max_turn_cos_ = std::cos(kMaxTurnDegrees * 3.14159265358979323846 / 180);
     // Corners go in the order of their shortest feature edge, shortest first (the collapse that
     // moves the surface least), each along its shortest allowed feature edge; a corner that
-    // cannot go now is tried again when a collapse changes its neighbourhood (its 2-ring). The
+    // cannot go now is tried again when a collapse changes its star (it is next to the vertex
+    // collapsed into). The
     // order is the geometry's, not the vertex numbering's (ties aside): a sweep in index order
     // made the result follow the numbering, and a sweep in position order strings collapses
     // along a feature line one after the other (docs/meshing.md).
@@ -533,12 +534,7 @@ class Mesher {
       if (!to.is_valid()) continue;
       ring.clear();
       ring.push_back(to);
-      for (VH w : mesh_.vv_range(to)) {
-        ring.push_back(w);
-        for (VH x : mesh_.vv_range(w)) ring.push_back(x);
-      }
-      std::sort(ring.begin(), ring.end());
-      ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
+      for (VH w : mesh_.vv_range(to)) ring.push_back(w);
       for (VH w : ring)
         if (eligible(w)) queue.push({shortest(w), w.idx()});
     }

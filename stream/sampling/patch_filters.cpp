@@ -12,10 +12,12 @@
 namespace gaussmesh::stream {
 
 void face_order_keys(format::MeshView mesh, std::vector<std::uint64_t>& keys) {
+  std::vector<std::uint64_t> vertex(mesh.positions.size());
+  for (std::size_t v = 0; v < vertex.size(); ++v) vertex[v] = position_hash(mesh.positions[v]);
   keys.resize(mesh.triangles.size());
   for (std::size_t f = 0; f < keys.size(); ++f) {
     const auto& t = mesh.triangles[f];
-    keys[f] = face_order_key(mesh.positions[t.v[0]], mesh.positions[t.v[1]], mesh.positions[t.v[2]]);
+    keys[f] = face_order_key(vertex[t.v[0]], vertex[t.v[1]], vertex[t.v[2]]);
   }
 }
 

@@ -68,6 +68,8 @@ void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const
       if (a != b) parent[std::max(a, b)] = std::min(a, b);
     }
   }
+  std::vector<std::uint64_t> hash(chunk.positions.size());  // position_hash of every vertex
+  for (std::size_t v = 0; v < hash.size(); ++v) hash[v] = position_hash(chunk.positions[v]);
   for (std::uint32_t f = 0; f < nf; ++f) {
     if (!chunk.owned_face[f]) continue;
     const std::uint32_t r = root(f);
@@ -86,7 +88,7 @@ void find_chunk_pieces(const Partition& partition, const ChunkMesh& chunk, const
     ++piece.faces;
     // The piece's first face by (key, global id): faces come in ascending global id.
     const auto& t = chunk.triangles[f].v;
-    const std::uint64_t key = face_order_key(chunk.positions[t[0]], chunk.positions[t[1]], chunk.positions[t[2]]);
+    const std::uint64_t key = face_order_key(hash[t[0]], hash[t[1]], hash[t[2]]);
     if (key < piece.min_key) {
       piece.min_key = key;
       piece.min_face = chunk.global_face[f];
