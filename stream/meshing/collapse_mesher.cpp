@@ -515,28 +515,34 @@ class Mesher {
       }
       return best;
     };
+    // One live entry per vertex: queued[v] is its length (NaN: none), so that a corner is not
+    // tried again until something around it changed.
     using Entry = std::pair<double, int>;
     std::priority_queue<Entry, std::vector<Entry>, std::greater<>> queue;
-    for (VH vh : mesh_.vertices())
-      if (eligible(vh)) queue.push({shortest(vh), vh.idx()});
-    std::vector<VH> ring;
+    std::vector<double> queued(mesh_.n_vertices(), std::numeric_limits<double>::quiet_NaN());
+    auto push = [&](VH vh) {
+      if (!eligible(vh)) return;
+      const double length = shortest(vh);
+      if (queued[vh.idx()] == length) return;
+      queued[vh.idx()] = length;
+      queue.push({length, vh.idx()});
+    };
+    for (VH vh : mesh_.vertices()) push(vh);
     while (!queue.empty()) {
       const auto [length, index] = queue.top();
       queue.pop();
+      if (!(queued[index] == length)) continue;  // a later entry replaced it
+      queued[index] = std::numeric_limits<double>::quiet_NaN();
       const VH vh(index);
       if (!eligible(vh)) continue;
-      const double now = shortest(vh);
-      if (now != length) {
-        queue.push({now, index});
+      if (shortest(vh) != length) {
+        push(vh);
         continue;
       }
       const VH to = try_remove_to(vh, true);
       if (!to.is_valid()) continue;
-      ring.clear();
-      ring.push_back(to);
-      for (VH w : mesh_.vv_range(to)) ring.push_back(w);
-      for (VH w : ring)
-        if (eligible(w)) queue.push({shortest(w), w.idx()});
+      push(to);
+      for (VH w : mesh_.vv_range(to)) push(w);
     }
   }
 

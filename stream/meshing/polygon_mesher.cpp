@@ -193,18 +193,23 @@ class PolygonMesher {
   // position, x then y then z, and by id only between vertices at the same position. Choices by
   // id would follow the input's numbering, and a renumbered copy of a mesh (shuffled, welded
   // from a soup) would come out different.
-  bool before(std::uint32_t u, std::uint32_t v) {
-    if (u == v) return false;
-    const format::Vec3f a = pos(u), b = pos(v);
-    const auto ka = std::tuple(ordered_bits(a.x), ordered_bits(a.y), ordered_bits(a.z), u);
-    const auto kb = std::tuple(ordered_bits(b.x), ordered_bits(b.y), ordered_bits(b.z), v);
-    return ka < kb;
+  bool before(std::uint32_t u, std::uint32_t v) { return u != v && order_key(u) < order_key(v); }
+  std::tuple<std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t> order_key(std::uint32_t v) {
+    const format::Vec3f p = pos(v);
+    return {ordered_bits(p.x), ordered_bits(p.y), ordered_bits(p.z), v};
   }
-  // The first of `vertices` in that order (the lowest index among repeats); n/a when empty.
+  // The first of `vertices` in that order (the lowest index among repeats); 0 when empty.
   std::size_t least(std::span<const std::uint32_t> vertices) {
+    if (vertices.empty()) return 0;
     std::size_t best = 0;
-    for (std::size_t k = 1; k < vertices.size(); ++k)
-      if (before(vertices[k], vertices[best])) best = k;
+    auto best_key = order_key(vertices[0]);
+    for (std::size_t k = 1; k < vertices.size(); ++k) {
+      const auto key = order_key(vertices[k]);
+      if (key < best_key) {
+        best = k;
+        best_key = key;
+      }
+    }
     return best;
   }
   // Each vertex's place among `vertices` in the order of before().
@@ -937,9 +942,10 @@ class PolygonMesher {
       const std::span<const std::uint32_t> r = reduced(l);
       const std::size_t start = least(r);
       double newell[3] = {0, 0, 0};
+      format::Vec3f b = pos(r[start]);
       for (std::size_t i = 0; i < r.size(); ++i) {
-        const format::Vec3f a = pos(r[(start + i) % r.size()]);
-        const format::Vec3f b = pos(r[(start + i + 1) % r.size()]);
+        const format::Vec3f a = b;
+        b = pos(r[(start + i + 1) % r.size()]);
         newell[0] += double(a.y) * b.z - double(a.z) * b.y;
         newell[1] += double(a.z) * b.x - double(a.x) * b.z;
         newell[2] += double(a.x) * b.y - double(a.y) * b.x;
