@@ -499,10 +499,9 @@ class Mesher {
     // Corners go in the order of their shortest feature edge, shortest first (the collapse that
     // moves the surface least), each along its shortest allowed feature edge; a corner that
     // cannot go now is tried again when a collapse changes its star (it is next to the vertex
-    // collapsed into). The
-    // order is the geometry's, not the vertex numbering's (ties aside): a sweep in index order
-    // made the result follow the numbering, and a sweep in position order strings collapses
-    // along a feature line one after the other (docs/meshing.md).
+    // collapsed into). The order is the geometry's, not the vertex numbering's (ties aside): a
+    // sweep in index order made the result follow the numbering, and a sweep in position order
+    // strings collapses along a feature line one after the other (docs/meshing.md).
     auto eligible = [&](VH vh) {
       return !mesh_.status(vh).deleted() && !mesh_.is_isolated(vh) && keep_[vh.idx()] == Keep::kCorner && !mesh_.is_boundary(vh);
     };
