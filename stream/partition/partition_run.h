@@ -85,6 +85,9 @@ class PartitionRun {
   // vertex count is kBadInput.
   template <class Fn>
   Status for_each_spilled_face(Fn&& fn);
+  // The same a frame at a time: fn(faces) with every corner checked first.
+  template <class Fn>
+  Status for_each_spilled_frame(Fn&& fn);
   Status plan();
   // Calls fn(face id, triangle, tag) for every face in order, tag = tag_of(triangle, windows)
   // (0 when tag_of is nullptr) computed first for each frame on the read-ahead thread (FaceWindows: owners.bin and, when
