@@ -343,6 +343,9 @@ Status PartitionRun::reorder(bool weld) {
       floor_log2(std::max<std::uint64_t>(ceil_div(new_vertices, std::max<std::uint64_t>(ceil_div(faces * sizeof(Triangle), table), 1)), 1));
   const std::uint64_t range_lowest = std::uint64_t{1} << lowest_bits;
   const std::uint64_t lowest_ranges = std::max<std::uint64_t>(ceil_div(new_vertices, range_lowest), 1);
+  // The map is read at random (a scattered input's ids): the entries a few corners ahead are
+  // fetched into the cache while the current one is renamed.
+  constexpr std::size_t kAhead = 24;
 
   // 4–6. Faces renamed and turned to start at their lowest corner, in input order, by range of
   // that corner. When the whole map fits the table, corners are renamed as the face spill is
@@ -355,13 +358,10 @@ Status PartitionRun::reorder(bool weld) {
     std::vector<std::uint32_t> whole(vertices);
     GM_RETURN_IF_ERROR(read_map(map_path, whole.data(), 0, vertices));
     ::unlink(map_path.c_str());
-    // The map is read at random (a scattered input's ids): its entries for a few faces ahead
-    // are fetched into the cache while the current face is renamed.
-    constexpr std::size_t kAhead = 8;
     GM_RETURN_IF_ERROR(for_each_spilled_frame([&](std::span<const Triangle> faces) -> Status {
       for (std::size_t i = 0; i < faces.size(); ++i) {
-        if (i + kAhead < faces.size())
-          for (const std::uint32_t v : faces[i + kAhead].v) __builtin_prefetch(whole.data() + v);
+        if (i + kAhead / 3 < faces.size())
+          for (const std::uint32_t v : faces[i + kAhead / 3].v) __builtin_prefetch(whole.data() + v);
         Triangle t = faces[i];
         for (std::uint32_t& v : t.v) v = whole[v];
         GM_RETURN_IF_ERROR(grouped.append(lowest_corner(t) >> lowest_bits, lowest_first(t)));
@@ -405,7 +405,9 @@ Status PartitionRun::reorder(bool weld) {
           GM_RETURN_IF_ERROR(read_map(map_path, slice.data(), first, count));
           GM_RETURN_IF_ERROR(corners.rewrite(r, [&](std::span<std::byte> block) {
             const std::span<std::uint32_t> ids{reinterpret_cast<std::uint32_t*>(block.data()), block.size() / sizeof(std::uint32_t)};
-            for (std::uint32_t& id : ids) {
+            for (std::size_t k = 0; k < ids.size(); ++k) {
+              if (k + kAhead < ids.size() && ids[k + kAhead] - first < count) __builtin_prefetch(slice.data() + (ids[k + kAhead] - first));
+              std::uint32_t& id = ids[k];
               if (id - first >= count) return Status::error(Code::kBadInput, corners_path, "a corner is in the wrong slice");
               id = slice[id - first];
             }
