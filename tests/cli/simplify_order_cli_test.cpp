@@ -7,37 +7,14 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "stream/core/mesh.h"
 #include "tests/support/scattered_copy.h"
+#include "tests/support/simplify_run.h"
 #include "tests/support/shapes.h"
 #include "tests/support/test_util.h"
 
 namespace gaussmesh::testing {
 namespace {
-
-std::string q(const std::string& text) { return "'" + text + "'"; }
-
-struct Outcome {
-  int exit_code = 0;
-  std::string bytes, err;
-  nlohmann::json report;
-};
-
-Outcome simplify(const ScratchDir& dir, const std::string& in, const std::string& flags) {
-  const std::string out = dir.file("out.ply"), report = dir.file("report.json");
-  auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(out) + " --format ply " + flags +
-                         " --report " + q(report));
-  Outcome r;
-  r.exit_code = run.exit_code;
-  r.err = run.err;
-  if (run.exit_code == 0) {
-    r.bytes = read_file(out);
-    r.report = nlohmann::json::parse(read_file(report));
-  }
-  return r;
-}
 
 // Without a target (the Gauss approximation), with a ratio in core, and with one out of core
 // under a budget that collapses the whole input at once. (Under a smaller one the finish runs
@@ -48,8 +25,8 @@ const std::vector<std::string> kRuns = {"--engine in-core", "--engine out-of-cor
 void expect_same_bytes(const ScratchDir& dir, const std::string& ordered, const std::string& shuffled) {
   for (const std::string& flags : kRuns) {
     SCOPED_TRACE(flags);
-    const Outcome a = simplify(dir, ordered, flags);
-    const Outcome b = simplify(dir, shuffled, flags);
+    const SimplifyOutcome a = run_simplify(dir, ordered, flags);
+    const SimplifyOutcome b = run_simplify(dir, shuffled, flags);
     ASSERT_EQ(a.exit_code, 0) << a.err;
     ASSERT_EQ(b.exit_code, 0) << b.err;
     EXPECT_GT(a.report["output_faces"].get<long>(), 0);
@@ -77,8 +54,8 @@ TEST(SimplifyOrderCli, AShuffledSheetIsRenumberedAndGivesTheOrderedFilesBytes) {
   const std::string ordered = dir.file("sheet.ply"), shuffled = dir.file("shuffled.ply");
   ASSERT_TRUE(write_binary_ply(ordered, sheet));
   ASSERT_TRUE(write_binary_ply(shuffled, scattered_mesh(sheet, 3)));
-  const Outcome a = simplify(dir, ordered, "--engine in-core");
-  const Outcome b = simplify(dir, shuffled, "--engine in-core");
+  const SimplifyOutcome a = run_simplify(dir, ordered, "--engine in-core");
+  const SimplifyOutcome b = run_simplify(dir, shuffled, "--engine in-core");
   ASSERT_EQ(a.exit_code, 0) << a.err;
   ASSERT_EQ(b.exit_code, 0) << b.err;
   EXPECT_FALSE(a.report["reordered"].get<bool>());

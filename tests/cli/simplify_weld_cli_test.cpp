@@ -13,6 +13,7 @@
 
 #include "stream/core/mesh.h"
 #include "tests/support/scattered_copy.h"
+#include "tests/support/simplify_run.h"
 #include "tests/support/shapes.h"
 #include "tests/support/test_util.h"
 
@@ -21,25 +22,6 @@ namespace {
 
 std::string q(const std::string& text) { return "'" + text + "'"; }
 std::string binary() { return q(gaussmesh_binary()); }
-
-struct Outcome {
-  int exit_code = 0;
-  std::string bytes, err;
-  nlohmann::json report;
-};
-
-Outcome simplify(const ScratchDir& dir, const std::string& in, const std::string& flags) {
-  const std::string out = dir.file("out.ply"), report = dir.file("report.json");
-  auto run = run_command(binary() + " simplify " + q(in) + " -o " + q(out) + " --format ply " + flags + " --report " + q(report));
-  Outcome r;
-  r.exit_code = run.exit_code;
-  r.err = run.err;
-  if (run.exit_code == 0) {
-    r.bytes = read_file(out);
-    r.report = nlohmann::json::parse(read_file(report));
-  }
-  return r;
-}
 
 // A wavy sheet of 581k faces (292k vertices) as binary PLY.
 void write_sheet(const std::string& path) { ASSERT_TRUE(write_binary_ply(path, make_wavy_sheet(540))); }
@@ -56,7 +38,7 @@ TEST(SimplifyWeldCli, ASoupInPlyOrStlGivesTheWeldedFixturesBytesInCoreAndOutOfCo
     ASSERT_TRUE(write_soup_copy(in, stl, 9, true));
     for (const std::string target : {"", "--ratio 0.1"}) {
       SCOPED_TRACE(std::string(name) + " " + target);
-      const Outcome welded = simplify(dir, in, "--weld " + target);
+      const SimplifyOutcome welded = run_simplify(dir, in, "--weld " + target);
       ASSERT_EQ(welded.exit_code, 0) << welded.err;
       EXPECT_TRUE(welded.report["reordered"].get<bool>());
       const long faces = welded.report["input_faces"].get<long>();
@@ -66,7 +48,7 @@ TEST(SimplifyWeldCli, ASoupInPlyOrStlGivesTheWeldedFixturesBytesInCoreAndOutOfCo
         const std::string budget = target.empty() ? "16M" : "256M";
         for (const std::string& engine : {std::string("--engine in-core"), "--engine out-of-core --memory " + budget}) {
           SCOPED_TRACE(input + " " + engine);
-          const Outcome run = simplify(dir, input, engine + " " + target);
+          const SimplifyOutcome run = run_simplify(dir, input, engine + " " + target);
           ASSERT_EQ(run.exit_code, 0) << run.err;
           EXPECT_EQ(run.report["input_faces"].get<long>(), faces);
           EXPECT_EQ(run.report["input_vertices"].get<long>(), 3 * faces);
@@ -86,15 +68,15 @@ TEST(SimplifyWeldCli, CowWeldedIsNonManifold) {
   // vertex (exit 3), as for any such input.
   ScratchDir dir;
   const std::string in = fixture("real/cow.off");
-  const Outcome in_core = simplify(dir, in, "--weld --engine in-core --ratio 0.1");
+  const SimplifyOutcome in_core = run_simplify(dir, in, "--weld --engine in-core --ratio 0.1");
   ASSERT_EQ(in_core.exit_code, 0) << in_core.err;
   EXPECT_EQ(in_core.report["welded_vertices"].get<long>(), 1);
   EXPECT_EQ(in_core.report["approximation"].get<std::string>(), "gauss");
-  const Outcome plain = simplify(dir, in, "--engine in-core --ratio 0.1");
+  const SimplifyOutcome plain = run_simplify(dir, in, "--engine in-core --ratio 0.1");
   ASSERT_EQ(plain.exit_code, 0) << plain.err;
   EXPECT_EQ(plain.report["welded_vertices"].get<long>(), 0);
   EXPECT_EQ(plain.report["approximation"].get<std::string>(), "input");
-  const Outcome out_of_core = simplify(dir, in, "--weld --engine out-of-core --ratio 0.1");
+  const SimplifyOutcome out_of_core = run_simplify(dir, in, "--weld --engine out-of-core --ratio 0.1");
   EXPECT_EQ(out_of_core.exit_code, 3);
   EXPECT_NE(out_of_core.err.find("manifold"), std::string::npos) << out_of_core.err;
 }
@@ -108,7 +90,7 @@ TEST(SimplifyWeldCli, ASoupStreamsUnderAHardAddressSpaceLimit) {
   const std::string soup = dir.file("soup.ply");
   ASSERT_TRUE(write_soup_copy(dir.file("sheet.ply"), soup, 3, false));
   const std::string flags = "--engine out-of-core --memory 16M --threads 2";
-  const Outcome free_run = simplify(dir, soup, flags);
+  const SimplifyOutcome free_run = run_simplify(dir, soup, flags);
   ASSERT_EQ(free_run.exit_code, 0) << free_run.err;
   const std::string capped = "ulimit -v 163840; ";
   const std::string out = dir.file("capped.ply");
@@ -152,17 +134,17 @@ TEST(SimplifyWeldCli, NoWeldKeepsASoupAndBothFlagsAreAUsageError) {
   ScratchDir dir;
   const std::string soup = dir.file("soup.ply");
   ASSERT_TRUE(write_soup_copy(fixture("real/cow.off"), soup, 5, false));
-  const Outcome kept = simplify(dir, soup, "--no-weld --engine in-core");
+  const SimplifyOutcome kept = run_simplify(dir, soup, "--no-weld --engine in-core");
   // A soup unwelded has no shared edge: every face is a component of its own, kept as it is.
   ASSERT_EQ(kept.exit_code, 0) << kept.err;
   EXPECT_EQ(kept.report["welded_vertices"].get<long>(), 0);
   EXPECT_FALSE(kept.report["reordered"].get<bool>());
   EXPECT_EQ(kept.report["output_faces"].get<long>(), kept.report["input_faces"].get<long>());
-  const Outcome welded = simplify(dir, soup, "--engine in-core");
+  const SimplifyOutcome welded = run_simplify(dir, soup, "--engine in-core");
   ASSERT_EQ(welded.exit_code, 0) << welded.err;
   EXPECT_GT(welded.report["welded_vertices"].get<long>(), 0);
   std::filesystem::remove(dir.file("out.ply"));
-  const Outcome both = simplify(dir, soup, "--weld --no-weld");
+  const SimplifyOutcome both = run_simplify(dir, soup, "--weld --no-weld");
   EXPECT_EQ(both.exit_code, 1);
   EXPECT_NE(both.err.find("--weld"), std::string::npos) << both.err;
   EXPECT_FALSE(std::filesystem::exists(dir.file("out.ply")));
