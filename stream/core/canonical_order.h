@@ -6,6 +6,7 @@
 
 #include <bit>
 #include <cstdint>
+#include <tuple>
 
 #include "format/mesh_types.h"
 #include "stream/core/hash_mix.h"
@@ -17,6 +18,13 @@ namespace gaussmesh::stream {
 inline std::uint32_t ordered_bits(float f) {
   const std::uint32_t u = std::bit_cast<std::uint32_t>(f == 0 ? 0.0f : f);
   return u & 0x80000000u ? ~u : u | 0x80000000u;
+}
+
+// A vertex's place in the position order: x, then y, then z, then its id (between vertices at
+// the same position only).
+using PositionKey = std::tuple<std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t>;
+inline PositionKey position_key(const format::Vec3f& p, std::uint32_t id) {
+  return {ordered_bits(p.x), ordered_bits(p.y), ordered_bits(p.z), id};
 }
 
 // A vertex's hash: of its position's ordered bits, the same for each of its numberings.

@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <tuple>
 
 namespace gaussmesh::stream {
 namespace {
@@ -400,10 +399,7 @@ std::vector<std::uint32_t> spatial_order(std::span<const Vec3f> positions) {
   // Within a cell by position, so that the order (and the collapses) do not follow the ids.
   std::sort(keys.begin(), keys.end(), [&](const auto& a, const auto& b) {
     if (a.first != b.first) return a.first < b.first;
-    const Vec3f& p = positions[a.second];
-    const Vec3f& q = positions[b.second];
-    return std::tuple(ordered_bits(p.x), ordered_bits(p.y), ordered_bits(p.z), a.second) <
-           std::tuple(ordered_bits(q.x), ordered_bits(q.y), ordered_bits(q.z), b.second);
+    return position_key(positions[a.second], a.second) < position_key(positions[b.second], b.second);
   });
   std::vector<std::uint32_t> order(positions.size());
   for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = keys[i].second;

@@ -194,37 +194,59 @@ class PolygonMesher {
   // id would follow the input's numbering, and a renumbered copy of a mesh (shuffled, welded
   // from a soup) would come out different.
   bool before(std::uint32_t u, std::uint32_t v) { return u != v && order_key(u) < order_key(v); }
-  std::tuple<std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t> order_key(std::uint32_t v) {
-    const format::Vec3f p = pos(v);
-    return {ordered_bits(p.x), ordered_bits(p.y), ordered_bits(p.z), v};
-  }
+  PositionKey order_key(std::uint32_t v) { return position_key(pos(v), v); }
   // The first of `vertices` in that order (the lowest index among repeats); 0 when empty.
-  std::size_t least(std::span<const std::uint32_t> vertices) {
+  // key(v): v's PositionKey.
+  template <class Key>
+  static std::size_t least(std::span<const std::uint32_t> vertices, Key&& key) {
     if (vertices.empty()) return 0;
     std::size_t best = 0;
-    auto best_key = order_key(vertices[0]);
+    PositionKey best_key = key(vertices[0]);
     for (std::size_t k = 1; k < vertices.size(); ++k) {
-      const auto key = order_key(vertices[k]);
-      if (key < best_key) {
+      const PositionKey here = key(vertices[k]);
+      if (here < best_key) {
         best = k;
-        best_key = key;
+        best_key = here;
       }
     }
     return best;
   }
-  // Each vertex's place among `vertices` in the order of before().
-  std::vector<std::uint32_t> ranks(std::span<const std::uint32_t> vertices) {
-    std::vector<std::tuple<std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t>> key;
-    key.reserve(vertices.size());
-    for (std::uint32_t v : vertices) {
-      const format::Vec3f q = pos(v);
-      key.emplace_back(ordered_bits(q.x), ordered_bits(q.y), ordered_bits(q.z), v);
+  std::size_t least(std::span<const std::uint32_t> vertices) {
+    return least(vertices, [&](std::uint32_t v) { return order_key(v); });
+  }
+  // Vertex ids (any order, repeats allowed) numbered 0, 1, ... in the order of before().
+  struct Numbering {
+    std::vector<std::uint32_t> by_id;     // the distinct ids, ascending
+    std::vector<std::uint32_t> rank;      // by_id[i]'s number
+    std::vector<std::uint32_t> in_order;  // the ids by number
+    format::VertexIndex operator()(std::uint32_t v) const {
+      return rank[std::lower_bound(by_id.begin(), by_id.end(), v) - by_id.begin()];
     }
-    std::vector<std::uint32_t> order(vertices.size()), rank(vertices.size());
+    // A triangle of ids in new numbers, turned to start at its least (the same orientation).
+    std::array<format::VertexIndex, 3> turned(const std::array<std::uint32_t, 3>& t) const {
+      std::array<format::VertexIndex, 3> g{(*this)(t[0]), (*this)(t[1]), (*this)(t[2])};
+      std::rotate(g.begin(), std::min_element(g.begin(), g.end()), g.end());
+      return g;
+    }
+  };
+  Numbering number_in_order(std::vector<std::uint32_t> ids) {
+    Numbering n;
+    std::sort(ids.begin(), ids.end());
+    ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+    n.by_id = std::move(ids);
+    std::vector<PositionKey> key;
+    key.reserve(n.by_id.size());
+    for (std::uint32_t v : n.by_id) key.push_back(order_key(v));
+    std::vector<std::uint32_t> order(n.by_id.size());
     for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
     std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return key[a] < key[b]; });
-    for (std::uint32_t i = 0; i < order.size(); ++i) rank[order[i]] = i;
-    return rank;
+    n.rank.resize(order.size());
+    n.in_order.resize(order.size());
+    for (std::uint32_t i = 0; i < order.size(); ++i) {
+      n.rank[order[i]] = i;
+      n.in_order[i] = n.by_id[order[i]];
+    }
+    return n;
   }
   // least() over a loop read out of core, whose positions need not stay cached: read in one
   // batch into scratch (a loop with no stop has no vertex the rounds keep, bar its guards).
@@ -235,14 +257,9 @@ class PolygonMesher {
     ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
     std::vector<format::Vec3f> at(ids.size());
     source_->positions(ids, at);
-    auto key = [&](std::uint32_t v) {
-      const format::Vec3f p = at[std::lower_bound(ids.begin(), ids.end(), v) - ids.begin()];
-      return std::tuple(ordered_bits(p.x), ordered_bits(p.y), ordered_bits(p.z), v);
-    };
-    std::size_t best = 0;
-    for (std::size_t k = 1; k < loop.size(); ++k)
-      if (key(loop[k]) < key(loop[best])) best = k;
-    return best;
+    return least(loop, [&](std::uint32_t v) {
+      return position_key(at[std::lower_bound(ids.begin(), ids.end(), v) - ids.begin()], v);
+    });
   }
   // Out of core: the positions of `ids` that are not cached yet, read in one batch into the cache.
   void fetch(std::vector<std::uint32_t>& ids) {
@@ -676,24 +693,19 @@ class PolygonMesher {
       std::vector<std::uint32_t> ids(reduced_vertices_);
       fetch(ids);
     }
-    std::vector<std::array<std::uint32_t, 2>> key(patch_count_, {kNone, kNone});
+    // Per patch: (no loop, least kept vertex's key, the next one's key), then its id.
+    using Key = std::tuple<bool, PositionKey, PositionKey>;
+    std::vector<Key> key(patch_count_, Key{true, {}, {}});
     for (std::size_t l = 0; l < loop_count(); ++l) {
       const std::span<const std::uint32_t> r = reduced(l);
       if (r.empty()) continue;
       const std::size_t k = least(r);
-      const std::array<std::uint32_t, 2> here{r[k], r[(k + 1) % r.size()]};
-      std::array<std::uint32_t, 2>& best = key[loop_patch_[l]];
-      if (best[0] == kNone || before(here[0], best[0]) || (here[0] == best[0] && before(here[1], best[1]))) best = here;
+      key[loop_patch_[l]] = std::min(key[loop_patch_[l]], Key{false, order_key(r[k]), order_key(r[(k + 1) % r.size()])});
     }
     patch_order_.resize(patch_count_);
     for (std::uint32_t p = 0; p < patch_count_; ++p) patch_order_[p] = p;
-    std::sort(patch_order_.begin(), patch_order_.end(), [&](std::uint32_t x, std::uint32_t y) {
-      const auto& a = key[x];
-      const auto& b = key[y];
-      if ((a[0] == kNone) != (b[0] == kNone)) return b[0] == kNone;
-      if (a[0] == kNone || a == b) return x < y;
-      return a[0] != b[0] ? before(a[0], b[0]) : before(a[1], b[1]);
-    });
+    std::sort(patch_order_.begin(), patch_order_.end(),
+              [&](std::uint32_t x, std::uint32_t y) { return std::tie(key[x], x) < std::tie(key[y], y); });
   }
 
   // triangulate_patch(p), or its result from the last round when that is provably what it
@@ -786,33 +798,18 @@ class PolygonMesher {
   enum class Collapse { kDone, kRetry, kFailed };
   Collapse collapse_patch(std::uint32_t p) {
     if (!has_faces(p)) return Collapse::kFailed;
-    std::vector<std::uint32_t> vertices;
-    for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k)
-      for (std::uint32_t v : tris_[patch_faces_[k]].v) vertices.push_back(v);
-    std::sort(vertices.begin(), vertices.end());
-    vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
     // Local ids in the order of before(), faces turned and sorted as finish() does: the
     // collapses depend on the patch, not on the input's numbering.
-    {
-      const std::vector<std::uint32_t> rank = ranks(vertices);
-      std::vector<std::uint32_t> by_rank(vertices.size());
-      for (std::size_t i = 0; i < vertices.size(); ++i) by_rank[rank[i]] = vertices[i];
-      vertices = std::move(by_rank);
-    }
-    std::vector<std::uint32_t> sorted_ids(vertices);
-    std::sort(sorted_ids.begin(), sorted_ids.end());
-    std::vector<std::uint32_t> local_of(vertices.size());
-    for (std::size_t i = 0; i < vertices.size(); ++i)
-      local_of[std::lower_bound(sorted_ids.begin(), sorted_ids.end(), vertices[i]) - sorted_ids.begin()] = static_cast<std::uint32_t>(i);
-    auto local = [&](std::uint32_t v) {
-      return static_cast<format::VertexIndex>(local_of[std::lower_bound(sorted_ids.begin(), sorted_ids.end(), v) - sorted_ids.begin()]);
-    };
+    std::vector<std::uint32_t> ids;
+    for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k)
+      for (std::uint32_t v : tris_[patch_faces_[k]].v) ids.push_back(v);
+    const Numbering local = number_in_order(std::move(ids));
+    const std::vector<std::uint32_t>& vertices = local.in_order;
     Mesh sub;
     for (std::uint32_t v : vertices) sub.positions.push_back(pos(v));
     for (std::uint32_t k = patch_offset_[p]; k < patch_offset_[p + 1]; ++k) {
-      const auto& t = tris_[patch_faces_[k]];
-      std::array<format::VertexIndex, 3> g{local(t.v[0]), local(t.v[1]), local(t.v[2])};
-      std::rotate(g.begin(), std::min_element(g.begin(), g.end()), g.end());
+      const auto& t = tris_[patch_faces_[k]].v;
+      const auto g = local.turned({t[0], t[1], t[2]});
       sub.triangles.push_back({{g[0], g[1], g[2]}});
     }
     std::sort(sub.triangles.begin(), sub.triangles.end(),
@@ -1068,14 +1065,11 @@ class PolygonMesher {
     // Output vertices: those used, in the order of before(); faces turned to start at their
     // first vertex in that order, then sorted. Phase two then gets the same mesh whatever the
     // input's numbering and the order the patches were made in.
-    std::vector<std::uint32_t> by_id;
-    by_id.reserve(3 * out_tris_.size());
-    for (const auto& t : out_tris_) by_id.insert(by_id.end(), t.begin(), t.end());
-    std::sort(by_id.begin(), by_id.end());
-    by_id.erase(std::unique(by_id.begin(), by_id.end()), by_id.end());
-    std::vector<std::uint32_t> rank = ranks(by_id);  // by_id[i]'s index in the output
-    std::vector<std::uint32_t> used(by_id.size());
-    for (std::size_t i = 0; i < by_id.size(); ++i) used[rank[i]] = by_id[i];
+    std::vector<std::uint32_t> ids;
+    ids.reserve(3 * out_tris_.size());
+    for (const auto& t : out_tris_) ids.insert(ids.end(), t.begin(), t.end());
+    Numbering output = number_in_order(std::move(ids));
+    const std::vector<std::uint32_t>& used = output.in_order;
     Mesh mesh;
     std::vector<VertexRole> roles;
     mesh.positions.reserve(used.size());
@@ -1086,18 +1080,10 @@ class PolygonMesher {
                       : keep_[v] == Keep::kCorner ? VertexRole::kCorner
                                                   : VertexRole::kGuard);
     }
-    auto index_of = [&](std::uint32_t v) {
-      return static_cast<format::VertexIndex>(rank[std::lower_bound(by_id.begin(), by_id.end(), v) - by_id.begin()]);
-    };
     std::vector<std::pair<std::array<format::VertexIndex, 3>, std::uint32_t>> faces;  // and the patch
     faces.reserve(out_tris_.size());
-    for (std::size_t f = 0; f < out_tris_.size(); ++f) {
-      const auto& t = out_tris_[f];
-      std::array<format::VertexIndex, 3> g{index_of(t[0]), index_of(t[1]), index_of(t[2])};
-      std::rotate(g.begin(), std::min_element(g.begin(), g.end()), g.end());
-      faces.emplace_back(g, out_patch_[f]);
-    }
-    release(out_tris_, out_patch_, rank, by_id);
+    for (std::size_t f = 0; f < out_tris_.size(); ++f) faces.emplace_back(output.turned(out_tris_[f]), out_patch_[f]);
+    release(out_tris_, out_patch_, output.rank, output.by_id);
     std::sort(faces.begin(), faces.end());
     mesh.triangles.reserve(faces.size());
     std::vector<std::uint32_t> face_patch;
