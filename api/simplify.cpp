@@ -209,6 +209,9 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   report["partition_seconds"] = {{"plan", result->partition_steps.plan},
                                  {"rings", result->partition_steps.rings},
                                  {"chunks", result->partition_steps.chunks}};
+  report["reorder_seconds"] = {{"vertices", result->reorder_steps.vertices},
+                                {"faces", result->reorder_steps.faces},
+                                {"spill", result->reorder_steps.spill}};
   report["stitch_seconds"] = {{"pieces", result->stitch_steps.pieces},
                               {"merge", result->stitch_steps.merge},
                               {"chains", result->stitch_steps.chains},

@@ -47,6 +47,11 @@ class BucketFile {
   }
   std::size_t buckets() const { return buffers_.size(); }
   std::uint64_t bytes() const { return written_; }
+  // The bytes appended to `bucket` (after finish()).
+  std::uint64_t bucket_bytes(std::size_t bucket) const {
+    const std::size_t n = blocks_[bucket].size();
+    return n == 0 ? 0 : (n - 1) * std::uint64_t{block_} + block_size(bucket, n - 1);
+  }
 
   // One record of the size given to open().
   template <class Record>

@@ -54,6 +54,7 @@ Partition& Partition::operator=(Partition&& other) noexcept {
   welded_vertices = other.welded_vertices;
   seconds_ingest = other.seconds_ingest;
   seconds_reorder = other.seconds_reorder;
+  reorder_steps = other.reorder_steps;
   seconds_partition = other.seconds_partition;
   steps = other.steps;
   temp_slot = other.temp_slot;

@@ -138,6 +138,13 @@ struct PartitionSteps {
   double plan = 0, rings = 0, chunks = 0;
 };
 
+// seconds_reorder split by step (docs/partition.md, "The passes"): the vertices (cells, sort,
+// weld, the old-to-new map), the faces renamed and grouped by lowest corner, the ordered face
+// spill.
+struct ReorderSteps {
+  double vertices = 0, faces = 0, spill = 0;
+};
+
 // The result of the ingest and partition passes. Owns its temporary directory: the destructor (or
 // remove_temp()) deletes it with everything in it. Move-only.
 struct Partition {
@@ -155,6 +162,7 @@ struct Partition {
   double seconds_ingest = 0, seconds_partition = 0;
   double seconds_reorder = 0;       // the renumbering, when reordered (not in seconds_partition)
   PartitionSteps steps;             // seconds_partition by step
+  ReorderSteps reorder_steps;       // seconds_reorder by step
 
   Partition() = default;
   ~Partition();

@@ -11,12 +11,14 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include "format/record_file.h"
+#include "stream/core/stopwatch.h"
 #include "stream/partition/bucket_file.h"
 #include "stream/partition/face_spill.h"
 #include "stream/partition/partition_run.h"
@@ -101,6 +103,7 @@ bool PartitionRun::reorder_fits() const { return 3 * out_.faces < UINT32_MAX; }
 
 Status PartitionRun::reorder(bool weld) {
   const std::uint64_t vertices = out_.vertices, faces = out_.faces;
+  auto step = std::chrono::steady_clock::now();
   // Three eighths of the budget for the one table a pass holds (a range of positions, of the
   // old-to-new map, of face corners, or a run of faces to sort), a sixteenth for the buckets'
   // buffers, halved between two bucket files when a pass reads one and writes another.
@@ -338,9 +341,12 @@ Status PartitionRun::reorder(bool weld) {
     pairs.remove();
   }
   const std::uint64_t new_vertices = kept;
-  // Buckets of lowest corners holding about a table of faces each (a power of two of ids).
+  out_.reorder_steps.vertices = seconds_since(step);
+  step = std::chrono::steady_clock::now();
+  // Buckets of lowest corners holding about half a table of faces each (a power of two of ids),
+  // so that the ordering pass (7) holds a bucket and its ordered copy at once and reads it once.
   const std::uint32_t lowest_bits =
-      floor_log2(std::max<std::uint64_t>(ceil_div(new_vertices, std::max<std::uint64_t>(ceil_div(faces * sizeof(Triangle), table), 1)), 1));
+      floor_log2(std::max<std::uint64_t>(ceil_div(new_vertices, std::max<std::uint64_t>(ceil_div(faces * sizeof(Triangle), table / 2), 1)), 1));
   const std::uint64_t range_lowest = std::uint64_t{1} << lowest_bits;
   const std::uint64_t lowest_ranges = std::max<std::uint64_t>(ceil_div(new_vertices, range_lowest), 1);
   // The map is read at random (a scattered input's ids): the entries a few corners ahead are
@@ -455,9 +461,12 @@ Status PartitionRun::reorder(bool weld) {
   }
   GM_RETURN_IF_ERROR(grouped.finish());
   bytes_spilled_ += grouped.bytes();
+  out_.reorder_steps.faces = seconds_since(step);
+  step = std::chrono::steady_clock::now();
 
-  // 7. The face spill in order (spatial_order.h): each bucket counted, then sorted in runs of
-  // lowest corners that fit the table (one read each), each lowest corner's faces ordered; a
+  // 7. The face spill in order (spatial_order.h): a bucket within half the table is read once
+  // and placed by lowest corner in a copy; a larger one is counted, then sorted in runs of
+  // lowest corners that fit the table (one read each). Each lowest corner's faces are ordered; a
   // vertex that is the lowest corner of more faces than a run holds is a run of its own,
   // streamed (past kMaxFaceGroup its faces stay in input order, the order they come in).
   const std::string ordered_path = out_.dir + "/faces-ordered.gmr";
@@ -473,11 +482,34 @@ Status PartitionRun::reorder(bool weld) {
       for (std::size_t at = 0; at < faces.size(); at += kPiece) GM_RETURN_IF_ERROR(spills.triangles(faces.subspan(at, std::min(kPiece, faces.size() - at))));
       return Status{};
     };
-    std::vector<Triangle> run;
+    std::vector<Triangle> run, staged;
     std::vector<std::uint32_t> at(range_lowest + 1);
     for (std::size_t b = 0; b < lowest_ranges; ++b) {
       const std::uint64_t base = b * range_lowest, ids = std::min(range_lowest, new_vertices - base);
       std::fill(at.begin(), at.end(), 0);
+      const std::uint64_t in_bucket = grouped.bucket_bytes(b) / sizeof(Triangle);
+      if (2 * in_bucket <= run_faces) {  // read once, then counted and placed in memory
+        staged.clear();
+        staged.reserve(in_bucket);
+        GM_RETURN_IF_ERROR(grouped.read(b, [&](std::span<const std::byte> block) {
+          const std::span<const Triangle> in = records_of<Triangle>(block);
+          staged.insert(staged.end(), in.begin(), in.end());
+          return Status{};
+        }));
+        for (const Triangle& t : staged) ++at[lowest_corner(t) - base];
+        for (std::uint64_t v = 0, sum = 0; v <= ids; ++v) sum += std::exchange(at[v], static_cast<std::uint32_t>(sum));
+        run.resize(staged.size());
+        for (const Triangle& t : staged) run[at[lowest_corner(t) - base]++] = t;  // at[v]: the end of v's group now
+        for (std::uint64_t v = 0, begin = 0; v < ids; ++v) {
+          order_face_group(std::span<Triangle>(run.data() + begin, at[v] - begin));
+          begin = at[v];
+        }
+        GM_RETURN_IF_ERROR(write_ordered(run));
+        continue;
+      }
+      // A bucket larger than half a table (lowest corners of many faces): counted in one read,
+      // then read once per run of lowest corners that fits the table.
+      std::vector<Triangle>().swap(staged);
       GM_RETURN_IF_ERROR(grouped.read(b, [&](std::span<const std::byte> block) {
         for (const Triangle& t : records_of<Triangle>(block)) ++at[lowest_corner(t) - base];
         return Status{};
@@ -516,6 +548,7 @@ Status PartitionRun::reorder(bool weld) {
         }
         v0 = v1;
       }
+      std::vector<Triangle>().swap(run);
     }
     GM_RETURN_IF_ERROR(spills.finish());
   }
@@ -525,6 +558,7 @@ Status PartitionRun::reorder(bool weld) {
   if (std::rename(ordered_path.c_str(), faces_path_.c_str()) != 0) {
     return Status::error(Code::kOutput, faces_path_, "cannot replace temporary file: " + errno_text());
   }
+  out_.reorder_steps.spill = seconds_since(step);
   out_.reordered = true;
   out_.welded_vertices = vertices - new_vertices;
   out_.vertices = new_vertices;

@@ -53,6 +53,7 @@ struct OutOfCoreSampling {
   double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0;
   double seconds_cleanup = 0;  // removing the temporary directory (the file system's writeback can stall it)
   PartitionSteps partition_steps;  // seconds_partition by step
+  ReorderSteps reorder_steps;      // seconds_reorder by step
   // The process's peak RSS when the partition pass had finished (getrusage), to tell which pass
   // peaks.
   std::uint64_t peak_rss_after_partition = 0;

@@ -55,6 +55,7 @@ void record_partition(const Partition& partition, Result& out) {
   out.seconds_reorder = partition.seconds_reorder;
   out.seconds_partition = partition.seconds_partition;
   out.partition_steps = partition.steps;
+  out.reorder_steps = partition.reorder_steps;
   out.peak_rss_after_partition = peak_rss();
 }
 

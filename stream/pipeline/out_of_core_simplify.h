@@ -128,6 +128,7 @@ struct OutOfCoreSimplify {
   double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0, seconds_stitch = 0, seconds_mesh = 0;
   double seconds_cleanup = 0;  // removing the temporary directory (the file system's writeback can stall it)
   PartitionSteps partition_steps;  // seconds_partition by step
+  ReorderSteps reorder_steps;      // seconds_reorder by step
   // seconds_stitch by step: pieces (joined across chunks), merge, loops (on the chunks' threads),
   // the loop stitch; and for the paper test, chains (its candidates' records, chains and filters,
   // after the merge, before the loops).
