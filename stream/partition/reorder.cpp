@@ -68,12 +68,15 @@ template <class Fn>
 Status PartitionRun::for_each_spilled_frame(Fn&& fn) {
   auto reader = format::RecordReader::open(faces_path_, kFaceSpillRecordKind, sizeof(Triangle));
   if (!reader) return reader.status();
-  std::uint64_t f = 0;
+  // The frames are decompressed a frame ahead on a thread of their own (with --threads > 1).
+  FrameReadAhead ahead(**reader, nullptr, [](std::size_t) { return false; }, options_.threads > 1);
+  std::vector<Triangle> frame;
+  std::vector<std::uint32_t> no_tags;
+  std::uint64_t f = 0, no_skip = 0;
   for (;;) {
-    auto frame = (*reader)->next();
-    if (!frame) return frame.status();
-    if (frame->empty()) break;
-    const std::span<const Triangle> faces = records_of<Triangle>(*frame);
+    GM_RETURN_IF_ERROR(ahead.next(frame, no_tags, no_skip));
+    if (frame.empty()) break;
+    const std::span<const Triangle> faces(frame);
     for (std::size_t i = 0; i < faces.size(); ++i) {
       for (const std::uint32_t v : faces[i].v) {
         if (v >= out_.vertices) {
@@ -358,8 +361,13 @@ Status PartitionRun::reorder(bool weld) {
   // read; else every corner's old id goes to its slice of old ids (4), each slice is renamed in
   // place from its part of the map (5), and the faces are put together again from the slices in
   // input order (6): records of 4 bytes, no face or corner number carried along.
-  BucketFile grouped;
-  GM_RETURN_IF_ERROR(grouped.open(out_.dir + "/reorder-faces.bin", lowest_ranges, sizeof(Triangle), buffers / 2 / lowest_ranges));
+  // Pass 6 puts the faces together in parts of the input's faces, one part per thread (up to
+  // four), each into buckets of its own; pass 7 reads a bucket part after part, in input order.
+  const std::size_t parts = old_ranges <= 1 ? 1 : std::clamp<std::size_t>(options_.threads, 1, 4);
+  std::vector<BucketFile> grouped(parts);
+  for (std::size_t w = 0; w < parts; ++w)
+    GM_RETURN_IF_ERROR(grouped[w].open(out_.dir + "/reorder-faces-" + std::to_string(w) + ".bin", lowest_ranges, sizeof(Triangle),
+                                       buffers / 2 / parts / lowest_ranges));
   if (old_ranges <= 1) {
     std::vector<std::uint32_t> whole(vertices);
     GM_RETURN_IF_ERROR(read_map(map_path, whole.data(), 0, vertices));
@@ -370,7 +378,7 @@ Status PartitionRun::reorder(bool weld) {
           for (const std::uint32_t v : faces[i + kAhead / 3].v) __builtin_prefetch(whole.data() + v);
         Triangle t = faces[i];
         for (std::uint32_t& v : t.v) v = whole[v];
-        GM_RETURN_IF_ERROR(grouped.append(lowest_corner(t) >> lowest_bits, lowest_first(t)));
+        GM_RETURN_IF_ERROR(grouped[0].append(lowest_corner(t) >> lowest_bits, lowest_first(t)));
       }
       return {};
     }));
@@ -383,11 +391,18 @@ Status PartitionRun::reorder(bool weld) {
       BucketFile corners;
       GM_RETURN_IF_ERROR(corners.open(corners_path, slices, sizeof(std::uint32_t), buffers / 2 / slices));
       std::vector<Tag> tags(std::max<std::size_t>(buffers / 2 / sizeof(Tag) / 3, 1) * 3);
+      // Each part's first face, and how many corners each slice holds before it.
+      std::vector<std::uint64_t> part_first(parts + 1);
+      for (std::size_t w = 0; w <= parts; ++w) part_first[w] = faces * w / parts;
+      std::vector<std::vector<std::uint64_t>> part_start(parts + 1, std::vector<std::uint64_t>(slices, 0));
       {
         SpillWriter tag_file;
         GM_RETURN_IF_ERROR(tag_file.open(tags_path, 1 << 16));
-        std::size_t used = 0;
-        GM_RETURN_IF_ERROR(for_each_spilled_face([&](std::uint64_t, const Triangle& t) {
+        std::size_t used = 0, part = 1;
+        std::vector<std::uint64_t> held(slices, 0);
+        GM_RETURN_IF_ERROR(for_each_spilled_face([&](std::uint64_t f, const Triangle& t) {
+          for (; part < parts && f == part_first[part]; ++part) part_start[part] = held;
+          for (const std::uint32_t v : t.v) ++held[v >> slice_bits];
           for (const std::uint32_t v : t.v) {
             GM_RETURN_IF_ERROR(corners.append(v >> slice_bits, v));
             tags[used++] = static_cast<Tag>(v >> slice_bits);
@@ -396,6 +411,7 @@ Status PartitionRun::reorder(bool weld) {
           used = 0;
           return tag_file.write(tags.data(), tags.size() * sizeof(Tag));
         }));
+        for (; part <= parts; ++part) part_start[part] = held;
         GM_RETURN_IF_ERROR(tag_file.write(tags.data(), used * sizeof(Tag)));
         GM_RETURN_IF_ERROR(tag_file.close());
         bytes_spilled_ += tag_file.bytes();
@@ -423,35 +439,53 @@ Status PartitionRun::reorder(bool weld) {
       }
       ::unlink(map_path.c_str());
 
-      // 6. Whole faces again, in input order: each corner the next renamed id of its slice.
-      std::vector<BucketFile::Cursor<std::uint32_t>> cursor;
-      cursor.reserve(slices);
-      for (std::size_t r = 0; r < slices; ++r) cursor.emplace_back(corners, r);
+      // 6. Whole faces again, in input order: each corner the next renamed id of its slice. Part
+      // w reads its faces' tags and, per slice, the corners from those the parts before it took.
       const int fd = ::open(tags_path.c_str(), O_RDONLY | O_CLOEXEC);
       if (fd < 0) return Status::error(Code::kBadInput, tags_path, "cannot open temporary file: " + errno_text());
       FdCloser closer{fd};
-      const std::uint64_t per_read = tags.size() / 3;
-      for (std::uint64_t done = 0; done < faces;) {
-        const std::uint64_t take = std::min(per_read, faces - done), bytes = 3 * take * sizeof(Tag);
-        if (read_some(fd, tags.data(), bytes, 3 * done * sizeof(Tag)) != static_cast<std::int64_t>(bytes)) {
-          return Status::error(Code::kBadInput, tags_path, "temporary file is shorter than written");
-        }
-        for (std::uint64_t i = 0; i < 3 * take; i += 3) {
-          Triangle t;
-          for (std::uint32_t k = 0; k < 3; ++k) {
-            const Tag r = tags[i + k];
-            if (r >= slices || !cursor[r].next(t.v[k])) {
-              if (r < slices) GM_RETURN_IF_ERROR(cursor[r].status());
-              return Status::error(Code::kBadInput, tags_path, "a corner is missing from its slice");
-            }
+      const std::uint64_t per_read = std::max<std::uint64_t>(tags.size() / 3 / parts, 1);
+      std::vector<Tag>().swap(tags);
+      const auto put_together = [&](std::size_t w) -> Status {
+        std::vector<BucketFile::Cursor<std::uint32_t>> cursor;
+        cursor.reserve(slices);
+        for (std::size_t r = 0; r < slices; ++r) cursor.emplace_back(corners, r, part_start[w][r]);
+        std::vector<Tag> part_tags(3 * per_read);
+        for (std::uint64_t done = part_first[w]; done < part_first[w + 1];) {
+          const std::uint64_t take = std::min(per_read, part_first[w + 1] - done), bytes = 3 * take * sizeof(Tag);
+          if (read_some(fd, part_tags.data(), bytes, 3 * done * sizeof(Tag)) != static_cast<std::int64_t>(bytes)) {
+            return Status::error(Code::kBadInput, tags_path, "temporary file is shorter than written");
           }
-          GM_RETURN_IF_ERROR(grouped.append(lowest_corner(t) >> lowest_bits, lowest_first(t)));
+          for (std::uint64_t i = 0; i < 3 * take; i += 3) {
+            Triangle t;
+            for (std::uint32_t k = 0; k < 3; ++k) {
+              const Tag r = part_tags[i + k];
+              if (r >= slices || !cursor[r].next(t.v[k])) {
+                if (r < slices) GM_RETURN_IF_ERROR(cursor[r].status());
+                return Status::error(Code::kBadInput, tags_path, "a corner is missing from its slice");
+              }
+            }
+            GM_RETURN_IF_ERROR(grouped[w].append(lowest_corner(t) >> lowest_bits, lowest_first(t)));
+          }
+          done += take;
         }
-        done += take;
+        if (w + 1 == parts) {
+          std::uint32_t extra = 0;
+          for (auto& c : cursor)
+            if (c.next(extra)) return Status::error(Code::kBadInput, corners_path, "a slice holds a corner too many");
+        }
+        return grouped[w].finish();
+      };
+      std::vector<Status> status_of(parts);
+      if (parts == 1) {
+        status_of[0] = put_together(0);
+      } else {
+        if (!arena_) arena_ = std::make_unique<tbb::task_arena>(static_cast<int>(options_.threads));
+        arena_->execute([&] {
+          tbb::parallel_for(std::size_t{0}, parts, [&](std::size_t w) { status_of[w] = put_together(w); });
+        });
       }
-      std::uint32_t extra = 0;
-      for (auto& c : cursor)
-        if (c.next(extra)) return Status::error(Code::kBadInput, corners_path, "a slice holds a corner too many");
+      for (const Status& status : status_of) GM_RETURN_IF_ERROR(status);
       ::unlink(tags_path.c_str());
       return Status{};
     };
@@ -459,8 +493,10 @@ Status PartitionRun::reorder(bool weld) {
                        : slices <= 65536 ? rename_by_slices(std::uint16_t{})
                                          : rename_by_slices(std::uint32_t{}));
   }
-  GM_RETURN_IF_ERROR(grouped.finish());
-  bytes_spilled_ += grouped.bytes();
+  for (BucketFile& part : grouped) {
+    GM_RETURN_IF_ERROR(part.finish());
+    bytes_spilled_ += part.bytes();
+  }
   out_.reorder_steps.faces = seconds_since(step);
   step = std::chrono::steady_clock::now();
 
@@ -482,16 +518,22 @@ Status PartitionRun::reorder(bool weld) {
       for (std::size_t at = 0; at < faces.size(); at += kPiece) GM_RETURN_IF_ERROR(spills.triangles(faces.subspan(at, std::min(kPiece, faces.size() - at))));
       return Status{};
     };
+    // Bucket b's faces, part after part: in input order.
+    const auto read_grouped = [&](std::size_t b, auto&& fn) -> Status {
+      for (BucketFile& part : grouped) GM_RETURN_IF_ERROR(part.read(b, fn));
+      return {};
+    };
     std::vector<Triangle> run, staged;
     std::vector<std::uint32_t> at(range_lowest + 1);
     for (std::size_t b = 0; b < lowest_ranges; ++b) {
       const std::uint64_t base = b * range_lowest, ids = std::min(range_lowest, new_vertices - base);
       std::fill(at.begin(), at.end(), 0);
-      const std::uint64_t in_bucket = grouped.bucket_bytes(b) / sizeof(Triangle);
+      std::uint64_t in_bucket = 0;
+      for (const BucketFile& part : grouped) in_bucket += part.bucket_bytes(b) / sizeof(Triangle);
       if (2 * in_bucket <= run_faces) {  // read once, then counted and placed in memory
         staged.clear();
         staged.reserve(in_bucket);
-        GM_RETURN_IF_ERROR(grouped.read(b, [&](std::span<const std::byte> block) {
+        GM_RETURN_IF_ERROR(read_grouped(b, [&](std::span<const std::byte> block) {
           const std::span<const Triangle> in = records_of<Triangle>(block);
           staged.insert(staged.end(), in.begin(), in.end());
           return Status{};
@@ -510,7 +552,7 @@ Status PartitionRun::reorder(bool weld) {
       // A bucket larger than half a table (lowest corners of many faces): counted in one read,
       // then read once per run of lowest corners that fits the table.
       std::vector<Triangle>().swap(staged);
-      GM_RETURN_IF_ERROR(grouped.read(b, [&](std::span<const std::byte> block) {
+      GM_RETURN_IF_ERROR(read_grouped(b, [&](std::span<const std::byte> block) {
         for (const Triangle& t : records_of<Triangle>(block)) ++at[lowest_corner(t) - base];
         return Status{};
       }));
@@ -525,7 +567,7 @@ Status PartitionRun::reorder(bool weld) {
         std::vector<std::uint64_t> offset(v1 - v0, 0);
         for (std::uint64_t v = v0 + 1; v < v1; ++v) offset[v - v0] = offset[v - v0 - 1] + at[v - 1];
         if (!streamed) run.resize(total);
-        GM_RETURN_IF_ERROR(grouped.read(b, [&](std::span<const std::byte> block) {
+        GM_RETURN_IF_ERROR(read_grouped(b, [&](std::span<const std::byte> block) {
           std::span<const Triangle> in = records_of<Triangle>(block);
           if (streamed) {
             run.clear();
@@ -553,7 +595,7 @@ Status PartitionRun::reorder(bool weld) {
     GM_RETURN_IF_ERROR(spills.finish());
   }
   GM_RETURN_IF_ERROR(ordered.close());
-  grouped.remove();
+  for (BucketFile& part : grouped) part.remove();
   bytes_spilled_ += ordered.bytes();
   if (std::rename(ordered_path.c_str(), faces_path_.c_str()) != 0) {
     return Status::error(Code::kOutput, faces_path_, "cannot replace temporary file: " + errno_text());

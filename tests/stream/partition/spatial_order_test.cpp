@@ -76,14 +76,14 @@ std::vector<Corners> surface(const Mesh& mesh) {
 void write_ply_file(const std::string& path, const Mesh& mesh) { ASSERT_TRUE(testing::write_binary_ply(path, mesh)); }
 
 // partition_mesh of `path` renumbered (reorder_scattered) over a table of `table` bytes (0: the
-// budget's), with rings 1 and chunks of 100k faces.
+// budget's), with rings 1, chunks of 100k faces and `threads` threads.
 format::Result<Partition> renumbered_partition(const testing::ScratchDir& dir, const std::string& path,
-                                               std::uint64_t table, Weld weld = Weld::kAuto) {
+                                               std::uint64_t table, Weld weld = Weld::kAuto, std::uint32_t threads = 2) {
   PartitionOptions options;
   options.rings = 1;
   options.memory_bytes = std::uint64_t{64} << 20;
   options.max_chunk_faces = 100000;
-  options.threads = 2;
+  options.threads = threads;
   options.reorder_scattered = true;
   options.weld = weld;
   options.reorder_table_bytes = table;
@@ -194,13 +194,16 @@ TEST(SpatialOrder, OutOfCoreRenumberingIsTheInCoreOneOverOneRangeOrMany) {
   testing::ScratchDir dir;
   write_ply_file(dir.file("in.ply"), input);
   // 0: the budget's table (one range of the map); 64 KiB: dozens of ranges, and the fan's apex
-  // is the lowest corner of more faces than a run holds (streamed).
+  // is the lowest corner of more faces than a run holds (streamed). Over many ranges the faces
+  // are put together in one part per thread: one, two, or three uneven ones.
   for (const std::uint64_t table : {std::uint64_t{0}, std::uint64_t{64} << 10}) {
-    SCOPED_TRACE("table " + std::to_string(table));
-    auto partition = renumbered_partition(dir, dir.file("in.ply"), table);
-    ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
-    EXPECT_TRUE(partition->reordered);
-    expect_chunks_hold(*partition, expected);
+    for (const std::uint32_t threads : {1u, 2u, 3u}) {
+      SCOPED_TRACE("table " + std::to_string(table) + ", threads " + std::to_string(threads));
+      auto partition = renumbered_partition(dir, dir.file("in.ply"), table, Weld::kAuto, threads);
+      ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
+      EXPECT_TRUE(partition->reordered);
+      expect_chunks_hold(*partition, expected);
+    }
   }
   // A soup, welded out of core to exactly the in-core result.
   const Mesh soup = testing::soup_mesh(sheet_and_fan(), 23);
