@@ -30,9 +30,10 @@
 namespace gaussmesh::stream::detail {
 namespace {
 
+// A vertex sent to its range of cells: its place in the cell order (cells in Morton order, ids
+// in order within) is counted again when the range is read, as its records come in id order.
 struct PositionRecord {
-  std::uint32_t place;  // in the cell order (cells in Morton order, ids in order within)
-  std::uint32_t id;     // the input's
+  std::uint32_t id;  // the input's
   Vec3f p;
 };
 // An old id and its new id, for the map.
@@ -40,7 +41,7 @@ struct MapPair {
   std::uint32_t old_id;
   std::uint32_t new_id;
 };
-static_assert(sizeof(PositionRecord) == 20 && sizeof(MapPair) == 8);
+static_assert(sizeof(PositionRecord) == 16 && sizeof(MapPair) == 8);
 
 template <class Record>
 std::span<const Record> records_of(std::span<const std::byte> block) {
@@ -156,21 +157,20 @@ Status PartitionRun::reorder(bool weld) {
     range_first.push_back(sum);
   }
   const std::size_t ranges = range_cell.size() - 1;
-  std::vector<std::uint32_t> cell_start(next);  // each cell's first place in the cell order
+  std::vector<std::uint32_t> cell_start = std::move(next);  // each cell's first place in the cell order
 
-  // 2. The positions by range, each with its place in the cell order and its id.
+  // 2. The positions by range, each with its id.
   BucketFile moved;
   GM_RETURN_IF_ERROR(moved.open(out_.dir + "/reorder-positions.bin", ranges, sizeof(PositionRecord), buffers / ranges));
   GM_RETURN_IF_ERROR(scan_positions(*vertex_files_, vertices, serial, no_piece, [&](std::uint64_t first, std::span<const Vec3f> batch) {
     for (std::size_t i = 0; i < batch.size(); ++i) {
       const std::uint32_t m = code[grid.cell(batch[i])];
-      GM_RETURN_IF_ERROR(moved.append(range_of[m], PositionRecord{next[m]++, static_cast<std::uint32_t>(first + i), batch[i]}));
+      GM_RETURN_IF_ERROR(moved.append(range_of[m], PositionRecord{static_cast<std::uint32_t>(first + i), batch[i]}));
     }
     return Status{};
   }));
   GM_RETURN_IF_ERROR(moved.finish());
   bytes_spilled_ += moved.bytes();
-  std::vector<std::uint32_t>().swap(next);
   std::vector<std::uint32_t>().swap(range_of);
 
   // 3. Range by range: each cell sorted (VertexKey) and welded, the new position files written
@@ -281,18 +281,22 @@ Status PartitionRun::reorder(bool weld) {
         continue;
       }
       range.resize(count);
+      const std::uint32_t cell0 = range_cell[r], cells = range_cell[r + 1] - cell0;
+      std::vector<std::uint32_t> place(cell_start.begin() + cell0, cell_start.begin() + cell0 + cells);
       std::uint64_t got = 0;
       GM_RETURN_IF_ERROR(moved.read(r, [&](std::span<const std::byte> block) {
         for (const PositionRecord& p : records_of<PositionRecord>(block)) {
-          if (p.place - first >= count) return Status::error(Code::kBadInput, out_.dir + "/reorder-positions.bin", "a vertex is in the wrong range");
-          range[p.place - first] = p;
+          const std::uint32_t m = code[grid.cell(p.p)] - cell0;
+          if (m >= cells || place[m] - first >= count) {
+            return Status::error(Code::kBadInput, out_.dir + "/reorder-positions.bin", "a vertex is in the wrong range");
+          }
+          range[place[m]++ - first] = p;
         }
         got += block.size() / sizeof(PositionRecord);
         return Status{};
       }));
       if (got != count) return Status::error(Code::kProcessing, "reorder", "a range of positions lost a vertex");
       // The cells are sorted on the run's threads, then emitted in order on this one.
-      const std::uint32_t cell0 = range_cell[r], cells = range_cell[r + 1] - cell0;
       const auto cell_span = [&](std::uint32_t m) {
         const std::uint64_t begin = cell_start[m] - first;
         const std::uint64_t end = (m + 1 < cell_start.size() ? cell_start[m + 1] : range_first[ranges]) - first;
@@ -382,6 +386,7 @@ Status PartitionRun::reorder(bool weld) {
       }
       return {};
     }));
+    ::unlink(faces_path_.c_str());  // read for the last time
   } else {
     // 4. Every corner's old id, by slice of old ids, and in face order which slice it went to
     // (Tag: a byte, or two past 256 slices; four only for a test's tiny table).
@@ -418,6 +423,8 @@ Status PartitionRun::reorder(bool weld) {
       }
       GM_RETURN_IF_ERROR(corners.finish());
       bytes_spilled_ += corners.bytes();
+      // The input's face spill is read for the last time: gone now, its pages need no writing back.
+      ::unlink(faces_path_.c_str());
 
       // 5. Each slice's corners renamed in place from that slice of the map.
       {
