@@ -115,8 +115,10 @@ Status PartitionRun::reorder(bool weld) {
                                                                 : std::max<std::uint64_t>(options_.memory_bytes / 8 * 3, std::uint64_t{1} << 20);
   const std::size_t buffers = std::max<std::size_t>(options_.memory_bytes / 16, std::size_t{1} << 20);
   // A range of cells holds whole cells (or is one cell larger than that), at least the largest
-  // group of one fine code that is welded.
-  const std::uint64_t range_vertices = std::max<std::uint64_t>(table / (sizeof(PositionRecord) + sizeof(OrderedVertex)), kMaxWeldGroup);
+  // group of one fine code that is welded; the table holds its records, their ordered copies and
+  // the sort's keys.
+  const std::uint64_t range_vertices =
+      std::max<std::uint64_t>(table / (sizeof(PositionRecord) + sizeof(OrderedVertex) + sizeof(std::uint64_t)), kMaxWeldGroup);
   const std::uint64_t range_ids = std::max<std::uint64_t>(table / sizeof(std::uint32_t), 1024);
   // Slices of old ids for the corners' passes are powers of two (a shift per record, not a
   // division) and stay within 4 MiB of the map, so that its look-ups mostly hit the cache while
@@ -304,11 +306,13 @@ Status PartitionRun::reorder(bool weld) {
       };
       run.resize(count);
       for_cells(cells, [&](std::size_t from, std::size_t to) {
+        std::vector<std::uint64_t> scratch;  // the sort's keys: at most the piece's cells'
         for (std::size_t c = from; c < to; ++c) {
           const std::span<OrderedVertex> cell = cell_span(static_cast<std::uint32_t>(cell0 + c));
           const PositionRecord* in = range.data() + (cell.data() - run.data());
           for (std::size_t i = 0; i < cell.size(); ++i) cell[i] = {VertexKey::of(fine_of(in[i].p), in[i].p, in[i].id), in[i].p};
-          sort_run(cell);
+          scratch.resize(std::max(scratch.size(), cell.size()));
+          sort_run(cell, scratch);
         }
       });
       for (std::uint32_t c = 0; c < cells; ++c) {

@@ -100,12 +100,45 @@ struct OrderedVertex {
 };
 
 // Orders `run` (vertices of one cell, whole groups of equal fine codes): by key, and a group of
-// one fine code larger than kMaxWeldGroup by id.
-inline void sort_run(std::span<OrderedVertex> run) {
-  std::sort(run.begin(), run.end(), [](const OrderedVertex& a, const OrderedVertex& b) { return a.key < b.key; });
-  for (std::size_t i = 0; i < run.size();) {
+// one fine code larger than kMaxWeldGroup by id. With `scratch` of at least run.size() entries,
+// by fine code first on 8-byte keys (most vertices are alone in theirs), the records moved once,
+// then each group of one code by its whole keys.
+inline void sort_run(std::span<OrderedVertex> run, std::span<std::uint64_t> scratch = {}) {
+  const auto by_key = [](const OrderedVertex& a, const OrderedVertex& b) { return a.key < b.key; };
+  const std::size_t n = run.size();
+  if (n < 2) return;
+  if (scratch.size() >= n && n <= UINT32_MAX) {
+    for (std::size_t i = 0; i < n; ++i) scratch[i] = std::uint64_t{run[i].key.fine} << 32 | i;
+    std::sort(scratch.begin(), scratch.begin() + std::ptrdiff_t(n));
+    // run[i] takes the record at scratch[i]'s index, cycle by cycle; a slot done points at itself.
+    const auto from = [&](std::size_t i) { return static_cast<std::uint32_t>(scratch[i]); };
+    for (std::size_t i = 0; i < n; ++i) {
+      if (from(i) == i) continue;
+      const OrderedVertex first = run[i];
+      std::size_t k = i;
+      for (;;) {
+        const std::size_t next = from(k);
+        scratch[k] = (scratch[k] & ~std::uint64_t{UINT32_MAX}) | k;
+        if (next == i) {
+          run[k] = first;
+          break;
+        }
+        run[k] = run[next];
+        k = next;
+      }
+    }
+    for (std::size_t i = 0; i < n;) {
+      std::size_t j = i + 1;
+      while (j < n && run[j].key.fine == run[i].key.fine) ++j;
+      if (j - i > 1) std::sort(run.begin() + std::ptrdiff_t(i), run.begin() + std::ptrdiff_t(j), by_key);
+      i = j;
+    }
+  } else {
+    std::sort(run.begin(), run.end(), by_key);
+  }
+  for (std::size_t i = 0; i < n;) {
     std::size_t j = i + 1;
-    while (j < run.size() && run[j].key.fine == run[i].key.fine) ++j;
+    while (j < n && run[j].key.fine == run[i].key.fine) ++j;
     if (j - i > kMaxWeldGroup) {
       std::sort(run.begin() + i, run.begin() + j, [](const OrderedVertex& a, const OrderedVertex& b) { return a.key.id < b.key.id; });
     }
