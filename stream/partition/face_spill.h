@@ -30,14 +30,20 @@ using format::Triangle;
 constexpr std::uint32_t kFaceSpillRecordKind = 0x53464D47u;  // "GMFS"
 constexpr std::size_t kFaceSpillFrameBytes = std::size_t{1} << 20;
 
+// zstd levels. The input's spill: -1, on these frames markedly faster than level 1 both ways,
+// for a spill a little larger. The renumbered spill (sorted by lowest corner, ids in spatial
+// order) compresses about four times where an ordered input's compresses twenty: there the
+// fastest level costs less to write and to read back than the bytes it saves
+// (docs/partition.md, "zstd level of the face spill").
+constexpr int kFaceSpillLevel = -1;
+constexpr int kRenumberedSpillLevel = -1000;
+
 class FaceSpill {
  public:
-  Status open(const std::string& path) {
+  Status open(const std::string& path, int level = kFaceSpillLevel) {
     format::RecordWriterOptions options;
     options.frame_bytes = kFaceSpillFrameBytes;
-    // -1: on these frames markedly faster than level 1 both ways, for a spill a little larger
-    // (docs/partition.md, "zstd level on column frames").
-    options.level = -1;
+    options.level = level;
     options.columns = {{4, true}, {4, true}, {4, true}};
     auto writer = format::RecordWriter::create(path, kFaceSpillRecordKind, sizeof(Triangle), options);
     if (!writer) return writer.status();

@@ -518,7 +518,7 @@ Status PartitionRun::reorder(bool weld) {
   // streamed (past kMaxFaceGroup its faces stay in input order, the order they come in).
   const std::string ordered_path = out_.dir + "/faces-ordered.gmr";
   FaceSpill ordered;
-  GM_RETURN_IF_ERROR(ordered.open(ordered_path));
+  GM_RETURN_IF_ERROR(ordered.open(ordered_path, kRenumberedSpillLevel));
   {
     // The spill's compression runs on a thread of its own (with --threads > 1), beside the
     // sorting; it gets the faces in pieces, of which SpillThread copies a few at a time.
