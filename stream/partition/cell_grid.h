@@ -108,10 +108,20 @@ struct Grid {
       }
       local[a] = static_cast<std::uint32_t>(fine - (std::uint64_t{axis(a, c[a])} << k));
     }
+    if (k <= 10) return spread_bits(local[0]) << 2 | spread_bits(local[1]) << 1 | spread_bits(local[2]);
     std::uint32_t code = 0;
     for (std::uint32_t level = k; level-- > 0;)
       for (int a = 0; a < 3; ++a) code = code << 1 | ((local[a] >> level) & 1u);
     return code;
+  }
+  // The low 10 bits of x moved to every third bit (bit i to bit 3i): one axis of a Z-order code.
+  static std::uint32_t spread_bits(std::uint32_t x) {
+    x &= 0x3FFu;
+    x = (x | x << 16) & 0x030000FFu;
+    x = (x | x << 8) & 0x0300F00Fu;
+    x = (x | x << 4) & 0x030C30C3u;
+    x = (x | x << 2) & 0x09249249u;
+    return x;
   }
   // Z-order code of a cell: bits interleaved from the top level down; an axis with fewer bits
   // joins the interleave at its own top level.

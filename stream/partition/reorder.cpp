@@ -179,7 +179,11 @@ Status PartitionRun::reorder(bool weld) {
   // in the new order (they replace the input's own records too), and each vertex's new id sent
   // by range of old ids.
   const std::string map_path = out_.dir + "/reorder-map.bin";
-  const std::uint64_t old_ranges = ceil_div(vertices, range_ids);
+  // The old-to-new pairs go by ranges of old ids, a power of two within the table (a shift per
+  // vertex, not a division); the whole map fits the table when all the ids do.
+  const bool map_fits = vertices <= range_ids;
+  const std::uint32_t pair_bits = floor_log2(range_ids);
+  const std::uint64_t pair_ids = std::uint64_t{1} << pair_bits, old_ranges = ceil_div(vertices, pair_ids);
   BucketFile pairs;
   GM_RETURN_IF_ERROR(pairs.open(out_.dir + "/reorder-pairs.bin", old_ranges, sizeof(MapPair), buffers / old_ranges));
   std::uint32_t kept = 0;
@@ -194,7 +198,7 @@ Status PartitionRun::reorder(bool weld) {
         failed = positions[position_file(kept)].write(&v.p, sizeof(Vec3f));
         ++kept;
       }
-      if (failed.is_ok()) failed = pairs.append(v.key.id / range_ids, MapPair{v.key.id, kept - 1});
+      if (failed.is_ok()) failed = pairs.append(v.key.id >> pair_bits, MapPair{v.key.id, kept - 1});
     };
     const auto fine_of = [&](const Vec3f& p) { return grid.sub_code(p, kReorderFineBits); };
     std::vector<PositionRecord> range;
@@ -335,9 +339,9 @@ Status PartitionRun::reorder(bool weld) {
   {
     SpillWriter map;
     GM_RETURN_IF_ERROR(map.open(map_path, std::size_t{1} << 20));
-    std::vector<std::uint32_t> slice(std::min(range_ids, vertices));
+    std::vector<std::uint32_t> slice(std::min(pair_ids, vertices));
     for (std::size_t r = 0; r < old_ranges; ++r) {
-      const std::uint64_t first = r * range_ids, count = std::min(range_ids, vertices - first);
+      const std::uint64_t first = r * pair_ids, count = std::min(pair_ids, vertices - first);
       std::uint64_t got = 0;
       GM_RETURN_IF_ERROR(pairs.read(r, [&](std::span<const std::byte> block) {
         for (const MapPair& c : records_of<MapPair>(block)) slice[c.old_id - first] = c.new_id;
@@ -371,12 +375,12 @@ Status PartitionRun::reorder(bool weld) {
   // input order (6): records of 4 bytes, no face or corner number carried along.
   // Pass 6 puts the faces together in parts of the input's faces, one part per thread (up to
   // four), each into buckets of its own; pass 7 reads a bucket part after part, in input order.
-  const std::size_t parts = old_ranges <= 1 ? 1 : std::clamp<std::size_t>(options_.threads, 1, 4);
+  const std::size_t parts = map_fits ? 1 : std::clamp<std::size_t>(options_.threads, 1, 4);
   std::vector<BucketFile> grouped(parts);
   for (std::size_t w = 0; w < parts; ++w)
     GM_RETURN_IF_ERROR(grouped[w].open(out_.dir + "/reorder-faces-" + std::to_string(w) + ".bin", lowest_ranges, sizeof(Triangle),
                                        buffers / 2 / parts / lowest_ranges));
-  if (old_ranges <= 1) {
+  if (map_fits) {
     std::vector<std::uint32_t> whole(vertices);
     GM_RETURN_IF_ERROR(read_map(map_path, whole.data(), 0, vertices));
     ::unlink(map_path.c_str());

@@ -121,6 +121,28 @@ TEST(SpatialOrder, TheProbeTellsShuffledIdsFromOrderedOnes) {
   EXPECT_FALSE(scattered(testing::scattered_mesh(testing::make_wavy_sheet(200), 7)));
 }
 
+TEST(SpatialOrder, FineCodesInterleaveTheSubCellsBitsTopLevelFirst) {
+  // The fine code, bit by bit: at each level from the top, x's bit, then y's, then z's.
+  const detail::Grid grid = detail::Grid::make({0, 0, 0}, {1, 2, 4});
+  std::mt19937 rng(41);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  for (int i = 0; i < 20000; ++i) {
+    const Vec3f p{unit(rng), 2 * unit(rng), 4 * unit(rng)};
+    const float c[3] = {p.x, p.y, p.z};
+    for (const std::uint32_t k : {1u, 7u, kReorderFineBits}) {
+      std::uint32_t local[3], want = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double t = (static_cast<double>(c[a]) - grid.lo[a]) * grid.scale[a];
+        const auto fine = std::min<std::uint64_t>(static_cast<std::uint64_t>(t * double(1u << k)), (std::uint64_t{grid.n[a]} << k) - 1);
+        local[a] = static_cast<std::uint32_t>(fine - (std::uint64_t{grid.axis(a, c[a])} << k));
+      }
+      for (std::uint32_t level = k; level-- > 0;)
+        for (int a = 0; a < 3; ++a) want = want << 1 | ((local[a] >> level) & 1u);
+      ASSERT_EQ(grid.sub_code(p, k), want) << i << " k " << k;
+    }
+  }
+}
+
 TEST(SpatialOrder, RenumberingKeepsTheSurfaceAndSortsByCellThenLowestCorner) {
   const Mesh input = testing::scattered_mesh(sheet_and_fan(), 11);
   Mesh mesh = input;
