@@ -132,10 +132,22 @@ Status PartitionRun::reorder(bool weld) {
   const Grid grid = Grid::make(out_.lo, out_.hi);
   std::vector<std::uint32_t> code(grid.cells()), next(grid.cells(), 0), range_of(grid.cells());
   for (std::uint32_t c = 0; c < grid.cells(); ++c) code[c] = grid.morton(c);
-  const auto serial = [](std::size_t n, auto&& fn) { fn(std::size_t{0}, n); };
-  const auto no_piece = [](std::uint64_t, std::span<const Vec3f>, std::size_t, std::size_t) {};
-  GM_RETURN_IF_ERROR(scan_positions(*vertex_files_, vertices, serial, no_piece, [&](std::uint64_t, std::span<const Vec3f> batch) {
-    for (const Vec3f& p : batch) ++next[code[grid.cell(p)]];
+  // The two scans of the positions read a batch and find its vertices' cells on the run's
+  // threads (cell_of, in Morton order), then count or send them on this one.
+  const auto in_pieces = [&](std::size_t n, auto&& fn) {
+    constexpr std::size_t kGrain = 8192;
+    if (options_.threads <= 1 || n <= kGrain) return fn(std::size_t{0}, n);
+    if (!arena_) arena_ = std::make_unique<tbb::task_arena>(static_cast<int>(options_.threads));
+    arena_->execute([&] {
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kGrain), [&](const tbb::blocked_range<std::size_t>& r) { fn(r.begin(), r.end()); });
+    });
+  };
+  std::vector<std::uint32_t> cell_of(kPositionStripeVertices);  // scan_positions: a stripe at most a batch
+  const auto find_cells = [&](std::uint64_t, std::span<const Vec3f> batch, std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) cell_of[i] = code[grid.cell(batch[i])];
+  };
+  GM_RETURN_IF_ERROR(scan_positions(*vertex_files_, vertices, in_pieces, find_cells, [&](std::uint64_t, std::span<const Vec3f> batch) {
+    for (std::size_t i = 0; i < batch.size(); ++i) ++next[cell_of[i]];
     return Status{};
   }));
   // Per range: its first cell (Morton code) and first vertex in the cell order.
@@ -164,13 +176,12 @@ Status PartitionRun::reorder(bool weld) {
   // 2. The positions by range, each with its id.
   BucketFile moved;
   GM_RETURN_IF_ERROR(moved.open(out_.dir + "/reorder-positions.bin", ranges, sizeof(PositionRecord), buffers / ranges));
-  GM_RETURN_IF_ERROR(scan_positions(*vertex_files_, vertices, serial, no_piece, [&](std::uint64_t first, std::span<const Vec3f> batch) {
-    for (std::size_t i = 0; i < batch.size(); ++i) {
-      const std::uint32_t m = code[grid.cell(batch[i])];
-      GM_RETURN_IF_ERROR(moved.append(range_of[m], PositionRecord{static_cast<std::uint32_t>(first + i), batch[i]}));
-    }
+  GM_RETURN_IF_ERROR(scan_positions(*vertex_files_, vertices, in_pieces, find_cells, [&](std::uint64_t first, std::span<const Vec3f> batch) {
+    for (std::size_t i = 0; i < batch.size(); ++i)
+      GM_RETURN_IF_ERROR(moved.append(range_of[cell_of[i]], PositionRecord{static_cast<std::uint32_t>(first + i), batch[i]}));
     return Status{};
   }));
+  std::vector<std::uint32_t>().swap(cell_of);
   GM_RETURN_IF_ERROR(moved.finish());
   bytes_spilled_ += moved.bytes();
   std::vector<std::uint32_t>().swap(range_of);
