@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <span>
 #include <string>
 #include <utility>
@@ -384,10 +385,23 @@ Status PartitionRun::reorder(bool weld) {
   // read; else every corner's old id goes to its slice of old ids (4), each slice is renamed in
   // place from its part of the map (5), and the faces are put together again from the slices in
   // input order (6): records of 4 bytes, no face or corner number carried along.
-  // Pass 6 puts the faces together in parts of the input's faces, one part per thread (up to
-  // four), each into buckets of its own; pass 7 reads a bucket part after part, in input order.
+  // Passes 4-6 work in parts of the face spill's frames, one part per thread (up to four), each
+  // with files of its own and buckets of its own; pass 7 reads a bucket part after part, in
+  // input order.
   const std::size_t parts = map_fits ? 1 : std::clamp<std::size_t>(options_.threads, 1, 4);
   std::vector<BucketFile> grouped(parts);
+  // fn(w) for every part w, on the run's threads; the first part's error, if any.
+  const auto on_parts = [&](std::size_t n, auto&& fn) -> Status {
+    std::vector<Status> status_of(n);
+    if (n == 1) {
+      status_of[0] = fn(std::size_t{0});
+    } else {
+      if (!arena_) arena_ = std::make_unique<tbb::task_arena>(static_cast<int>(options_.threads));
+      arena_->execute([&] { tbb::parallel_for(std::size_t{0}, n, [&](std::size_t w) { status_of[w] = fn(w); }); });
+    }
+    for (Status& status : status_of) GM_RETURN_IF_ERROR(status);
+    return Status{};
+  };
   for (std::size_t w = 0; w < parts; ++w)
     GM_RETURN_IF_ERROR(grouped[w].open(out_.dir + "/reorder-faces-" + std::to_string(w) + ".bin", lowest_ranges, sizeof(Triangle),
                                        buffers / 2 / parts / lowest_ranges));
@@ -410,109 +424,133 @@ Status PartitionRun::reorder(bool weld) {
     // 4. Every corner's old id, by slice of old ids, and in face order which slice it went to
     // (Tag: a byte, or two past 256 slices; four only for a test's tiny table).
     const std::uint64_t slices = ceil_div(vertices, std::uint64_t{1} << slice_bits);
-    const std::string corners_path = out_.dir + "/reorder-corners.bin", tags_path = out_.dir + "/reorder-slices.bin";
     const auto rename_by_slices = [&]<class Tag>(Tag) -> Status {
-      BucketFile corners;
-      GM_RETURN_IF_ERROR(corners.open(corners_path, slices, sizeof(std::uint32_t), buffers / 2 / slices));
-      std::vector<Tag> tags(std::max<std::size_t>(buffers / 2 / sizeof(Tag) / 3, 1) * 3);
-      // Each part's first face, and how many corners each slice holds before it.
-      std::vector<std::uint64_t> part_first(parts + 1);
-      for (std::size_t w = 0; w <= parts; ++w) part_first[w] = faces * w / parts;
-      std::vector<std::vector<std::uint64_t>> part_start(parts + 1, std::vector<std::uint64_t>(slices, 0));
-      {
+      // Parts of the face spill's frames, one per thread: each part's corners and tags go to
+      // files of its own, so that the three passes run on every thread.
+      std::vector<BucketFile> corners(parts);
+      std::vector<std::string> corners_paths(parts), tags_paths(parts);
+      std::vector<std::uint64_t> part_first(parts + 1, 0), part_end(parts, 0);
+      const std::size_t tags_per_part = std::max<std::size_t>(buffers / 2 / parts / sizeof(Tag) / 3, 1) * 3;
+      for (std::size_t w = 0; w < parts; ++w) {
+        corners_paths[w] = out_.dir + "/reorder-corners-" + std::to_string(w) + ".bin";
+        tags_paths[w] = out_.dir + "/reorder-slices-" + std::to_string(w) + ".bin";
+        GM_RETURN_IF_ERROR(corners[w].open(corners_paths[w], slices, sizeof(std::uint32_t), buffers / 2 / parts / slices));
+      }
+      std::mutex progress_mutex;
+      std::uint64_t progress_done = 0;
+      const auto spread_corners = [&](std::size_t w) -> Status {
+        auto reader = format::RecordReader::open(faces_path_, kFaceSpillRecordKind, sizeof(Triangle));
+        if (!reader) return reader.status();
+        const std::size_t frames = (*reader)->frame_count(), first_frame = frames * w / parts, end_frame = frames * (w + 1) / parts;
+        std::uint64_t f = 0;
+        for (std::size_t i = 0; i < first_frame; ++i) {
+          auto skipped = (*reader)->skip();
+          if (!skipped) return skipped.status();
+          f += *skipped;
+        }
+        part_first[w] = f;
         SpillWriter tag_file;
-        GM_RETURN_IF_ERROR(tag_file.open(tags_path, 1 << 16));
-        std::size_t used = 0, part = 1;
-        std::vector<std::uint64_t> held(slices, 0);
-        GM_RETURN_IF_ERROR(for_each_spilled_face([&](std::uint64_t f, const Triangle& t) {
-          for (; part < parts && f == part_first[part]; ++part) part_start[part] = held;
-          for (const std::uint32_t v : t.v) ++held[v >> slice_bits];
-          for (const std::uint32_t v : t.v) {
-            GM_RETURN_IF_ERROR(corners.append(v >> slice_bits, v));
-            tags[used++] = static_cast<Tag>(v >> slice_bits);
+        GM_RETURN_IF_ERROR(tag_file.open(tags_paths[w], 1 << 16));
+        std::vector<Tag> tags(tags_per_part);
+        std::size_t used = 0;
+        for (std::size_t i = first_frame; i < end_frame; ++i) {
+          auto frame = (*reader)->next();
+          if (!frame) return frame.status();
+          const std::span<const Triangle> in = records_of<Triangle>(*frame);
+          for (std::size_t k = 0; k < in.size(); ++k) {
+            for (const std::uint32_t v : in[k].v) {
+              if (v >= vertices) {
+                return Status::error(Code::kBadInput, faces_path_, "face " + std::to_string(f + k) + " names vertex " + std::to_string(v) + " of " +
+                                                                       std::to_string(vertices));
+              }
+              GM_RETURN_IF_ERROR(corners[w].append(v >> slice_bits, v));
+              tags[used++] = static_cast<Tag>(v >> slice_bits);
+            }
+            if (used == tags.size()) {
+              GM_RETURN_IF_ERROR(tag_file.write(tags.data(), used * sizeof(Tag)));
+              used = 0;
+            }
           }
-          if (used < tags.size()) return Status{};
-          used = 0;
-          return tag_file.write(tags.data(), tags.size() * sizeof(Tag));
-        }));
-        for (; part <= parts; ++part) part_start[part] = held;
+          f += in.size();
+          if (options_.progress) {
+            std::lock_guard lock(progress_mutex);
+            progress_done += in.size();
+            options_.progress("reorder", progress_done, faces);
+          }
+        }
+        part_end[w] = f;
         GM_RETURN_IF_ERROR(tag_file.write(tags.data(), used * sizeof(Tag)));
         GM_RETURN_IF_ERROR(tag_file.close());
-        bytes_spilled_ += tag_file.bytes();
+        GM_RETURN_IF_ERROR(corners[w].finish());
+        return Status{};
+      };
+      GM_RETURN_IF_ERROR(on_parts(parts, spread_corners));
+      part_first[parts] = faces;
+      for (std::size_t w = 0; w < parts; ++w) {
+        if (part_end[w] != part_first[w + 1]) return Status::error(Code::kBadInput, faces_path_, "temporary file is shorter than written");
+        bytes_spilled_ += corners[w].bytes() + 3 * (part_end[w] - part_first[w]) * sizeof(Tag);
       }
-      GM_RETURN_IF_ERROR(corners.finish());
-      bytes_spilled_ += corners.bytes();
       // The input's face spill is read for the last time: gone now, its pages need no writing back.
       ::unlink(faces_path_.c_str());
 
-      // 5. Each slice's corners renamed in place from that slice of the map.
+      // 5. Each slice's corners renamed in place from that slice of the map, in every part.
       {
         std::vector<std::uint32_t> slice(std::min(std::uint64_t{1} << slice_bits, vertices));
         for (std::size_t r = 0; r < slices; ++r) {
           const std::uint64_t first = std::uint64_t{r} << slice_bits, count = std::min(std::uint64_t{1} << slice_bits, vertices - first);
           GM_RETURN_IF_ERROR(read_map(map_path, slice.data(), first, count));
-          GM_RETURN_IF_ERROR(corners.rewrite(r, [&](std::span<std::byte> block) {
-            const std::span<std::uint32_t> ids{reinterpret_cast<std::uint32_t*>(block.data()), block.size() / sizeof(std::uint32_t)};
-            for (std::size_t k = 0; k < ids.size(); ++k) {
-              if (k + kAhead < ids.size() && ids[k + kAhead] - first < count) __builtin_prefetch(slice.data() + (ids[k + kAhead] - first));
-              std::uint32_t& id = ids[k];
-              if (id - first >= count) return Status::error(Code::kBadInput, corners_path, "a corner is in the wrong slice");
-              id = slice[id - first];
-            }
-            return Status{};
+          GM_RETURN_IF_ERROR(on_parts(parts, [&](std::size_t w) {
+            return corners[w].rewrite(r, [&](std::span<std::byte> block) {
+              const std::span<std::uint32_t> ids{reinterpret_cast<std::uint32_t*>(block.data()), block.size() / sizeof(std::uint32_t)};
+              for (std::size_t k = 0; k < ids.size(); ++k) {
+                if (k + kAhead < ids.size() && ids[k + kAhead] - first < count) __builtin_prefetch(slice.data() + (ids[k + kAhead] - first));
+                std::uint32_t& id = ids[k];
+                if (id - first >= count) return Status::error(Code::kBadInput, corners_paths[w], "a corner is in the wrong slice");
+                id = slice[id - first];
+              }
+              return Status{};
+            });
           }));
         }
       }
       ::unlink(map_path.c_str());
 
-      // 6. Whole faces again, in input order: each corner the next renamed id of its slice. Part
-      // w reads its faces' tags and, per slice, the corners from those the parts before it took.
-      const int fd = ::open(tags_path.c_str(), O_RDONLY | O_CLOEXEC);
-      if (fd < 0) return Status::error(Code::kBadInput, tags_path, "cannot open temporary file: " + errno_text());
-      FdCloser closer{fd};
-      const std::uint64_t per_read = std::max<std::uint64_t>(tags.size() / 3 / parts, 1);
-      std::vector<Tag>().swap(tags);
-      const auto put_together = [&](std::size_t w) -> Status {
+      // 6. Whole faces again, in input order: each corner the next renamed id of its slice, in
+      // each part from its own tags and corners.
+      GM_RETURN_IF_ERROR(on_parts(parts, [&](std::size_t w) -> Status {
+        const int fd = ::open(tags_paths[w].c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd < 0) return Status::error(Code::kBadInput, tags_paths[w], "cannot open temporary file: " + errno_text());
+        FdCloser closer{fd};
         std::vector<BucketFile::Cursor<std::uint32_t>> cursor;
         cursor.reserve(slices);
-        for (std::size_t r = 0; r < slices; ++r) cursor.emplace_back(corners, r, part_start[w][r]);
-        std::vector<Tag> part_tags(3 * per_read);
-        for (std::uint64_t done = part_first[w]; done < part_first[w + 1];) {
-          const std::uint64_t take = std::min(per_read, part_first[w + 1] - done), bytes = 3 * take * sizeof(Tag);
-          if (read_some(fd, part_tags.data(), bytes, 3 * done * sizeof(Tag)) != static_cast<std::int64_t>(bytes)) {
-            return Status::error(Code::kBadInput, tags_path, "temporary file is shorter than written");
+        for (std::size_t r = 0; r < slices; ++r) cursor.emplace_back(corners[w], r);
+        const std::uint64_t per_read = tags_per_part / 3, part_faces = part_end[w] - part_first[w];
+        std::vector<Tag> tags(3 * per_read);
+        for (std::uint64_t done = 0; done < part_faces;) {
+          const std::uint64_t take = std::min(per_read, part_faces - done), bytes = 3 * take * sizeof(Tag);
+          if (read_some(fd, tags.data(), bytes, 3 * done * sizeof(Tag)) != static_cast<std::int64_t>(bytes)) {
+            return Status::error(Code::kBadInput, tags_paths[w], "temporary file is shorter than written");
           }
           for (std::uint64_t i = 0; i < 3 * take; i += 3) {
             Triangle t;
             for (std::uint32_t k = 0; k < 3; ++k) {
-              const Tag r = part_tags[i + k];
+              const Tag r = tags[i + k];
               if (r >= slices || !cursor[r].next(t.v[k])) {
                 if (r < slices) GM_RETURN_IF_ERROR(cursor[r].status());
-                return Status::error(Code::kBadInput, tags_path, "a corner is missing from its slice");
+                return Status::error(Code::kBadInput, tags_paths[w], "a corner is missing from its slice");
               }
             }
             GM_RETURN_IF_ERROR(grouped[w].append(lowest_corner(t) >> lowest_bits, lowest_first(t)));
           }
           done += take;
         }
-        if (w + 1 == parts) {
-          std::uint32_t extra = 0;
-          for (auto& c : cursor)
-            if (c.next(extra)) return Status::error(Code::kBadInput, corners_path, "a slice holds a corner too many");
-        }
+        std::uint32_t extra = 0;
+        for (auto& c : cursor)
+          if (c.next(extra)) return Status::error(Code::kBadInput, corners_paths[w], "a slice holds a corner too many");
+        ::unlink(tags_paths[w].c_str());
+        corners[w].remove();
         return grouped[w].finish();
-      };
-      std::vector<Status> status_of(parts);
-      if (parts == 1) {
-        status_of[0] = put_together(0);
-      } else {
-        if (!arena_) arena_ = std::make_unique<tbb::task_arena>(static_cast<int>(options_.threads));
-        arena_->execute([&] {
-          tbb::parallel_for(std::size_t{0}, parts, [&](std::size_t w) { status_of[w] = put_together(w); });
-        });
-      }
-      for (const Status& status : status_of) GM_RETURN_IF_ERROR(status);
-      ::unlink(tags_path.c_str());
+      }));
       return Status{};
     };
     GM_RETURN_IF_ERROR(slices <= 256     ? rename_by_slices(std::uint8_t{})

@@ -253,17 +253,21 @@ TEST(SpatialOrder, OutOfCoreRenumberingIsTheInCoreOneOverOneRangeOrMany) {
 TEST(SpatialOrder, MoreThan256SlicesOfOldIdsAreRenamedOutOfCore) {
   // A 4 KiB table cuts the map into slices of 1,024 old ids: over 270k vertices that is more
   // than 256 slices, whose corners take two-byte slice tags. (So few ids past the probe's window
-  // do not make the input scattered: --weld renumbers it.)
+  // do not make the input scattered: --weld renumbers it.) Its face spill holds several frames,
+  // which two or three threads split into parts.
   const Mesh input = testing::scattered_mesh(testing::make_wavy_sheet(521), 31);
   ASSERT_GT(input.positions.size(), 256u * 1024u);
   Mesh expected = input;
   EXPECT_EQ(reorder_spatially(expected.positions, expected.triangles, true), 0u);
   testing::ScratchDir dir;
   write_ply_file(dir.file("in.ply"), input);
-  auto partition = renumbered_partition(dir, dir.file("in.ply"), 4096, Weld::kOn);
-  ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
-  EXPECT_TRUE(partition->reordered);
-  expect_chunks_hold(*partition, expected);
+  for (const std::uint32_t threads : {2u, 3u}) {
+    SCOPED_TRACE("threads " + std::to_string(threads));
+    auto partition = renumbered_partition(dir, dir.file("in.ply"), 4096, Weld::kOn, threads);
+    ASSERT_TRUE(partition.is_ok()) << partition.status().to_string();
+    EXPECT_TRUE(partition->reordered);
+    expect_chunks_hold(*partition, expected);
+  }
 }
 
 TEST(SpatialOrder, ACellLargerThanTheTableIsOrderedInPiecesOutOfCore) {
