@@ -69,7 +69,7 @@ struct PartitionOptions {
   // it small to force the multi-round path.
   std::uint32_t max_open_chunks = 0;
   // zstd level of the chunk files. -4, not 1: on their column frames it is several times faster
-  // both ways for files no larger (docs/partition.md, "zstd level on column frames").
+  // both ways for files no larger (docs/records.md, "Levels").
   int compression_level = -4;
   // Called now and then with (pass, done, total): "ingest" counts triangles read against the
   // count the header declares (0 when it declares none; untrusted, for display only); "rings"
