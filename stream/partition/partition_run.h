@@ -81,11 +81,8 @@ class PartitionRun {
   // 32-bit).
   Status reorder(bool weld);
   bool reorder_fits() const;
-  // Calls fn(face id, triangle) for every face of the face spill, in order; a corner beyond the
-  // vertex count is kBadInput.
-  template <class Fn>
-  Status for_each_spilled_face(Fn&& fn);
-  // The same a frame at a time: fn(faces) with every corner checked first.
+  // Calls fn(faces) for every frame of the face spill, in order, with every corner checked first
+  // (a corner beyond the vertex count is kBadInput).
   template <class Fn>
   Status for_each_spilled_frame(Fn&& fn);
   Status plan();

@@ -64,6 +64,19 @@ Status read_map(const std::string& path, std::uint32_t* out, std::uint64_t first
   return {};
 }
 
+// Every corner of `faces` (from face `first` of the spill at `path` on) names one of `vertices`.
+Status check_corners(const std::string& path, std::span<const Triangle> faces, std::uint64_t first, std::uint64_t vertices) {
+  for (std::size_t i = 0; i < faces.size(); ++i) {
+    for (const std::uint32_t v : faces[i].v) {
+      if (v >= vertices) {
+        return Status::error(Code::kBadInput, path, "face " + std::to_string(first + i) + " names vertex " + std::to_string(v) + " of " +
+                                                        std::to_string(vertices));
+      }
+    }
+  }
+  return {};
+}
+
 }  // namespace
 
 template <class Fn>
@@ -79,29 +92,13 @@ Status PartitionRun::for_each_spilled_frame(Fn&& fn) {
     GM_RETURN_IF_ERROR(ahead.next(frame, no_tags, no_skip));
     if (frame.empty()) break;
     const std::span<const Triangle> faces(frame);
-    for (std::size_t i = 0; i < faces.size(); ++i) {
-      for (const std::uint32_t v : faces[i].v) {
-        if (v >= out_.vertices) {
-          return Status::error(Code::kBadInput, faces_path_, "face " + std::to_string(f + i) + " names vertex " +
-                                                                 std::to_string(v) + " of " + std::to_string(out_.vertices));
-        }
-      }
-    }
+    GM_RETURN_IF_ERROR(check_corners(faces_path_, faces, f, out_.vertices));
     GM_RETURN_IF_ERROR(fn(faces));
     f += faces.size();
     if (options_.progress) options_.progress("reorder", f, out_.faces);
   }
   if (f != out_.faces) return Status::error(Code::kBadInput, faces_path_, "temporary file is shorter than written");
   return {};
-}
-
-template <class Fn>
-Status PartitionRun::for_each_spilled_face(Fn&& fn) {
-  std::uint64_t f = 0;
-  return for_each_spilled_frame([&](std::span<const Triangle> faces) -> Status {
-    for (const Triangle& t : faces) GM_RETURN_IF_ERROR(fn(f++, t));
-    return {};
-  });
 }
 
 bool PartitionRun::reorder_fits() const { return 3 * out_.faces < UINT32_MAX; }
@@ -384,10 +381,9 @@ Status PartitionRun::reorder(bool weld) {
   // that corner. When the whole map fits the table, corners are renamed as the face spill is
   // read; else every corner's old id goes to its slice of old ids (4), each slice is renamed in
   // place from its part of the map (5), and the faces are put together again from the slices in
-  // input order (6): records of 4 bytes, no face or corner number carried along.
-  // Passes 4-6 work in parts of the face spill's frames, one part per thread (up to four), each
-  // with files of its own and buckets of its own; pass 7 reads a bucket part after part, in
-  // input order.
+  // input order (6): records of 4 bytes, no face or corner number carried along. These three
+  // work in parts of the face spill's frames, one part per thread (up to four), each with files
+  // and buckets of its own; pass 7 reads a bucket part after part, in input order.
   const std::size_t parts = map_fits ? 1 : std::clamp<std::size_t>(options_.threads, 1, 4);
   std::vector<BucketFile> grouped(parts);
   // fn(w) for every part w, on the run's threads; the first part's error, if any.
@@ -457,12 +453,9 @@ Status PartitionRun::reorder(bool weld) {
           auto frame = (*reader)->next();
           if (!frame) return frame.status();
           const std::span<const Triangle> in = records_of<Triangle>(*frame);
+          GM_RETURN_IF_ERROR(check_corners(faces_path_, in, f, vertices));
           for (std::size_t k = 0; k < in.size(); ++k) {
             for (const std::uint32_t v : in[k].v) {
-              if (v >= vertices) {
-                return Status::error(Code::kBadInput, faces_path_, "face " + std::to_string(f + k) + " names vertex " + std::to_string(v) + " of " +
-                                                                       std::to_string(vertices));
-              }
               GM_RETURN_IF_ERROR(corners[w].append(v >> slice_bits, v));
               tags[used++] = static_cast<Tag>(v >> slice_bits);
             }
