@@ -34,7 +34,7 @@ constexpr std::size_t kFaceSpillFrameBytes = std::size_t{1} << 20;
 // for a spill a little larger. The renumbered spill (sorted by lowest corner, ids in spatial
 // order) compresses about four times where an ordered input's compresses twenty: there the
 // fastest level costs less to write and to read back than the bytes it saves
-// (docs/partition.md, "zstd level of the face spill").
+// (docs/partition.md, "The renumbered spill's zstd level").
 constexpr int kFaceSpillLevel = -1;
 constexpr int kRenumberedSpillLevel = -1000;
 
