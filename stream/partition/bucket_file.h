@@ -81,6 +81,14 @@ class BucketFile {
     }
     return {};
   }
+  // Reads every record of `bucket` (finish() first) into out, which holds bucket_bytes(bucket).
+  format::Status read_all(std::size_t bucket, std::byte* out) {
+    for (std::size_t i = 0; i < blocks_[bucket].size(); ++i) {
+      GM_RETURN_IF_ERROR(read_block(bucket, i, out));
+      out += block_size(bucket, i);
+    }
+    return {};
+  }
   // Calls fn(bytes) for each block of `bucket`, in order (finish() first), and writes the block
   // back where it was: a pass that changes records in place writes over pages the page cache
   // already holds, and its output needs no second file.

@@ -197,17 +197,24 @@ Status PartitionRun::reorder(bool weld) {
   GM_RETURN_IF_ERROR(pairs.open(out_.dir + "/reorder-pairs.bin", old_ranges, sizeof(MapPair), buffers / old_ranges));
   std::uint32_t kept = 0;
   {
+    // The kept positions gather a stripe at a time (position_file: stripes alternate between
+    // the files), written whole.
     SpillWriter positions[kPositionFiles];
     for (std::uint32_t i = 0; i < kPositionFiles; ++i)
-      GM_RETURN_IF_ERROR(positions[i].open(vertex_files_->positions[i], std::size_t{1} << 20));
+      GM_RETURN_IF_ERROR(positions[i].open(vertex_files_->positions[i], std::size_t{1} << 16));
+    std::vector<Vec3f> stripe(kPositionStripeVertices);
+    const auto write_stripe = [&](std::uint32_t end) {  // the stripe holding kept id end - 1
+      const std::uint32_t held = (end - 1) % kPositionStripeVertices + 1;
+      return positions[position_file(end - 1)].write(stripe.data(), held * sizeof(Vec3f));
+    };
     Status failed;
     const auto emit = [&](const OrderedVertex& v, bool joined) {
       if (!failed.is_ok()) return;
       if (!joined) {
-        failed = positions[position_file(kept)].write(&v.p, sizeof(Vec3f));
-        ++kept;
+        stripe[kept % kPositionStripeVertices] = v.p;
+        if (++kept % kPositionStripeVertices == 0) failed = write_stripe(kept);
       }
-      if (failed.is_ok()) failed = pairs.append(v.key.id >> pair_bits, MapPair{v.key.id, kept - 1});
+      if (Status appended = pairs.append(v.key.id >> pair_bits, MapPair{v.key.id, kept - 1}); !appended.is_ok()) failed = std::move(appended);
     };
     const auto fine_of = [&](const Vec3f& p) { return grid.sub_code(p, kReorderFineBits); };
     std::vector<PositionRecord> range;
@@ -333,6 +340,8 @@ Status PartitionRun::reorder(bool weld) {
         GM_RETURN_IF_ERROR(failed);
       }
     }
+    if (kept % kPositionStripeVertices != 0) GM_RETURN_IF_ERROR(write_stripe(kept));
+    std::vector<Vec3f>().swap(stripe);
     for (SpillWriter& p : positions) {
       GM_RETURN_IF_ERROR(p.close());
       bytes_spilled_ += p.bytes();
@@ -588,13 +597,12 @@ Status PartitionRun::reorder(bool weld) {
       std::uint64_t in_bucket = 0;
       for (const BucketFile& part : grouped) in_bucket += part.bucket_bytes(b) / sizeof(Triangle);
       if (2 * in_bucket <= run_faces) {  // read once, then counted and placed in memory
-        staged.clear();
-        staged.reserve(in_bucket);
-        GM_RETURN_IF_ERROR(read_grouped(b, [&](std::span<const std::byte> block) {
-          const std::span<const Triangle> in = records_of<Triangle>(block);
-          staged.insert(staged.end(), in.begin(), in.end());
-          return Status{};
-        }));
+        staged.resize(in_bucket);
+        auto* into = reinterpret_cast<std::byte*>(staged.data());
+        for (BucketFile& part : grouped) {
+          GM_RETURN_IF_ERROR(part.read_all(b, into));
+          into += part.bucket_bytes(b);
+        }
         for (const Triangle& t : staged) ++at[lowest_corner(t) - base];
         for (std::uint64_t v = 0, sum = 0; v <= ids; ++v) sum += std::exchange(at[v], static_cast<std::uint32_t>(sum));
         run.resize(staged.size());
