@@ -16,7 +16,6 @@
 #include <memory>
 #include <span>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "format/file_io.h"
@@ -107,13 +106,11 @@ class BucketFile {
   }
 
   // One bucket's records in order, pulled one at a time (finish() first): a pass that merges
-  // several buckets holds one block of each. Cursors only read, so several may run at once.
+  // several buckets holds one block of each.
   template <class Record>
   class Cursor {
    public:
-    // From the bucket's record `first` on (0: its start).
-    Cursor(BucketFile& file, std::size_t bucket, std::uint64_t first = 0)
-        : file_(&file), bucket_(bucket), block_(first * sizeof(Record) / file.block_), skip_(first * sizeof(Record) % file.block_) {}
+    Cursor(BucketFile& file, std::size_t bucket) : file_(&file), bucket_(bucket) {}
     // The next record; false at the bucket's end or on a read error (status() tells).
     bool next(Record& out) {
       if (at_ == end_ && !load()) return false;
@@ -131,13 +128,13 @@ class BucketFile {
       status_ = file_->read_block(bucket_, block_, buffer_.data());
       if (!status_.is_ok()) return false;
       ++block_;
-      at_ = std::exchange(skip_, 0);
+      at_ = 0;
       end_ = size / sizeof(Record) * sizeof(Record);
-      return at_ < end_;
+      return end_ > 0;
     }
     BucketFile* file_;
     std::size_t bucket_;
-    std::size_t block_ = 0, skip_ = 0, at_ = 0, end_ = 0;
+    std::size_t block_ = 0, at_ = 0, end_ = 0;
     std::vector<std::byte> buffer_;
     format::Status status_;
   };

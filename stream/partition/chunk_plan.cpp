@@ -21,24 +21,6 @@
 
 namespace gaussmesh::stream::detail {
 
-// The plan's scans of the positions compute per vertex (a cell, a sub-cell code, an owner) and
-// run on the run's threads: up to five scans of every vertex would otherwise be a long serial
-// step. Pieces are small enough that the tests' shapes take the threaded path.
-constexpr std::size_t kPlanPieceVertices = std::size_t{1} << 13;
-
-template <class Fn>
-void PartitionRun::for_pieces(std::size_t n, Fn&& fn) {
-  if (options_.threads <= 1 || n <= kPlanPieceVertices) {
-    fn(std::size_t{0}, n);
-    return;
-  }
-  if (!arena_) arena_ = std::make_unique<tbb::task_arena>(static_cast<int>(options_.threads));
-  arena_->execute([&] {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kPlanPieceVertices),
-                      [&](const tbb::blocked_range<std::size_t>& r) { fn(r.begin(), r.end()); });
-  });
-}
-
 template <class Count>
 Result<std::vector<std::uint32_t>> PartitionRun::count_positions(std::size_t size, Count&& count) {
   tbb::enumerable_thread_specific<std::vector<std::uint32_t>> local([size] { return std::vector<std::uint32_t>(size, 0); });

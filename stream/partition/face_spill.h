@@ -32,9 +32,9 @@ constexpr std::size_t kFaceSpillFrameBytes = std::size_t{1} << 20;
 
 // zstd levels. The input's spill: -1, on these frames markedly faster than level 1 both ways,
 // for a spill a little larger. The renumbered spill (sorted by lowest corner, ids in spatial
-// order) compresses about four times where an ordered input's compresses twenty: there the
-// fastest level costs less to write and to read back than the bytes it saves
-// (docs/partition.md, "The renumbered spill's zstd level").
+// order) compresses far less than an ordered input's: there the fastest level costs less to
+// write and to read back than the bytes it saves (docs/partition.md, "The renumbered spill's
+// zstd level").
 constexpr int kFaceSpillLevel = -1;
 constexpr int kRenumberedSpillLevel = -1000;
 

@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include "format/mesh_reader.h"
@@ -28,6 +30,11 @@
 #include "stream/partition/file_window.h"
 
 namespace gaussmesh::stream::detail {
+
+// The plan's and the renumbering's scans of the positions compute per vertex (a cell, a
+// sub-cell code, an owner) and run on the run's threads: up to five scans of every vertex would
+// otherwise be a long serial step. Pieces are small enough that the tests' shapes take the threaded path.
+constexpr std::size_t kPlanPieceVertices = std::size_t{1} << 13;
 
 using format::Result;
 using format::Status;
@@ -107,10 +114,19 @@ class PartitionRun {
                     const std::function<void(std::size_t)>& begin = [](std::size_t) {});
   Status expand_rings();
   Status write_chunks();
-  // Calls fn(begin, end) on pieces of [0, n), on the run's threads when there are several
-  // (fn must be safe to run at once on disjoint pieces).
+  // Calls fn(begin, end) on pieces of [0, n) of at least `grain` each, on the run's threads
+  // when there are several (fn must be safe to run at once on disjoint pieces).
   template <class Fn>
-  void for_pieces(std::size_t n, Fn&& fn);
+  void for_pieces(std::size_t n, Fn&& fn, std::size_t grain = kPlanPieceVertices) {
+    if (options_.threads <= 1 || n <= grain) {
+      fn(std::size_t{0}, n);
+      return;
+    }
+    if (!arena_) arena_ = std::make_unique<tbb::task_arena>(static_cast<int>(options_.threads));
+    arena_->execute([&] {
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, grain), [&](const tbb::blocked_range<std::size_t>& r) { fn(r.begin(), r.end()); });
+    });
+  }
   // Per-vertex counts over positions.bin: count(histogram, position) for every vertex, each
   // thread into its own array of `size` zeros, summed into the result.
   template <class Count>

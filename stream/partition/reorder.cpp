@@ -15,9 +15,6 @@
 #include <utility>
 #include <vector>
 
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
-
 #include "format/record_file.h"
 #include "stream/core/stopwatch.h"
 #include "stream/partition/bucket_file.h"
@@ -132,14 +129,7 @@ Status PartitionRun::reorder(bool weld) {
   for (std::uint32_t c = 0; c < grid.cells(); ++c) code[c] = grid.morton(c);
   // The two scans of the positions read a batch and find its vertices' cells on the run's
   // threads (cell_of, in Morton order), then count or send them on this one.
-  const auto in_pieces = [&](std::size_t n, auto&& fn) {
-    constexpr std::size_t kGrain = 8192;
-    if (options_.threads <= 1 || n <= kGrain) return fn(std::size_t{0}, n);
-    if (!arena_) arena_ = std::make_unique<tbb::task_arena>(static_cast<int>(options_.threads));
-    arena_->execute([&] {
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kGrain), [&](const tbb::blocked_range<std::size_t>& r) { fn(r.begin(), r.end()); });
-    });
-  };
+  const auto in_pieces = [&](std::size_t n, auto&& fn) { for_pieces(n, fn); };
   std::vector<std::uint32_t> cell_of(kPositionStripeVertices);  // scan_positions: a stripe at most a batch
   const auto find_cells = [&](std::uint64_t, std::span<const Vec3f> batch, std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) cell_of[i] = code[grid.cell(batch[i])];
@@ -219,14 +209,6 @@ Status PartitionRun::reorder(bool weld) {
     const auto fine_of = [&](const Vec3f& p) { return grid.sub_code(p, kReorderFineBits); };
     std::vector<PositionRecord> range;
     std::vector<OrderedVertex> run;
-    // fn(from, to) on pieces of [0, cells), on the run's threads when there are several.
-    const auto for_cells = [&](std::size_t cells, auto&& fn) {
-      if (options_.threads <= 1) return fn(std::size_t{0}, cells);
-      if (!arena_) arena_ = std::make_unique<tbb::task_arena>(static_cast<int>(options_.threads));
-      arena_->execute([&] {
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells, 16), [&](const tbb::blocked_range<std::size_t>& b) { fn(b.begin(), b.end()); });
-      });
-    };
     // The vertices of bucket r whose fine code is in [lo, hi), ordered.
     const auto order_codes = [&](std::size_t r, std::uint32_t lo, std::uint64_t hi) -> Status {
       run.clear();
@@ -325,7 +307,7 @@ Status PartitionRun::reorder(bool weld) {
         return std::span<OrderedVertex>(run.data() + begin, end - begin);
       };
       run.resize(count);
-      for_cells(cells, [&](std::size_t from, std::size_t to) {
+      for_pieces(cells, [&](std::size_t from, std::size_t to) {
         std::vector<std::uint64_t> scratch;  // the sort's keys: at most the piece's cells'
         for (std::size_t c = from; c < to; ++c) {
           const std::span<OrderedVertex> cell = cell_span(static_cast<std::uint32_t>(cell0 + c));
@@ -334,7 +316,7 @@ Status PartitionRun::reorder(bool weld) {
           scratch.resize(std::max(scratch.size(), cell.size()));
           sort_run(cell, scratch);
         }
-      });
+      }, 16);  // cells hold a few hundred vertices: pieces of 16 at least
       for (std::uint32_t c = 0; c < cells; ++c) {
         emit_run(cell_span(cell0 + c), weld, emit);
         GM_RETURN_IF_ERROR(failed);
@@ -398,12 +380,9 @@ Status PartitionRun::reorder(bool weld) {
   // fn(w) for every part w, on the run's threads; the first part's error, if any.
   const auto on_parts = [&](std::size_t n, auto&& fn) -> Status {
     std::vector<Status> status_of(n);
-    if (n == 1) {
-      status_of[0] = fn(std::size_t{0});
-    } else {
-      if (!arena_) arena_ = std::make_unique<tbb::task_arena>(static_cast<int>(options_.threads));
-      arena_->execute([&] { tbb::parallel_for(std::size_t{0}, n, [&](std::size_t w) { status_of[w] = fn(w); }); });
-    }
+    for_pieces(n, [&](std::size_t from, std::size_t to) {
+      for (std::size_t w = from; w < to; ++w) status_of[w] = fn(w);
+    }, 1);
     for (Status& status : status_of) GM_RETURN_IF_ERROR(status);
     return Status{};
   };
@@ -434,7 +413,7 @@ Status PartitionRun::reorder(bool weld) {
       // files of its own, so that the three passes run on every thread.
       std::vector<BucketFile> corners(parts);
       std::vector<std::string> corners_paths(parts), tags_paths(parts);
-      std::vector<std::uint64_t> part_first(parts + 1, 0), part_end(parts, 0);
+      std::vector<std::uint64_t> part_faces(parts, 0);
       const std::size_t tags_per_part = std::max<std::size_t>(buffers / 2 / parts / sizeof(Tag) / 3, 1) * 3;
       for (std::size_t w = 0; w < parts; ++w) {
         corners_paths[w] = out_.dir + "/reorder-corners-" + std::to_string(w) + ".bin";
@@ -447,13 +426,12 @@ Status PartitionRun::reorder(bool weld) {
         auto reader = format::RecordReader::open(faces_path_, kFaceSpillRecordKind, sizeof(Triangle));
         if (!reader) return reader.status();
         const std::size_t frames = (*reader)->frame_count(), first_frame = frames * w / parts, end_frame = frames * (w + 1) / parts;
-        std::uint64_t f = 0;
+        std::uint64_t f = 0;  // the spill's face number, for the corner check's message
         for (std::size_t i = 0; i < first_frame; ++i) {
           auto skipped = (*reader)->skip();
           if (!skipped) return skipped.status();
           f += *skipped;
         }
-        part_first[w] = f;
         SpillWriter tag_file;
         GM_RETURN_IF_ERROR(tag_file.open(tags_paths[w], 1 << 16));
         std::vector<Tag> tags(tags_per_part);
@@ -474,24 +452,25 @@ Status PartitionRun::reorder(bool weld) {
             }
           }
           f += in.size();
+          part_faces[w] += in.size();
           if (options_.progress) {
             std::lock_guard lock(progress_mutex);
             progress_done += in.size();
             options_.progress("reorder", progress_done, faces);
           }
         }
-        part_end[w] = f;
         GM_RETURN_IF_ERROR(tag_file.write(tags.data(), used * sizeof(Tag)));
         GM_RETURN_IF_ERROR(tag_file.close());
         GM_RETURN_IF_ERROR(corners[w].finish());
         return Status{};
       };
       GM_RETURN_IF_ERROR(on_parts(parts, spread_corners));
-      part_first[parts] = faces;
+      std::uint64_t read = 0;
       for (std::size_t w = 0; w < parts; ++w) {
-        if (part_end[w] != part_first[w + 1]) return Status::error(Code::kBadInput, faces_path_, "temporary file is shorter than written");
-        bytes_spilled_ += corners[w].bytes() + 3 * (part_end[w] - part_first[w]) * sizeof(Tag);
+        read += part_faces[w];
+        bytes_spilled_ += corners[w].bytes() + 3 * part_faces[w] * sizeof(Tag);
       }
+      if (read != faces) return Status::error(Code::kBadInput, faces_path_, "temporary file is shorter than written");
       // The input's face spill is read for the last time: gone now, its pages need no writing back.
       ::unlink(faces_path_.c_str());
 
@@ -526,10 +505,10 @@ Status PartitionRun::reorder(bool weld) {
         std::vector<BucketFile::Cursor<std::uint32_t>> cursor;
         cursor.reserve(slices);
         for (std::size_t r = 0; r < slices; ++r) cursor.emplace_back(corners[w], r);
-        const std::uint64_t per_read = tags_per_part / 3, part_faces = part_end[w] - part_first[w];
+        const std::uint64_t per_read = tags_per_part / 3;
         std::vector<Tag> tags(3 * per_read);
-        for (std::uint64_t done = 0; done < part_faces;) {
-          const std::uint64_t take = std::min(per_read, part_faces - done), bytes = 3 * take * sizeof(Tag);
+        for (std::uint64_t done = 0; done < part_faces[w];) {
+          const std::uint64_t take = std::min(per_read, part_faces[w] - done), bytes = 3 * take * sizeof(Tag);
           if (read_some(fd, tags.data(), bytes, 3 * done * sizeof(Tag)) != static_cast<std::int64_t>(bytes)) {
             return Status::error(Code::kBadInput, tags_paths[w], "temporary file is shorter than written");
           }
@@ -551,7 +530,7 @@ Status PartitionRun::reorder(bool weld) {
           if (c.next(extra)) return Status::error(Code::kBadInput, corners_paths[w], "a slice holds a corner too many");
         ::unlink(tags_paths[w].c_str());
         corners[w].remove();
-        return grouped[w].finish();
+        return Status{};
       }));
       return Status{};
     };

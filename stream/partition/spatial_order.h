@@ -107,7 +107,8 @@ inline void sort_run(std::span<OrderedVertex> run, std::span<std::uint64_t> scra
   const auto by_key = [](const OrderedVertex& a, const OrderedVertex& b) { return a.key < b.key; };
   const std::size_t n = run.size();
   if (n < 2) return;
-  if (scratch.size() >= n && n <= UINT32_MAX) {
+  const bool by_fine_first = scratch.size() >= n && n <= UINT32_MAX;
+  if (by_fine_first) {
     for (std::size_t i = 0; i < n; ++i) scratch[i] = std::uint64_t{run[i].key.fine} << 32 | i;
     std::sort(scratch.begin(), scratch.begin() + std::ptrdiff_t(n));
     // run[i] takes the record at scratch[i]'s index, cycle by cycle; a slot done points at itself.
@@ -127,20 +128,19 @@ inline void sort_run(std::span<OrderedVertex> run, std::span<std::uint64_t> scra
         k = next;
       }
     }
-    for (std::size_t i = 0; i < n;) {
-      std::size_t j = i + 1;
-      while (j < n && run[j].key.fine == run[i].key.fine) ++j;
-      if (j - i > 1) std::sort(run.begin() + std::ptrdiff_t(i), run.begin() + std::ptrdiff_t(j), by_key);
-      i = j;
-    }
   } else {
     std::sort(run.begin(), run.end(), by_key);
   }
+  // Each group of one fine code: by its whole keys (if not sorted so already), past
+  // kMaxWeldGroup by id.
   for (std::size_t i = 0; i < n;) {
     std::size_t j = i + 1;
     while (j < n && run[j].key.fine == run[i].key.fine) ++j;
-    if (j - i > kMaxWeldGroup) {
-      std::sort(run.begin() + i, run.begin() + j, [](const OrderedVertex& a, const OrderedVertex& b) { return a.key.id < b.key.id; });
+    const auto group = run.subspan(i, j - i);
+    if (group.size() > kMaxWeldGroup) {
+      std::sort(group.begin(), group.end(), [](const OrderedVertex& a, const OrderedVertex& b) { return a.key.id < b.key.id; });
+    } else if (by_fine_first && group.size() > 1) {
+      std::sort(group.begin(), group.end(), by_key);
     }
     i = j;
   }
