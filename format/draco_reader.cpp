@@ -3,6 +3,7 @@
 // plus the decode, which follows the mesh, not the file: a few MB of Draco can decode to a GB.
 // So the counts are read from the header first (format/draco_header.h), and a decode whose
 // estimated peak passes ReadOptions::memory_limit is refused before it starts (docs/formats.md).
+#include <cmath>
 #include <exception>
 #include <new>
 #include <string>
@@ -86,6 +87,9 @@ Status deliver(const draco::Mesh& mesh, const ByteSource& source, const ReadOpti
     float xyz[3] = {0, 0, 0};
     if (!position->ConvertValue<float, 3>(position->mapped_index(draco::PointIndex(i)), xyz)) {
       return Status::error(Code::kBadInput, source.name(), "Draco: point " + std::to_string(i) + " has no position");
+    }
+    if (!std::isfinite(xyz[0]) || !std::isfinite(xyz[1]) || !std::isfinite(xyz[2])) {
+      return Status::error(Code::kBadInput, source.name(), "Draco: point " + std::to_string(i) + " has a coordinate that is not a finite number");
     }
     GM_RETURN_IF_ERROR(batcher.add_vertex({xyz[0], xyz[1], xyz[2]}));
   }

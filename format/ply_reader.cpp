@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <bit>
 #include <charconv>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <limits>
@@ -115,6 +116,12 @@ bool parse_number(std::string_view token, T& value) {
   if (token.empty()) return false;
   auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
   return ec == std::errc() && end == token.data() + token.size();
+}
+
+bool is_finite(const Vec3f& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
+
+std::string not_finite_message(uint64_t vertex) {
+  return "vertex " + std::to_string(vertex) + " has a coordinate that is not a finite number";
 }
 
 // Loads a scalar of the given type from p (unaligned), swapping bytes when kSwap.
@@ -504,6 +511,9 @@ class PlyReader {
                          static_cast<float>(load_real<kSwap>(p + offset[2], type[2]))};
         }
       }
+      for (size_t i = 0; i < n; ++i) {
+        if (!is_finite(out[i])) return Status::error(Code::kBadInput, source_.at_byte(source_.offset() + i * size), not_finite_message(done + i));
+      }
       source_.advance(n * size);
       vertex_fill_ += n;
       done += n;
@@ -564,6 +574,7 @@ class PlyReader {
   Status read_record(const Element& element, size_t e, uint64_t record) {
     const bool is_vertex = e == header_.vertex_element;
     const bool is_face = e == header_.face_element;
+    const uint64_t start = source_.offset();
     float xyz[3] = {0, 0, 0};
     for (size_t p = 0; p < element.properties.size(); ++p) {
       const Property& property = element.properties[p];
@@ -610,7 +621,9 @@ class PlyReader {
       }
     }
     if (is_vertex) {
-      vertices_[vertex_fill_++] = Vec3f{xyz[0], xyz[1], xyz[2]};
+      const Vec3f position{xyz[0], xyz[1], xyz[2]};
+      if (!is_finite(position)) return Status::error(Code::kBadInput, source_.at_byte(start), not_finite_message(record));
+      vertices_[vertex_fill_++] = position;
       if (vertex_fill_ == batch_size_) GM_RETURN_IF_ERROR(flush_vertices());
     }
     return {};
@@ -699,7 +712,9 @@ class PlyReader {
       }
       if (!next_token(text).empty()) return ascii_error(element, record, "extra values at the end of the line");
       if (is_vertex) {
-        vertices_[vertex_fill_++] = Vec3f{xyz[0], xyz[1], xyz[2]};
+        const Vec3f position{xyz[0], xyz[1], xyz[2]};
+        if (!is_finite(position)) return source_.bad_at_line(not_finite_message(record));
+        vertices_[vertex_fill_++] = position;
         if (vertex_fill_ == batch_size_) GM_RETURN_IF_ERROR(flush_vertices());
       }
     }

@@ -271,7 +271,7 @@ TEST_F(InfoCli, ForcedInputFormat) {
 
 TEST_F(InfoCli, BadFixturesExitTwoWithOneLine) {
   for (const char* name : {"OutOfMemory.off", "empty.obj", "empty.off", "empty.ply", "invalid.off",
-                           "malformed.obj", "malformed2.obj"}) {
+                           "malformed.obj", "malformed2.obj", "nan-vertex.ply", "inf-vertex.ply"}) {
     SCOPED_TRACE(name);
     std::string path = fixture(std::string("bad/") + name);
     CommandResult r = run_command(info_command() + " " + shell_quoted(path));

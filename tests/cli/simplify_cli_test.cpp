@@ -108,7 +108,7 @@ TEST(SimplifyCli, FormatsFollowTheExtensionOrTheFlag) {
 
 TEST(SimplifyCli, BadInputLeavesNothingBehind) {
   ScratchDir dir;
-  for (const char* bad : {"bad/OutOfMemory.off", "bad/empty.ply", "bad/invalid.off", "bad/malformed2.obj"}) {
+  for (const char* bad : {"bad/OutOfMemory.off", "bad/empty.ply", "bad/invalid.off", "bad/malformed2.obj", "bad/nan-vertex.ply", "bad/inf-vertex.ply"}) {
     auto run = run_command(binary() + " simplify " + q(fixture(bad)) + " -o " + q(dir.file("out.drc")));
     EXPECT_EQ(run.exit_code, 2) << bad << ": " << run.err;
     EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
@@ -337,7 +337,7 @@ TEST(SimplifyCli, WithoutMemoryASmallFileRunsInCoreAndAPipeStreams) {
 TEST(SimplifyCli, OutOfCoreBadInputAndRefusedOptions) {
   ScratchDir dir, tmp;
   const std::string mem = " --memory 16M --tmp " + q(tmp.path().string());
-  for (const char* bad : {"bad/OutOfMemory.off", "bad/empty.ply", "bad/invalid.off", "bad/malformed2.obj"}) {
+  for (const char* bad : {"bad/OutOfMemory.off", "bad/empty.ply", "bad/invalid.off", "bad/malformed2.obj", "bad/nan-vertex.ply", "bad/inf-vertex.ply"}) {
     auto run = run_command(binary() + " simplify " + q(fixture(bad)) + " -o " + q(dir.file("out.drc")) + mem);
     EXPECT_EQ(run.exit_code, 2) << bad << ": " << run.err;
     EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;

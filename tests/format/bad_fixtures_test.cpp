@@ -25,7 +25,8 @@ struct BadFixture {
 // invalid.off declares 3 vertices and 4 faces in 53 bytes, then gives a face of 0 vertices.
 // malformed.obj is a real cube with broken faces: "f 4 12 2 1" names a vertex past the 8 it
 // defines (and later lines use 0 and a relative -1), so it is invalid OBJ, not just unusual.
-// malformed2.obj has a bare "f" with no vertices.
+// malformed2.obj has a bare "f" with no vertices. nan-vertex.ply and inf-vertex.ply are binary
+// tetrahedra whose first vertex is (nan, 0, 0) and (inf, 0, 0), made for this project.
 const BadFixture kBadFixtures[] = {
     {"empty.obj", "", "empty", "<stdin>", "empty"},
     {"empty.off", "", "empty", "<stdin>", "empty"},
@@ -34,6 +35,10 @@ const BadFixture kBadFixtures[] = {
     {"malformed.obj", ":23", "refers to vertex 12 but only 8 vertices are defined so far", "<stdin>:23",
      "refers to vertex 12"},
     {"malformed2.obj", ":23", "face has 0 vertices", "<stdin>:23", "face has 0 vertices"},
+    {"nan-vertex.ply", ": byte 233", "vertex 0 has a coordinate that is not a finite number", "<stdin>: byte 233",
+     "vertex 0 has a coordinate that is not a finite number"},
+    {"inf-vertex.ply", ": byte 233", "vertex 0 has a coordinate that is not a finite number", "<stdin>: byte 233",
+     "vertex 0 has a coordinate that is not a finite number"},
     {"OutOfMemory.off", ":2", "declares 353535235358 vertices", "<stdin>:2",
      "declares 353535235358 vertices; at most 4294967295 are supported"},
 };

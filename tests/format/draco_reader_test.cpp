@@ -103,7 +103,7 @@ void grid(int nu, int nv, bool closed, std::vector<Vec3f>& p, std::vector<Triang
 // Encodes with Draco directly, choosing the method and optionally adding metadata (the mesh's,
 // with nested sub-metadata, and the position attribute's).
 std::string encode(const std::vector<Vec3f>& p, const std::vector<Triangle>& t, draco::MeshEncoderMethod method,
-                   bool metadata) {
+                   bool metadata, bool quantize = true) {
   draco::Mesh mesh;
   mesh.set_num_points(static_cast<uint32_t>(p.size()));
   draco::GeometryAttribute position;
@@ -127,7 +127,7 @@ std::string encode(const std::vector<Vec3f>& p, const std::vector<Triangle>& t, 
   }
   draco::Encoder encoder;
   encoder.SetEncodingMethod(method);
-  encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION, 14);
+  if (quantize) encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION, 14);
   draco::EncoderBuffer buffer;
   EXPECT_TRUE(encoder.EncodeMeshToBuffer(mesh, &buffer).ok());
   return std::string(buffer.data(), buffer.size());
@@ -166,6 +166,27 @@ TEST(DracoReader, RoundTripThroughTheWriter) {
       double best = 1e9;
       for (const auto& o : original) best = std::min(best, double(std::abs(o.x - q.x) + std::abs(o.y - q.y) + std::abs(o.z - q.z)));
       EXPECT_LT(best, 3 * 2.6 / (1 << 14));
+    }
+  }
+}
+
+// Decision (docs/formats.md): a point with a NaN or infinite coordinate is refused, naming it.
+// Unquantized positions keep them through Draco's encoder, in both methods.
+TEST(DracoReader, NonFiniteCoordinatesAreRefused) {
+  std::vector<Vec3f> p;
+  std::vector<Triangle> t;
+  grid(6, 5, true, p, t);
+  for (float bad : {std::nanf(""), INFINITY, -INFINITY}) {
+    for (auto method : {draco::MESH_SEQUENTIAL_ENCODING, draco::MESH_EDGEBREAKER_ENCODING}) {
+      std::vector<Vec3f> q = p;
+      q[7].z = bad;
+      Collect sink;
+      Status s = read(encode(q, t, method, false, false), sink);
+      ASSERT_FALSE(s.is_ok());
+      EXPECT_EQ(s.code(), Code::kBadInput) << s.to_string();
+      EXPECT_NE(s.message().find("has a coordinate that is not a finite number"), std::string::npos) << s.to_string();
+      EXPECT_TRUE(sink.triangles.empty());
+      EXPECT_FALSE(sink.ended);
     }
   }
 }

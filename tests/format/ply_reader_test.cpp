@@ -4,6 +4,8 @@
 
 #include <bit>
 #include <charconv>
+#include <cmath>
+#include <limits>
 #include <cstdint>
 #include <cstring>
 #include <random>
@@ -277,9 +279,9 @@ TEST(PlyReader, HandBuiltBigEndianWithExtraPropertiesAndIntCounts) {
 
 TEST(PlyReader, RawVerticesSayWhereEachPositionLies) {
   // Little-endian float x, z, y among other scalars, vertex element first: raw_vertices names
-  // offsets whose bytes are, bit for bit, what on_vertices delivered (negative zero and a NaN
-  // among them). Big-endian, ascii, a double coordinate or another element first: none.
-  std::vector<Vec3f> positions = {{0, -0.0f, 1}, {1.5f, 2, 3}, {std::nanf(""), 4, -5}, {1e-40f, 7, 8}};
+  // offsets whose bytes are, bit for bit, what on_vertices delivered (negative zero, the largest
+  // float and a subnormal among them). Big-endian, ascii, a double coordinate or another element first: none.
+  std::vector<Vec3f> positions = {{0, -0.0f, 1}, {1.5f, 2, 3}, {std::numeric_limits<float>::max(), 4, -5}, {1e-40f, 7, 8}};
   auto body = [&](bool double_y) {
     std::string b;
     for (size_t i = 0; i < positions.size(); ++i) {
@@ -332,8 +334,8 @@ TEST(PlyReader, RawVerticesSayWhereEachPositionLies) {
     ASSERT_TRUE(o.status) << what << ": " << o.status.to_string();
     EXPECT_FALSE(o.sink.header.raw_vertices.has_value()) << what;
   };
-  // Big-endian: the same vertex bytes (their values do not matter here), no face.
-  const std::string vertices_only = body(false).substr(0, positions.size() * raw.stride);
+  // Big-endian: vertex records of zero bytes (their values do not matter here), no face.
+  const std::string vertices_only(positions.size() * raw.stride, '\0');
   without("ply\nformat binary_big_endian 1.0\n" + vertex + "element face 0\nproperty list uchar int vertex_indices\nend_header\n" +
               vertices_only,
           "big-endian");
@@ -635,6 +637,46 @@ TEST(PlyReaderErrors, AsciiNumbersAndLines) {
   ReadOutcome ok = read_bytes("ply\r\nformat ascii 1.0\r\n" + xyz + "end_header\r\n\r\n+1\t2 3 \r\n\n4 -5 +6e1\r\n");
   ASSERT_TRUE(ok.status) << ok.status.to_string();
   EXPECT_EQ(ok.sink.positions, (std::vector<Vec3f>{{1, 2, 3}, {4, -5, 60}}));
+}
+
+// Decision (docs/formats.md): a vertex with a NaN or infinite coordinate (or a double beyond
+// float's range) is refused, naming the vertex and its byte or line, in every layout the reader
+// has: fixed float records, fixed records of other types, general records, ascii.
+TEST(PlyReaderErrors, NonFiniteCoordinatesAreRefusedInEveryLayout) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  for (Enc enc : kAllEncodings) {
+    for (double bad : {nan, inf, -inf, 1e300}) {
+      for (const std::string type : {"float", "double"}) {
+        for (bool with_list : {false, true}) {
+          SCOPED_TRACE(std::string(enc_name(enc)) + " " + type + " " + std::to_string(bad) + (with_list ? " list" : ""));
+          if (type == "float" && bad == 1e300) continue;  // not representable in the file
+          if (enc == Enc::kAscii && bad == 1e300) continue;  // ascii: refused as out of range
+          TestElement vertices{"vertex", {{type, "x", ""}, {type, "y", ""}, {type, "z", ""}}, {}};
+          if (with_list) vertices.properties.push_back({"uchar", "extra", "uchar"});
+          for (int i = 0; i < 4; ++i) {
+            vertices.records.push_back({{double(i)}, {i == 2 ? bad : 0.0}, {1.0}});
+            if (with_list) vertices.records.back().push_back({7});
+          }
+          std::string bytes = encode({vertices, face_element({{0, 1, 2}, {0, 2, 3}})}, enc);
+          if (enc == Enc::kAscii) {
+            // to_chars writes "nan" / "inf"; from_chars reads them back, as users' files say them.
+            ASSERT_NE(bytes.find(std::isnan(bad) ? "nan" : "inf"), std::string::npos);
+          }
+          ReadOutcome r = read_bytes(bytes);
+          expect_bad(r, "vertex 2 has a coordinate that is not a finite number");
+          if (enc != Enc::kAscii) {
+            const size_t record = 3 * (type == "float" ? 4 : 8) + (with_list ? 2 : 0);
+            const size_t body = encode_header({vertices, face_element({{0, 1, 2}, {0, 2, 3}})}, enc).size();
+            EXPECT_EQ(r.status.where(), "test.ply: byte " + std::to_string(body + 2 * record));
+          } else {
+            EXPECT_NE(r.status.where().find("test.ply:"), std::string::npos) << r.status.where();
+          }
+          EXPECT_TRUE(r.sink.triangles.empty());
+        }
+      }
+    }
+  }
 }
 
 // Decision (docs/formats.md): whitespace after the last element is ignored, anything else
