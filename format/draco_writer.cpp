@@ -1,6 +1,10 @@
 // Draco output: builds a draco::Mesh (float32 POSITION attribute + faces), encodes it with
-// edgebreaker and quantized positions, and writes the bytes through OutputFile. docs/formats.md.
+// edgebreaker and quantized positions (unquantized when Draco's float quantizer cannot hold the
+// box), and writes the bytes through OutputFile. docs/formats.md.
+#include <algorithm>
+#include <cstdint>
 #include <cstring>
+#include <limits>
 #include <exception>
 #include <new>
 #include <string>
@@ -68,6 +72,28 @@ void build_draco_mesh(MeshView mesh, draco::Mesh& out) {
   }
 }
 
+// Draco's quantizer works in float: it divides 2^bits - 1 by the box's largest extent and
+// quantizes (p - min) times that. A box so small that the factor overflows, or so large that
+// the extent or a difference does, turns every position into the same garbage; such a mesh
+// keeps its float positions unquantized (lossless, larger) instead. The quantization step must
+// also be a normal float, so that dequantized positions keep their relative precision.
+bool quantizable(MeshView mesh, int bits) {
+  if (mesh.positions.empty()) return true;
+  double lo[3], hi[3];
+  for (int axis = 0; axis < 3; ++axis) lo[axis] = hi[axis] = (&mesh.positions[0].x)[axis];
+  for (const Vec3f& p : mesh.positions) {
+    for (int axis = 0; axis < 3; ++axis) {
+      lo[axis] = std::min<double>(lo[axis], (&p.x)[axis]);
+      hi[axis] = std::max<double>(hi[axis], (&p.x)[axis]);
+    }
+  }
+  const double range = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+  if (range == 0) return true;  // Draco quantizes a point with a range of 1
+  const double levels = double((std::uint64_t{1} << bits) - 1);
+  constexpr double kFloatMax = std::numeric_limits<float>::max();
+  return range <= kFloatMax && levels / range <= kFloatMax && range / levels >= std::numeric_limits<float>::min();
+}
+
 }  // namespace
 
 Status write_draco(OutputFile& out, MeshView mesh, const DracoWriteOptions& options) {
@@ -78,8 +104,9 @@ Status write_draco(OutputFile& out, MeshView mesh, const DracoWriteOptions& opti
     build_draco_mesh(mesh, draco_mesh);
     draco::Encoder encoder;
     encoder.SetEncodingMethod(draco::MESH_EDGEBREAKER_ENCODING);
-    encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION,
-                                     options.quantization_bits);
+    if (quantizable(mesh, options.quantization_bits)) {
+      encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION, options.quantization_bits);
+    }
     const int speed = kMaxCompressionLevel - options.compression_level;
     encoder.SetSpeedOptions(speed, speed);
     const draco::Status encoded = encoder.EncodeMeshToBuffer(draco_mesh, &buffer);

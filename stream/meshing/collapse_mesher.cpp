@@ -283,7 +283,8 @@ class Mesher {
       Vec after = cross3(p[1] - p[0], p[2] - p[0]);
       double after_sq = dot3(after, after);
       double scale = dot3(before, before);
-      if (after_sq <= 1e-24 * std::max(scale, 1e-30) || after_sq == 0) return false;
+      // Relative to the face before, so that the answer does not depend on the mesh's scale.
+      if (after_sq == 0 || after_sq <= 1e-24 * scale) return false;
       if (scale > 0 && dot3(before, after) <= 0) return false;
       if (max_turn_cos_ > -1 && dot3(before, after) < max_turn_cos_ * std::sqrt(scale * after_sq)) return false;
       const Vec& mean = patch_normal_[mesh_.property(patch_, fh)];

@@ -3,7 +3,10 @@
 // either engine.
 #include <gaussmesh/gaussmesh.h>
 
+#include <bit>
 #include <cmath>
+#include <sstream>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -77,6 +80,70 @@ TEST(GaussmeshApi, BothEnginesGiveTheSameMesh) {
     EXPECT_GE(b->chunks, 1u) << name;
     EXPECT_EQ(in_core.positions, streamed.positions) << name;
     EXPECT_EQ(in_core.triangles, streamed.triangles) << name;
+  }
+}
+
+// An OFF fixture of triangles (the bundled ones are) read with the standard library alone.
+Mesh read_triangle_off(const std::string& path) {
+  std::istringstream in(testing::read_file(path));
+  std::string magic;
+  std::size_t vertices = 0, faces = 0, edges = 0;
+  in >> magic >> vertices >> faces >> edges;
+  Mesh m;
+  m.positions.resize(vertices);
+  for (Vec3f& p : m.positions) in >> p.x >> p.y >> p.z;
+  m.triangles.resize(faces);
+  for (Triangle& t : m.triangles) {
+    int n = 0;
+    in >> n >> t.v[0] >> t.v[1] >> t.v[2];
+    EXPECT_EQ(n, 3);
+  }
+  EXPECT_TRUE(in) << path;
+  return m;
+}
+
+// The mesh as a binary little-endian PLY file (the streaming engine reads files).
+std::string write_ply_file(const Mesh& m, const std::string& path) {
+  std::string bytes = "ply\nformat binary_little_endian 1.0\nelement vertex " + std::to_string(m.positions.size()) +
+                      "\nproperty float x\nproperty float y\nproperty float z\nelement face " +
+                      std::to_string(m.triangles.size()) + "\nproperty list uchar int vertex_indices\nend_header\n";
+  static_assert(std::endian::native == std::endian::little);
+  bytes.append(reinterpret_cast<const char*>(m.positions.data()), m.positions.size() * sizeof(Vec3f));
+  for (const Triangle& t : m.triangles) {
+    bytes.push_back(3);
+    bytes.append(reinterpret_cast<const char*>(t.v), sizeof t.v);
+  }
+  testing::write_file(path, bytes);
+  return path;
+}
+
+// The run depends on the shape, not on its units: the cow scaled by a power of two (exact in
+// float) from 2^-60 to 2^60 gives the same faces and the same positions up to that scale, with
+// and without a face target, in both engines.
+TEST(GaussmeshApi, TheOutputDoesNotDependOnTheScale) {
+  ScratchDir tmp;
+  const Mesh cow = read_triangle_off(fixture("real/cow.off"));
+  for (double ratio : {0.0, 0.1}) {
+    for (Engine engine : {Engine::kInCore, Engine::kOutOfCore}) {
+      SimplifyOptions options;
+      options.target.ratio = ratio;
+      options.resources.engine = engine;
+      options.resources.tmp_dir = tmp.path().string();
+      Mesh unit;
+      auto a = simplify(Source::file(write_ply_file(cow, tmp.file("unit.ply"))), Sink::memory(&unit), options);
+      ASSERT_TRUE(a) << a.status().to_string();
+      for (int exponent : {-60, -20, 20, 60}) {
+        SCOPED_TRACE("ratio " + std::to_string(ratio) + ", scale 2^" + std::to_string(exponent));
+        Mesh scaled = cow;
+        for (Vec3f& p : scaled.positions) p = {std::ldexp(p.x, exponent), std::ldexp(p.y, exponent), std::ldexp(p.z, exponent)};
+        Mesh out;
+        auto b = simplify(Source::file(write_ply_file(scaled, tmp.file("scaled.ply"))), Sink::memory(&out), options);
+        ASSERT_TRUE(b) << b.status().to_string();
+        for (Vec3f& p : out.positions) p = {std::ldexp(p.x, -exponent), std::ldexp(p.y, -exponent), std::ldexp(p.z, -exponent)};
+        EXPECT_EQ(out.triangles, unit.triangles);
+        EXPECT_EQ(out.positions, unit.positions);
+      }
+    }
   }
 }
 

@@ -202,6 +202,23 @@ TEST(DracoWriter, TorusRoundTripsWithinQuantizationError) {
   }
 }
 
+// Draco's quantizer computes in float: a box whose quantization factor or extent would leave
+// float's range is written unquantized, so that such a mesh round-trips exactly instead of
+// decoding to one point. Every scale from 1e-37 to corners at ±2e38 comes back within the quantization
+// error of its own scale (exactly where unquantized).
+TEST(DracoWriter, ExtremeScalesRoundTrip) {
+  PlainMesh unit = torus(20, 9);
+  ScratchDir dir;
+  for (double scale : {1e-37, 1e-33, 1e-30, 1.0, 1e30, 1e37, 5e37}) {  // 5e37: corners at ±2e38
+    SCOPED_TRACE("scale " + std::to_string(scale));
+    PlainMesh mesh = unit;
+    for (Vec3f& p : mesh.positions) p = {float(p.x * scale), float(p.y * scale), float(p.z * scale)};
+    const std::string path = dir.file("scaled.drc");
+    ASSERT_TRUE(write_file_draco(path, mesh.view(), {14, 7}).is_ok());
+    expect_round_trip(mesh, decode(testing::read_file(path)), 14);
+  }
+}
+
 TEST(DracoWriter, EveryCompressionLevelDecodes) {
   PlainMesh mesh = torus(25, 9);
   ScratchDir dir;
