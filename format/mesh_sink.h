@@ -5,11 +5,28 @@
 #include <cstdint>
 #include <optional>
 #include <span>
+#include <string>
+#include <vector>
 
 #include "format/mesh_types.h"
 #include "format/status.h"
 
 namespace gaussmesh::format {
+
+// The per-vertex attributes an input carries, beside positions.
+struct AttributeKinds {
+  bool normals = false, colors = false, texcoords = false;
+  bool any() const { return normals || colors || texcoords; }
+  friend bool operator==(const AttributeKinds&, const AttributeKinds&) = default;
+};
+
+// One vertex's attributes as a reader delivers them; the fields its header does not announce
+// hold their defaults.
+struct VertexAttributes {
+  Vec3f normal;
+  Color color;
+  Vec2f texcoord;
+};
 
 struct MeshHeader {
   MeshFormat format = MeshFormat::kUnknown;
@@ -30,6 +47,10 @@ struct MeshHeader {
     std::uint32_t xyz[3] = {0, 0, 0};
   };
   std::optional<RawVertices> raw_vertices;
+  // The attributes the reader delivers (on_vertex_attributes), and the names of the per-vertex
+  // values it found and does not understand (e.g. a PLY property "quality"), for one warning.
+  AttributeKinds attributes;
+  std::vector<std::string> ignored_vertex_values;
 };
 
 // Contract a reader keeps:
@@ -38,12 +59,15 @@ struct MeshHeader {
 //  - every triangle delivered refers only to vertices already delivered;
 //  - polygons are fan-triangulated (v0 v1 v2, v0 v2 v3, ...); triangles may be degenerate
 //    (repeated index, zero area): the reader passes them on unchanged;
+//  - when header.attributes.any(), each on_vertices is preceded by one on_vertex_attributes
+//    with the same number of values, one per vertex of that batch;
 //  - a batch's span is valid only during the call.
 // A sink returning an error stops the reader, which returns that error.
 class MeshSink {
  public:
   virtual ~MeshSink() = default;
   virtual Status on_header(const MeshHeader& /*header*/) { return {}; }
+  virtual Status on_vertex_attributes(std::span<const VertexAttributes> /*batch*/) { return {}; }
   virtual Status on_vertices(std::span<const Vec3f> batch) = 0;
   virtual Status on_triangles(std::span<const Triangle> batch) = 0;
   virtual Status on_end() { return {}; }

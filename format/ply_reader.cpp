@@ -87,7 +87,53 @@ struct Header {
   size_t face_element = SIZE_MAX;
   size_t xyz[3] = {0, 0, 0};  // property indices of x, y, z in the vertex element
   size_t face_list = 0;       // property index of vertex_indices in the face element
+  // The vertex properties read as attributes: property index, channel, and what the stored
+  // value is divided by for the channel's (an 8-bit colour channel c is c / 255).
+  struct AttributeProperty {
+    size_t property = 0;
+    int channel = 0;  // kChannel*
+    double divisor = 1;
+  };
+  std::vector<AttributeProperty> attribute_properties;
+  std::vector<int> channel_of_property;  // per vertex property: its channel, or -1
+  std::vector<double> divisor_of_property;
+  AttributeKinds attributes;
+  std::vector<std::string> ignored;  // other vertex properties, by name
 };
+
+// The channels of VertexAttributes a PLY vertex property can fill.
+enum Channel { kNormalX, kNormalY, kNormalZ, kRed, kGreen, kBlue, kAlpha, kTextureU, kTextureV, kChannels };
+
+void set_channel(VertexAttributes& a, int channel, float value) {
+  switch (channel) {
+    case kNormalX: a.normal.x = value; break;
+    case kNormalY: a.normal.y = value; break;
+    case kNormalZ: a.normal.z = value; break;
+    case kRed: a.color.r = value; break;
+    case kGreen: a.color.g = value; break;
+    case kBlue: a.color.b = value; break;
+    case kAlpha: a.color.a = value; break;
+    case kTextureU: a.texcoord.u = value; break;
+    case kTextureV: a.texcoord.v = value; break;
+    default: break;
+  }
+}
+
+// The channel a vertex property's name gives, or -1. The names are those of the common
+// exporters: nx ny nz; red green blue alpha (diffuse_red … as some scanners write them);
+// u v, s t, texture_u texture_v, texture_s texture_t.
+int channel_of(std::string_view name) {
+  static constexpr std::pair<std::string_view, int> kNames[] = {
+      {"nx", kNormalX},         {"ny", kNormalY},          {"nz", kNormalZ},         {"red", kRed},
+      {"green", kGreen},        {"blue", kBlue},           {"alpha", kAlpha},        {"diffuse_red", kRed},
+      {"diffuse_green", kGreen}, {"diffuse_blue", kBlue},  {"diffuse_alpha", kAlpha}, {"u", kTextureU},
+      {"v", kTextureV},         {"s", kTextureU},          {"t", kTextureV},         {"texture_u", kTextureU},
+      {"texture_v", kTextureV}, {"texture_s", kTextureU},  {"texture_t", kTextureV}};
+  for (const auto& [text, channel] : kNames) {
+    if (name == text) return channel;
+  }
+  return -1;
+}
 
 // Header text quoted for a message: at most 60 characters, non-printable bytes shown as '?'.
 std::string quote(std::string_view text) {
@@ -187,9 +233,12 @@ class PlyReader {
     mesh_header.declared_faces =
         header_.face_element == SIZE_MAX ? 0 : header_.elements[header_.face_element].count;
     mesh_header.raw_vertices = raw_vertices();
+    mesh_header.attributes = header_.attributes;
+    mesh_header.ignored_vertex_values = header_.ignored;
     GM_RETURN_IF_ERROR(sink_.on_header(mesh_header));
     vertex_limit_ = header_.elements[header_.vertex_element].count;
     vertices_.resize(batch_size_);
+    if (header_.attributes.any()) attributes_.resize(batch_size_);
     triangles_.resize(batch_size_);
     for (size_t e = 0; e < header_.elements.size(); ++e) {
       if (header_.elements[e].properties.empty()) continue;  // records of no bytes
@@ -345,6 +394,7 @@ class PlyReader {
       if (it->is_list) return source_.bad_at_line(std::string("vertex property ") + kAxes[axis] + " is a list");
       header_.xyz[axis] = static_cast<size_t>(it - vertex.properties.begin());
     }
+    find_attributes(vertex);
     if (header_.face_element != SIZE_MAX) {
       const Element& face = header_.elements[header_.face_element];
       auto it = std::find_if(face.properties.begin(), face.properties.end(), [](const Property& p) {
@@ -361,12 +411,82 @@ class PlyReader {
     return {};
   }
 
+  // The vertex properties that are attributes: a kind counts when all its channels are there
+  // (alpha is optional), as scalars of a type it can take — colours as uchar or ushort (scaled to
+  // 0–1) or as floats, normals and texture coordinates as floats. Every other vertex property
+  // is named in header_.ignored.
+  void find_attributes(const Element& vertex) {
+    size_t property_of[kChannels];
+    std::fill(std::begin(property_of), std::end(property_of), SIZE_MAX);
+    for (size_t p = 0; p < vertex.properties.size(); ++p) {
+      const Property& property = vertex.properties[p];
+      const int channel = channel_of(property.name);
+      if (channel < 0 || property.is_list || property_of[channel] != SIZE_MAX) continue;
+      const bool is_color = channel >= kRed && channel <= kAlpha;
+      const bool real = property.type == Scalar::kFloat32 || property.type == Scalar::kFloat64;
+      if (real || (is_color && (property.type == Scalar::kUint8 || property.type == Scalar::kUint16))) {
+        property_of[channel] = p;
+      }
+    }
+    auto all = [&](int first, int last) {
+      for (int c = first; c <= last; ++c) {
+        if (property_of[c] == SIZE_MAX) return false;
+      }
+      return true;
+    };
+    AttributeKinds& kinds = header_.attributes;
+    kinds.normals = all(kNormalX, kNormalZ);
+    kinds.colors = all(kRed, kBlue);
+    kinds.texcoords = all(kTextureU, kTextureV);
+    std::vector<bool> used(vertex.properties.size(), false);
+    for (size_t axis : header_.xyz) used[axis] = true;
+    auto take = [&](int first, int last) {
+      for (int c = first; c <= last; ++c) {
+        const size_t p = property_of[c];
+        if (p == SIZE_MAX) continue;
+        const Scalar type = vertex.properties[p].type;
+        const double divisor = type == Scalar::kUint8 ? 255 : type == Scalar::kUint16 ? 65535 : 1;
+        header_.attribute_properties.push_back({p, c, divisor});
+        used[p] = true;
+      }
+    };
+    if (kinds.normals) take(kNormalX, kNormalZ);
+    if (kinds.colors) take(kRed, kAlpha);
+    if (kinds.texcoords) take(kTextureU, kTextureV);
+    for (size_t p = 0; p < vertex.properties.size(); ++p) {
+      if (!used[p]) header_.ignored.push_back(vertex.properties[p].name);
+    }
+    header_.channel_of_property.assign(vertex.properties.size(), -1);
+    header_.divisor_of_property.assign(vertex.properties.size(), 1.0);
+    for (const Header::AttributeProperty& a : header_.attribute_properties) {
+      header_.channel_of_property[a.property] = a.channel;
+      header_.divisor_of_property[a.property] = a.divisor;
+    }
+  }
+
+  std::string bad_attribute_message(uint64_t vertex) const {
+    return "vertex " + std::to_string(vertex) + " has a normal, colour or texture coordinate that is not a finite number";
+  }
+
+  // Refuses a vertex whose attributes hold a NaN or an infinity.
+  static bool finite(const VertexAttributes& a) {
+    const float values[] = {a.normal.x, a.normal.y, a.normal.z, a.color.r, a.color.g,
+                            a.color.b,  a.color.a,  a.texcoord.u, a.texcoord.v};
+    for (float v : values) {
+      if (!std::isfinite(v)) return false;
+    }
+    return true;
+  }
+
   // ---- batches --------------------------------------------------------------------------
 
   Status flush_vertices() {
     if (vertex_fill_ == 0) return {};
     size_t n = vertex_fill_;
     vertex_fill_ = 0;
+    if (header_.attributes.any()) {
+      GM_RETURN_IF_ERROR(sink_.on_vertex_attributes(std::span<const VertexAttributes>(attributes_.data(), n)));
+    }
     return sink_.on_vertices(std::span<const Vec3f>(vertices_.data(), n));
   }
 
@@ -493,6 +613,18 @@ class PlyReader {
       type[axis] = element.properties[header_.xyz[axis]].type;
     }
     const bool all_float = type[0] == Scalar::kFloat32 && type[1] == Scalar::kFloat32 && type[2] == Scalar::kFloat32;
+    struct Slot {
+      size_t offset;
+      Scalar type;
+      int channel;
+      double divisor;
+    };
+    std::vector<Slot> slots;
+    for (const Header::AttributeProperty& a : header_.attribute_properties) {
+      size_t at = 0;
+      for (size_t p = 0; p < a.property; ++p) at += scalar_size(element.properties[p].type);
+      slots.push_back({at, element.properties[a.property].type, a.channel, a.divisor});
+    }
     uint64_t done = 0;
     while (done < element.count) {
       GM_RETURN_IF_ERROR(need(size, element, done));
@@ -513,6 +645,19 @@ class PlyReader {
       }
       for (size_t i = 0; i < n; ++i) {
         if (!is_finite(out[i])) return Status::error(Code::kBadInput, source_.at_byte(source_.offset() + i * size), not_finite_message(done + i));
+      }
+      if (!slots.empty()) {
+        const char* record = source_.cursor();
+        for (size_t i = 0; i < n; ++i, record += size) {
+          VertexAttributes a;
+          for (const Slot& slot : slots) {
+            set_channel(a, slot.channel, static_cast<float>(load_real<kSwap>(record + slot.offset, slot.type) / slot.divisor));
+          }
+          if (!finite(a)) {
+            return Status::error(Code::kBadInput, source_.at_byte(source_.offset() + i * size), bad_attribute_message(done + i));
+          }
+          attributes_[vertex_fill_ + i] = a;
+        }
       }
       source_.advance(n * size);
       vertex_fill_ += n;
@@ -576,6 +721,7 @@ class PlyReader {
     const bool is_face = e == header_.face_element;
     const uint64_t start = source_.offset();
     float xyz[3] = {0, 0, 0};
+    VertexAttributes attributes;
     for (size_t p = 0; p < element.properties.size(); ++p) {
       const Property& property = element.properties[p];
       const size_t item = scalar_size(property.type);
@@ -584,6 +730,10 @@ class PlyReader {
         if (is_vertex) {
           for (int axis = 0; axis < 3; ++axis) {
             if (header_.xyz[axis] == p) xyz[axis] = static_cast<float>(load_real<kSwap>(source_.cursor(), property.type));
+          }
+          if (header_.channel_of_property[p] >= 0) {
+            set_channel(attributes, header_.channel_of_property[p],
+                        static_cast<float>(load_real<kSwap>(source_.cursor(), property.type) / header_.divisor_of_property[p]));
           }
         }
         source_.advance(item);
@@ -623,6 +773,8 @@ class PlyReader {
     if (is_vertex) {
       const Vec3f position{xyz[0], xyz[1], xyz[2]};
       if (!is_finite(position)) return Status::error(Code::kBadInput, source_.at_byte(start), not_finite_message(record));
+      if (!finite(attributes)) return Status::error(Code::kBadInput, source_.at_byte(start), bad_attribute_message(record));
+      if (!attributes_.empty()) attributes_[vertex_fill_] = attributes;
       vertices_[vertex_fill_++] = position;
       if (vertex_fill_ == batch_size_) GM_RETURN_IF_ERROR(flush_vertices());
     }
@@ -670,6 +822,7 @@ class PlyReader {
         if (text.find_first_not_of(" \t\r\v\f") != std::string_view::npos) break;  // skip blank lines
       }
       float xyz[3] = {0, 0, 0};
+      VertexAttributes attributes;
       for (size_t p = 0; p < element.properties.size(); ++p) {
         const Property& property = element.properties[p];
         std::string_view token = next_token(text);
@@ -681,6 +834,13 @@ class PlyReader {
               if (!parse_number(token, xyz[axis])) {
                 return ascii_error(element, record, "bad number " + quote(token) + " for " + property.name);
               }
+            }
+            if (header_.channel_of_property[p] >= 0) {
+              double value = 0;
+              if (!parse_number(token, value)) {
+                return ascii_error(element, record, "bad number " + quote(token) + " for " + property.name);
+              }
+              set_channel(attributes, header_.channel_of_property[p], static_cast<float>(value / header_.divisor_of_property[p]));
             }
           }
           continue;
@@ -714,6 +874,8 @@ class PlyReader {
       if (is_vertex) {
         const Vec3f position{xyz[0], xyz[1], xyz[2]};
         if (!is_finite(position)) return source_.bad_at_line(not_finite_message(record));
+        if (!finite(attributes)) return source_.bad_at_line(bad_attribute_message(record));
+        if (!attributes_.empty()) attributes_[vertex_fill_] = attributes;
         vertices_[vertex_fill_++] = position;
         if (vertex_fill_ == batch_size_) GM_RETURN_IF_ERROR(flush_vertices());
       }
@@ -741,6 +903,7 @@ class PlyReader {
   uint64_t vertex_limit_ = 0;
   uint64_t face_line_ = 0;  // header line of "element face"
   std::vector<Vec3f> vertices_;
+  std::vector<VertexAttributes> attributes_;  // beside vertices_, when the header has attributes
   std::vector<Triangle> triangles_;
   size_t vertex_fill_ = 0;
   size_t triangle_fill_ = 0;

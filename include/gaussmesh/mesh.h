@@ -24,17 +24,36 @@ struct Triangle {
   friend bool operator==(const Triangle&, const Triangle&) = default;
 };
 
-// A non-owning view of an indexed triangle mesh.
+// A texture coordinate.
+struct Vec2f {
+  float u = 0, v = 0;
+  friend bool operator==(const Vec2f&, const Vec2f&) = default;
+};
+
+// A colour, each channel a float from 0 to 1 (an 8-bit channel c is c / 255); a = 1 is opaque.
+struct Color {
+  float r = 0, g = 0, b = 0, a = 1;
+  friend bool operator==(const Color&, const Color&) = default;
+};
+
+// A non-owning view of an indexed triangle mesh. Each per-vertex attribute is either empty or
+// holds one value per position.
 struct MeshView {
   std::span<const Vec3f> positions;
   std::span<const Triangle> triangles;
+  std::span<const Vec3f> normals;
+  std::span<const Color> colors;
+  std::span<const Vec2f> texcoords;
 };
 
-// An indexed triangle mesh that owns its arrays.
+// An indexed triangle mesh that owns its arrays; attributes as in MeshView.
 struct Mesh {
   std::vector<Vec3f> positions;
   std::vector<Triangle> triangles;
-  MeshView view() const { return {positions, triangles}; }
+  std::vector<Vec3f> normals;
+  std::vector<Color> colors;
+  std::vector<Vec2f> texcoords;
+  MeshView view() const { return {positions, triangles, normals, colors, texcoords}; }
 };
 
 // Input file formats (detected from content unless forced).

@@ -8,6 +8,17 @@ format::Status MeshBuilder::on_header(const format::MeshHeader& header) {
   return {};
 }
 
+// Keeps the attributes the header announced, each in its own array.
+format::Status MeshBuilder::on_vertex_attributes(std::span<const format::VertexAttributes> batch) {
+  const format::AttributeKinds& kinds = header_.attributes;
+  for (const format::VertexAttributes& a : batch) {
+    if (kinds.normals) mesh_.normals.push_back(a.normal);
+    if (kinds.colors) mesh_.colors.push_back(a.color);
+    if (kinds.texcoords) mesh_.texcoords.push_back(a.texcoord);
+  }
+  return {};
+}
+
 format::Status MeshBuilder::on_vertices(std::span<const Vec3f> batch) {
   mesh_.positions.insert(mesh_.positions.end(), batch.begin(), batch.end());
   return {};

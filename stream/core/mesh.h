@@ -16,17 +16,15 @@ using format::MeshView;
 using format::Triangle;
 using format::Vec3f;
 
-struct Mesh {
-  std::vector<Vec3f> positions;
-  std::vector<Triangle> triangles;
-  MeshView view() const { return {positions, triangles}; }
-};
+// The API's owning mesh: positions, triangles, and per-vertex attributes when present.
+using gaussmesh::Mesh;
 
 // A MeshSink that keeps everything. Grows with what is actually delivered, never by the
 // header's declared counts.
 class MeshBuilder final : public format::MeshSink {
  public:
   format::Status on_header(const format::MeshHeader& header) override;
+  format::Status on_vertex_attributes(std::span<const format::VertexAttributes> batch) override;
   format::Status on_vertices(std::span<const Vec3f> batch) override;
   format::Status on_triangles(std::span<const Triangle> batch) override;
   const format::MeshHeader& header() const { return header_; }

@@ -31,8 +31,16 @@ class CollectSink final : public MeshSink {
     this->header = header;
     return {};
   }
+  Status on_vertex_attributes(std::span<const VertexAttributes> batch) override {
+    if (header_calls != 1 || batch.empty() || !header.attributes.any()) contract_broken = true;
+    pending_attributes = batch.size();
+    attributes.insert(attributes.end(), batch.begin(), batch.end());
+    return {};
+  }
   Status on_vertices(std::span<const Vec3f> batch) override {
     if (header_calls != 1 || batch.empty()) contract_broken = true;
+    if (header.attributes.any() && pending_attributes != batch.size()) contract_broken = true;
+    pending_attributes = 0;
     largest_batch = std::max(largest_batch, batch.size());
     positions.insert(positions.end(), batch.begin(), batch.end());
     return {};
@@ -54,6 +62,8 @@ class CollectSink final : public MeshSink {
   }
 
   MeshHeader header;
+  std::vector<VertexAttributes> attributes;
+  size_t pending_attributes = 0;
   std::vector<Vec3f> positions;
   std::vector<Triangle> triangles;
   int header_calls = 0, end_calls = 0;
@@ -436,6 +446,82 @@ TEST(PlyReader, ConvertsEveryScalarTypeOfPositionsToFloat) {
     ASSERT_TRUE(r.status) << r.status.to_string();
     ASSERT_EQ(r.sink.positions.size(), 1u);
     EXPECT_EQ(r.sink.positions[0], (Vec3f{0.1f, 1e-3f, 123456.789f})) << enc_name(enc);
+  }
+}
+
+// Colours (uchar with alpha, ushort, or float), normals and texture coordinates under the
+// names exporters use, in every encoding, in fixed records and beside a list property (the
+// general path); other vertex properties are named as ignored.
+TEST(PlyReader, DeliversColoursNormalsAndTextureCoordinates) {
+  const std::vector<Vec3f> positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  for (Enc enc : kAllEncodings) {
+    for (const std::string colour_type : {"uchar", "ushort", "float"}) {
+      for (bool with_list : {false, true}) {
+        SCOPED_TRACE(std::string(enc_name(enc)) + " " + colour_type + (with_list ? " list" : ""));
+        const double full = colour_type == "uchar" ? 255 : colour_type == "ushort" ? 65535 : 1;
+        TestElement vertices{"vertex",
+                             {{"float", "x", ""}, {"float", "quality", ""}, {"float", "y", ""}, {"float", "z", ""},
+                              {"float", "nx", ""}, {"float", "ny", ""}, {"float", "nz", ""},
+                              {colour_type, "red", ""}, {colour_type, "green", ""}, {colour_type, "blue", ""},
+                              {colour_type, "alpha", ""}, {"float", "s", ""}, {"float", "t", ""}},
+                             {}};
+        if (with_list) vertices.properties.push_back({"int", "ids", "uchar"});
+        for (size_t i = 0; i < positions.size(); ++i) {
+          const double k = double(i);
+          vertices.records.push_back({{positions[i].x}, {0.5}, {positions[i].y}, {positions[i].z},
+                                      {k}, {-k}, {0.25}, {full}, {k * 51 * full / 255}, {0}, {full},
+                                      {0.125 * k}, {1 - 0.125 * k}});
+          if (with_list) vertices.records.back().push_back({1, 2});
+        }
+        ReadOutcome r = read_bytes(encode({vertices, face_element({{0, 1, 2}, {0, 2, 3}})}, enc), 3);
+        ASSERT_TRUE(r.status) << r.status.to_string();
+        EXPECT_FALSE(r.sink.contract_broken);
+        EXPECT_EQ(r.sink.header.attributes, (AttributeKinds{true, true, true}));
+        const std::vector<std::string> ignored = with_list ? std::vector<std::string>{"quality", "ids"}
+                                                           : std::vector<std::string>{"quality"};
+        EXPECT_EQ(r.sink.header.ignored_vertex_values, ignored);
+        EXPECT_EQ(r.sink.positions, positions);
+        ASSERT_EQ(r.sink.attributes.size(), positions.size());
+        for (size_t i = 0; i < positions.size(); ++i) {
+          const VertexAttributes& a = r.sink.attributes[i];
+          const float k = float(i);
+          EXPECT_EQ(a.normal, (Vec3f{k, -k, 0.25f})) << i;
+          EXPECT_FLOAT_EQ(a.color.r, 1) << i;
+          EXPECT_NEAR(a.color.g, k * 51 / 255, 1e-6) << i;
+          EXPECT_FLOAT_EQ(a.color.b, 0) << i;
+          EXPECT_FLOAT_EQ(a.color.a, 1) << i;
+          EXPECT_EQ(a.texcoord, (Vec2f{0.125f * k, 1 - 0.125f * k})) << i;
+        }
+      }
+    }
+  }
+  // A kind counts only whole: red and green without blue, or nx without ny and nz, are ignored;
+  // alpha is optional (opaque).
+  TestElement partial{"vertex",
+                      {{"float", "x", ""}, {"float", "y", ""}, {"float", "z", ""}, {"uchar", "red", ""},
+                       {"uchar", "green", ""}, {"float", "nx", ""}},
+                      {{{0}, {0}, {0}, {1}, {2}, {3}}}};
+  ReadOutcome r = read_bytes(encode({partial}, Enc::kLittle));
+  ASSERT_TRUE(r.status) << r.status.to_string();
+  EXPECT_FALSE(r.sink.header.attributes.any());
+  EXPECT_EQ(r.sink.header.ignored_vertex_values, (std::vector<std::string>{"red", "green", "nx"}));
+  EXPECT_TRUE(r.sink.attributes.empty());
+  TestElement rgb{"vertex",
+                  {{"float", "x", ""}, {"float", "y", ""}, {"float", "z", ""}, {"uchar", "red", ""},
+                   {"uchar", "green", ""}, {"uchar", "blue", ""}},
+                  {{{0}, {0}, {0}, {255}, {0}, {51}}}};
+  r = read_bytes(encode({rgb}, Enc::kAscii));
+  ASSERT_TRUE(r.status) << r.status.to_string();
+  EXPECT_EQ(r.sink.header.attributes, (AttributeKinds{false, true, false}));
+  ASSERT_EQ(r.sink.attributes.size(), 1u);
+  EXPECT_EQ(r.sink.attributes[0].color, (Color{1, 0, 0.2f, 1}));
+  // A normal that is not a finite number is refused like a position.
+  for (Enc enc : kAllEncodings) {
+    TestElement bad{"vertex",
+                    {{"float", "x", ""}, {"float", "y", ""}, {"float", "z", ""}, {"float", "nx", ""},
+                     {"float", "ny", ""}, {"float", "nz", ""}},
+                    {{{0}, {0}, {0}, {0}, {0}, {1}}, {{1}, {0}, {0}, {std::nan("")}, {0}, {1}}}};
+    expect_bad(read_bytes(encode({bad}, enc)), "vertex 1 has a normal, colour or texture coordinate that is not a finite number");
   }
 }
 
