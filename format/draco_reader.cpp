@@ -68,6 +68,13 @@ Result<std::unique_ptr<draco::Mesh>> decode(const std::vector<char>& bytes, cons
   return std::move(decoded).value();
 }
 
+bool finite(const VertexAttributes& a) {
+  for (float v : {a.normal.x, a.normal.y, a.normal.z, a.color.r, a.color.g, a.color.b, a.color.a, a.texcoord.u, a.texcoord.v}) {
+    if (!std::isfinite(v)) return false;
+  }
+  return true;
+}
+
 Status deliver(const draco::Mesh& mesh, const ByteSource& source, const ReadOptions& options, MeshSink& sink) {
   const draco::PointAttribute* position = mesh.GetNamedAttribute(draco::GeometryAttribute::POSITION);
   if (position == nullptr || position->num_components() < 3) {
@@ -81,17 +88,51 @@ Status deliver(const draco::Mesh& mesh, const ByteSource& source, const ReadOpti
   header.format = MeshFormat::kDraco;
   header.declared_vertices = points;
   header.declared_faces = mesh.num_faces();
+  const draco::PointAttribute* normal = mesh.GetNamedAttribute(draco::GeometryAttribute::NORMAL);
+  const draco::PointAttribute* color = mesh.GetNamedAttribute(draco::GeometryAttribute::COLOR);
+  const draco::PointAttribute* texcoord = mesh.GetNamedAttribute(draco::GeometryAttribute::TEX_COORD);
+  if (normal != nullptr && normal->num_components() != 3) normal = nullptr;
+  if (color != nullptr && (color->num_components() < 3 || color->num_components() > 4)) color = nullptr;
+  if (texcoord != nullptr && texcoord->num_components() != 2) texcoord = nullptr;
+  header.attributes = {normal != nullptr, color != nullptr, texcoord != nullptr};
+  for (int a = 0; a < mesh.num_attributes(); ++a) {
+    const draco::PointAttribute* attribute = mesh.attribute(a);
+    if (attribute != position && attribute != normal && attribute != color && attribute != texcoord) {
+      header.ignored_vertex_values.push_back(draco::GeometryAttribute::TypeToString(attribute->attribute_type()));
+    }
+  }
   GM_RETURN_IF_ERROR(sink.on_header(header));
-  MeshBatcher batcher(sink, options.batch_size);
+  // An integer colour that Draco does not mark normalized holds 0..max of its type.
+  const double color_divisor = color == nullptr || color->normalized() || color->data_type() == draco::DT_FLOAT32 ||
+                                       color->data_type() == draco::DT_FLOAT64
+                                   ? 1.0
+                               : color->data_type() == draco::DT_UINT16 ? 65535.0
+                                                                        : 255.0;
+  MeshBatcher batcher(sink, options.batch_size, header.attributes.any());
   for (draco::PointIndex::ValueType i = 0; i < points; ++i) {
+    const draco::PointIndex point(i);
     float xyz[3] = {0, 0, 0};
-    if (!position->ConvertValue<float, 3>(position->mapped_index(draco::PointIndex(i)), xyz)) {
+    if (!position->ConvertValue<float, 3>(position->mapped_index(point), xyz)) {
       return Status::error(Code::kBadInput, source.name(), "Draco: point " + std::to_string(i) + " has no position");
     }
     if (!std::isfinite(xyz[0]) || !std::isfinite(xyz[1]) || !std::isfinite(xyz[2])) {
       return Status::error(Code::kBadInput, source.name(), "Draco: point " + std::to_string(i) + " has a coordinate that is not a finite number");
     }
-    GM_RETURN_IF_ERROR(batcher.add_vertex({xyz[0], xyz[1], xyz[2]}));
+    VertexAttributes attributes;
+    bool converted = true;
+    if (normal != nullptr) converted &= normal->ConvertValue<float, 3>(normal->mapped_index(point), &attributes.normal.x);
+    if (color != nullptr) {
+      float rgba[4] = {0, 0, 0, 1};
+      converted &= color->ConvertValue<float>(color->mapped_index(point), color->num_components(), rgba);
+      attributes.color = {float(rgba[0] / color_divisor), float(rgba[1] / color_divisor), float(rgba[2] / color_divisor),
+                          color->num_components() == 4 ? float(rgba[3] / color_divisor) : 1.0f};
+    }
+    if (texcoord != nullptr) converted &= texcoord->ConvertValue<float, 2>(texcoord->mapped_index(point), &attributes.texcoord.u);
+    if (!converted || !finite(attributes)) {
+      return Status::error(Code::kBadInput, source.name(),
+                           "Draco: point " + std::to_string(i) + " has a normal, colour or texture coordinate it cannot convert to finite numbers");
+    }
+    GM_RETURN_IF_ERROR(batcher.add_vertex({xyz[0], xyz[1], xyz[2]}, attributes));
   }
   for (draco::FaceIndex f(0); f < mesh.num_faces(); ++f) {
     const auto& face = mesh.face(f);

@@ -1,4 +1,5 @@
-// Draco output: builds a draco::Mesh (float32 POSITION attribute + faces), encodes it with
+// Draco output: builds a draco::Mesh (float32 POSITION attribute, the mesh's NORMAL, COLOR and
+// TEX_COORD when it has them, and the faces), encodes it with
 // edgebreaker and quantized positions (unquantized when Draco's float quantizer cannot hold the
 // box), and writes the bytes through OutputFile. docs/formats.md.
 #include <algorithm>
@@ -8,6 +9,7 @@
 #include <exception>
 #include <new>
 #include <string>
+#include <vector>
 
 #include <draco/compression/encode.h>
 #include <draco/core/encoder_buffer.h>
@@ -19,6 +21,7 @@ namespace gaussmesh::format {
 namespace {
 
 static_assert(sizeof(Vec3f) == 3 * sizeof(float), "Vec3f is copied as three packed floats");
+static_assert(sizeof(Vec2f) == 2 * sizeof(float), "Vec2f is copied as two packed floats");
 
 constexpr int kMinQuantizationBits = 1;
 constexpr int kMaxQuantizationBits = 30;  // Draco's own limit for position quantization
@@ -30,6 +33,13 @@ Status validate(const OutputFile& out, MeshView mesh, const DracoWriteOptions& o
     return Status::error(Code::kUsage, "--qp",
                          "position quantization must be 1..30 bits, got " +
                              std::to_string(options.quantization_bits));
+  }
+  if (options.normal_bits < kMinQuantizationBits || options.normal_bits > kMaxQuantizationBits) {
+    return Status::error(Code::kUsage, "--qn", "normal quantization must be 1..30 bits, got " + std::to_string(options.normal_bits));
+  }
+  if (options.texcoord_bits < kMinQuantizationBits || options.texcoord_bits > kMaxQuantizationBits) {
+    return Status::error(Code::kUsage, "--qt",
+                         "texture coordinate quantization must be 1..30 bits, got " + std::to_string(options.texcoord_bits));
   }
   if (options.compression_level < 0 || options.compression_level > kMaxCompressionLevel) {
     return Status::error(Code::kUsage, "--cl",
@@ -52,18 +62,45 @@ Status validate(const OutputFile& out, MeshView mesh, const DracoWriteOptions& o
       }
     }
   }
-  return {};
+  return check_vertex_attributes(out, mesh);
 }
 
-// The mesh as Draco holds it: one point per input vertex, identity-mapped positions.
+// Adds an identity-mapped attribute of `components` values of `type` per point.
+void add_attribute(draco::Mesh& out, draco::GeometryAttribute::Type kind, int components, draco::DataType type,
+                   bool normalized, const void* values, std::size_t bytes) {
+  const auto num_points = static_cast<std::uint32_t>(out.num_points());
+  draco::GeometryAttribute attribute;
+  const std::size_t stride = bytes / num_points;
+  attribute.Init(kind, nullptr, static_cast<std::int8_t>(components), type, normalized, static_cast<std::int64_t>(stride), 0);
+  const int id = out.AddAttribute(attribute, true, num_points);
+  out.attribute(id)->buffer()->Write(0, values, bytes);
+}
+
+// The mesh as Draco holds it: one point per input vertex, identity-mapped positions, and the
+// mesh's normals, colours (8 bits a channel, alpha when a colour is not opaque) and texture
+// coordinates.
 void build_draco_mesh(MeshView mesh, draco::Mesh& out) {
   const auto num_points = static_cast<draco::PointIndex::ValueType>(mesh.positions.size());
   out.set_num_points(num_points);
-  draco::GeometryAttribute position;
-  position.Init(draco::GeometryAttribute::POSITION, nullptr, 3, draco::DT_FLOAT32, false,
-                sizeof(Vec3f), 0);
-  const int id = out.AddAttribute(position, true, num_points);
-  out.attribute(id)->buffer()->Write(0, mesh.positions.data(), mesh.positions.size_bytes());
+  add_attribute(out, draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32, false, mesh.positions.data(),
+                mesh.positions.size_bytes());
+  if (!mesh.normals.empty()) {
+    add_attribute(out, draco::GeometryAttribute::NORMAL, 3, draco::DT_FLOAT32, false, mesh.normals.data(),
+                  mesh.normals.size_bytes());
+  }
+  if (!mesh.colors.empty()) {
+    const int channels = has_alpha(mesh.colors) ? 4 : 3;
+    std::vector<std::uint8_t> bytes;
+    bytes.reserve(mesh.colors.size() * channels);
+    for (const Color& c : mesh.colors) {
+      for (int k = 0; k < channels; ++k) bytes.push_back(color_byte((&c.r)[k]));
+    }
+    add_attribute(out, draco::GeometryAttribute::COLOR, channels, draco::DT_UINT8, true, bytes.data(), bytes.size());
+  }
+  if (!mesh.texcoords.empty()) {
+    add_attribute(out, draco::GeometryAttribute::TEX_COORD, 2, draco::DT_FLOAT32, false, mesh.texcoords.data(),
+                  mesh.texcoords.size_bytes());
+  }
   out.SetNumFaces(mesh.triangles.size());
   for (size_t f = 0; f < mesh.triangles.size(); ++f) {
     const Triangle& t = mesh.triangles[f];
@@ -107,6 +144,8 @@ Status write_draco(OutputFile& out, MeshView mesh, const DracoWriteOptions& opti
     if (quantizable(mesh, options.quantization_bits)) {
       encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION, options.quantization_bits);
     }
+    encoder.SetAttributeQuantization(draco::GeometryAttribute::NORMAL, options.normal_bits);
+    encoder.SetAttributeQuantization(draco::GeometryAttribute::TEX_COORD, options.texcoord_bits);
     const int speed = kMaxCompressionLevel - options.compression_level;
     encoder.SetSpeedOptions(speed, speed);
     const draco::Status encoded = encoder.EncodeMeshToBuffer(draco_mesh, &buffer);

@@ -15,10 +15,12 @@ namespace gaussmesh::format {
 class MeshBatcher {
  public:
   // Memory: batch_size vertices and batch_size triangles, whatever the input.
-  MeshBatcher(MeshSink& sink, size_t batch_size)
-      : sink_(sink), batch_size_(std::max<size_t>(batch_size, 1)) {
+  // with_attributes: the header announced attributes; every vertex then comes with its own.
+  MeshBatcher(MeshSink& sink, size_t batch_size, bool with_attributes = false)
+      : sink_(sink), batch_size_(std::max<size_t>(batch_size, 1)), with_attributes_(with_attributes) {
     vertices_.reserve(batch_size_);
     triangles_.reserve(batch_size_);
+    if (with_attributes_) attributes_.reserve(batch_size_);
   }
 
   // Vertices added so far (delivered or pending); the next vertex gets this index.
@@ -26,6 +28,13 @@ class MeshBatcher {
   uint64_t triangle_count() const { return delivered_triangles_ + triangles_.size(); }
 
   Status add_vertex(const Vec3f& p) {
+    assert(!with_attributes_);
+    vertices_.push_back(p);
+    if (vertices_.size() >= batch_size_) return flush_vertices();
+    return {};
+  }
+  Status add_vertex(const Vec3f& p, const VertexAttributes& attributes) {
+    if (with_attributes_) attributes_.push_back(attributes);
     vertices_.push_back(p);
     if (vertices_.size() >= batch_size_) return flush_vertices();
     return {};
@@ -43,6 +52,10 @@ class MeshBatcher {
 
   Status flush_vertices() {
     if (vertices_.empty()) return {};
+    if (with_attributes_) {
+      GM_RETURN_IF_ERROR(sink_.on_vertex_attributes(attributes_));
+      attributes_.clear();
+    }
     Status s = sink_.on_vertices(vertices_);
     delivered_vertices_ += vertices_.size();
     vertices_.clear();
@@ -63,7 +76,9 @@ class MeshBatcher {
  private:
   MeshSink& sink_;
   size_t batch_size_;
+  bool with_attributes_;
   std::vector<Vec3f> vertices_;
+  std::vector<VertexAttributes> attributes_;
   std::vector<Triangle> triangles_;
   uint64_t delivered_vertices_ = 0;
   uint64_t delivered_triangles_ = 0;

@@ -33,12 +33,25 @@ struct PlyWriteOptions {
 
 // Precondition: every triangle index < mesh.positions.size(); attribute sizes match.
 // Violations of the preconditions are reported as kProcessing errors, not asserted.
+// The mesh's own attributes come first among the vertex properties: nx ny nz (float), red green
+// blue [alpha] (uchar; alpha when a colour is not opaque), s t (float).
 Status write_ply(OutputFile& out, MeshView mesh, const PlyWriteOptions& options);
+// Normals as vn, texture coordinates as vt (faces then name them, v/vt/vn), colours as three
+// floats after the position ("v x y z r g b", as MeshLab and Blender read them; no alpha).
 Status write_obj(OutputFile& out, MeshView mesh);
+
+// Shared by the writers: a colour channel as a byte (clamped to 0–1, rounded to the nearest of
+// 0..255), whether any colour is not opaque, and the check that every attribute the mesh has
+// holds one value per position (kProcessing otherwise).
+std::uint8_t color_byte(float channel);
+bool has_alpha(std::span<const Color> colors);
+Status check_vertex_attributes(const OutputFile& out, MeshView mesh);
 
 struct DracoWriteOptions {
   int quantization_bits = 14;  // --qp: Draco's default of 11 visibly collapses vertices
   int compression_level = 7;   // --cl 0..10
+  int normal_bits = 10;        // --qn: Draco's default (draco_encoder -qn)
+  int texcoord_bits = 12;      // --qt: Draco's default (draco_encoder -qt)
 };
 // Edgebreaker-encoded Draco mesh. (draco_writer.cpp)
 Status write_draco(OutputFile& out, MeshView mesh, const DracoWriteOptions& options);

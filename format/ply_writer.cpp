@@ -1,14 +1,17 @@
 // PLY writer: binary_little_endian 1.0 (default) or ascii 1.0; triangles as
 // "property list uchar int vertex_indices"; extra per-vertex and per-face scalar properties.
 // Everything is validated before the first byte is written. docs/formats.md.
+#include <algorithm>
 #include <bit>
 #include <charconv>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <memory>
 #include <string>
 #include <type_traits>
 #include <variant>
+#include <vector>
 
 #include "format/mesh_writer.h"
 
@@ -119,9 +122,61 @@ void put_attribute(RecordBuffer& buffer, const PlyAttribute& attribute, size_t i
       attribute.values);
 }
 
+// The mesh's attributes as PLY vertex properties, in arrays that live as long as this.
+struct MeshProperties {
+  std::vector<float> normal[3], texcoord[2];
+  std::vector<std::uint8_t> color[4];
+  std::vector<PlyAttribute> properties;
+
+  explicit MeshProperties(MeshView mesh) {
+    static constexpr const char* kNormal[3] = {"nx", "ny", "nz"};
+    static constexpr const char* kColor[4] = {"red", "green", "blue", "alpha"};
+    static constexpr const char* kTexcoord[2] = {"s", "t"};
+    for (int k = 0; k < 3 && !mesh.normals.empty(); ++k) {
+      for (const Vec3f& n : mesh.normals) normal[k].push_back((&n.x)[k]);
+      properties.push_back({kNormal[k], std::span<const float>(normal[k])});
+    }
+    const int channels = mesh.colors.empty() ? 0 : has_alpha(mesh.colors) ? 4 : 3;
+    for (int k = 0; k < channels; ++k) {
+      for (const Color& c : mesh.colors) color[k].push_back(color_byte((&c.r)[k]));
+      properties.push_back({kColor[k], std::span<const std::uint8_t>(color[k])});
+    }
+    for (int k = 0; k < 2 && !mesh.texcoords.empty(); ++k) {
+      for (const Vec2f& t : mesh.texcoords) texcoord[k].push_back((&t.u)[k]);
+      properties.push_back({kTexcoord[k], std::span<const float>(texcoord[k])});
+    }
+  }
+};
+
 }  // namespace
 
-Status write_ply(OutputFile& out, MeshView mesh, const PlyWriteOptions& options) {
+std::uint8_t color_byte(float channel) {
+  return static_cast<std::uint8_t>(std::lround(std::clamp(channel, 0.0f, 1.0f) * 255.0f));
+}
+
+bool has_alpha(std::span<const Color> colors) {
+  return std::any_of(colors.begin(), colors.end(), [](const Color& c) { return c.a != 1; });
+}
+
+Status check_vertex_attributes(const OutputFile& out, MeshView mesh) {
+  const size_t n = mesh.positions.size();
+  const std::pair<const char*, size_t> sizes[] = {
+      {"normals", mesh.normals.size()}, {"colours", mesh.colors.size()}, {"texture coordinates", mesh.texcoords.size()}};
+  for (const auto& [what, size] : sizes) {
+    if (size != 0 && size != n) {
+      return Status::error(Code::kProcessing, out.name(),
+                           std::string("the mesh has ") + std::to_string(size) + " " + what + " for " + std::to_string(n) +
+                               " vertices");
+    }
+  }
+  return {};
+}
+
+Status write_ply(OutputFile& out, MeshView mesh, const PlyWriteOptions& given) {
+  GM_RETURN_IF_ERROR(check_vertex_attributes(out, mesh));
+  const MeshProperties own(mesh);
+  PlyWriteOptions options = given;
+  options.vertex_attributes.insert(options.vertex_attributes.begin(), own.properties.begin(), own.properties.end());
   const size_t vertex_count = mesh.positions.size();
   const size_t face_count = options.write_faces ? mesh.triangles.size() : 0;
   if (vertex_count > kMaxVertices) {
