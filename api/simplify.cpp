@@ -4,6 +4,7 @@
 
 #include "api/internal.h"
 #include "stream/analysis/mesh_distance.h"
+#include "stream/attributes/attribute_transfer.h"
 #include "stream/core/stopwatch.h"
 #include "stream/finish/quadric_finish.h"
 #include "stream/partition/spatial_order.h"
@@ -90,6 +91,25 @@ void finish_report(Json& report, const stream::FinishOptions& o, const std::opti
   report["finish_seconds"] = {{"quadrics", f->seconds_quadrics}, {"collapses", f->seconds_decimate}};
 }
 
+// One warning for the input's per-vertex values the reader did not understand, and one for the
+// attributes the run drops (out of core), each naming what.
+std::vector<std::string> value_warnings(const std::vector<std::string>& ignored, const format::AttributeKinds& dropped) {
+  std::vector<std::string> warnings;
+  if (!ignored.empty()) {
+    std::string names;
+    for (const std::string& name : ignored) names += (names.empty() ? "" : ", ") + name;
+    warnings.push_back("vertex values not understood and not kept: " + names);
+  }
+  if (dropped.any()) {
+    std::string kinds;
+    if (dropped.colors) kinds = "colours";
+    if (dropped.normals) kinds += std::string(kinds.empty() ? "" : ", ") + "normals";
+    if (dropped.texcoords) kinds += std::string(kinds.empty() ? "" : ", ") + "texture coordinates";
+    warnings.push_back(kinds + " not kept: the streaming engine carries positions only (in core keeps them)");
+  }
+  return warnings;
+}
+
 Status no_faces(const Source& source, std::uint64_t vertices) {
   return Status::error(Code::kBadInput, source.name(), "no faces to simplify (" + std::to_string(vertices) + " vertices)");
 }
@@ -146,6 +166,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   stats.samples = result->samples;
   stats.out_of_core = true;
   stats.memory_bytes = memory;
+  stats.warnings = value_warnings(result->ignored_vertex_values, result->dropped_attributes);
   stats.chunks = result->chunks;
   stats.peak_rss_bytes = peak_rss_bytes();
   stats.seconds = seconds_since(started);
@@ -157,6 +178,8 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   result->seconds_cleanup += seconds_since(t);
   finish_report(report, result->finish_options, result->finish, stats);
   if (result->finish) report["approximation"] = result->collapsed_input ? "input" : "gauss";
+  report["output_attributes"] = {{"normals", false}, {"colors", false}, {"texcoords", false}};
+  report["warnings"] = stats.warnings;
   report["merged_patches"] = result->merged_patches;
   report["merge_rounds"] = result->merge_rounds;
   report["mesher"] = "patch";
@@ -235,15 +258,30 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   probe.add(mesh->view.triangles);
   const bool weld = stream::should_weld(stream_weld(o.weld), mesh->view.positions.size(), mesh->view.triangles.size());
   const bool reordered = weld || probe.scattered(mesh->view.positions.size());
+  const bool has_attributes = !mesh->view.normals.empty() || !mesh->view.colors.empty() || !mesh->view.texcoords.empty();
+  // The attributes are taken from the input as read (a copy of it when the renumbering below
+  // rewrites it): the transfer needs its surface, not its numbering.
+  stream::Mesh as_read;
   std::uint64_t welded = 0;
   if (reordered) {
+    if (has_attributes) {
+      as_read.positions.assign(mesh->view.positions.begin(), mesh->view.positions.end());
+      as_read.triangles.assign(mesh->view.triangles.begin(), mesh->view.triangles.end());
+      as_read.normals.assign(mesh->view.normals.begin(), mesh->view.normals.end());
+      as_read.colors.assign(mesh->view.colors.begin(), mesh->view.colors.end());
+      as_read.texcoords.assign(mesh->view.texcoords.begin(), mesh->view.texcoords.end());
+    }
     if (mesh->owned.positions.empty() && mesh->owned.triangles.empty()) {
       mesh->owned.positions.assign(mesh->view.positions.begin(), mesh->view.positions.end());
       mesh->owned.triangles.assign(mesh->view.triangles.begin(), mesh->view.triangles.end());
     }
     welded = stream::reorder_spatially(mesh->owned.positions, mesh->owned.triangles, weld);
+    mesh->owned.normals.clear();
+    mesh->owned.colors.clear();
+    mesh->owned.texcoords.clear();
     mesh->view = mesh->owned.view();
   }
+  const MeshView attribute_input = reordered ? as_read.view() : mesh->view;
   const double seconds_reorder = seconds_since(t);
   const MeshView input = mesh->view;
   if (input.triangles.empty()) return no_faces(source, input.positions.size());
@@ -281,6 +319,14 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
     result->birth.clear();  // moved vertices are no longer input vertices
     finished = std::move(f).value();
   }
+  t = Clock::now();
+  if (has_attributes || o.normals == Normals::kCompute) {
+    const stream::NormalsMode normals = o.normals == Normals::kKeep      ? stream::NormalsMode::kKeep
+                                        : o.normals == Normals::kCompute ? stream::NormalsMode::kCompute
+                                                                         : stream::NormalsMode::kNone;
+    stream::transfer_attributes(attribute_input, result->mesh, normals);
+  }
+  const double seconds_attributes = seconds_since(t);
   std::optional<stream::MeshDistance> measured;
   if (o.target.measure) {
     auto d = stream::mesh_distance(input, result->mesh.view(), {});
@@ -302,6 +348,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   stats.output_bytes = *bytes;
   stats.samples = result->samples;
   stats.chunks = 1;
+  stats.warnings = value_warnings(mesh->ignored_vertex_values, {});
   stats.peak_rss_bytes = peak_rss_bytes();
   stats.seconds = seconds_since(started);
 
@@ -310,6 +357,10 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
                               result->orientation_index, *bytes);
   finish_report(report, finish, finished, stats);
   if (finished) report["approximation"] = collapsed_input ? "input" : "gauss";
+  report["output_attributes"] = {{"normals", !result->mesh.normals.empty()},
+                                 {"colors", !result->mesh.colors.empty()},
+                                 {"texcoords", !result->mesh.texcoords.empty()}};
+  report["warnings"] = stats.warnings;
   if (measured) {
     stats.measured = true;
     stats.hausdorff = measured->hausdorff;
@@ -348,6 +399,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
                        {"reorder", seconds_reorder},
                        {"sample", result->seconds_sample},
                        {"mesh", result->seconds_mesh},
+                       {"attributes", seconds_attributes},
                        {"write", seconds_write},
                        {"total", stats.seconds}};
   stats.report_json = report.dump(2);

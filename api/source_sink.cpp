@@ -162,6 +162,7 @@ Result<LoadedMesh> load(const Source& source, bool weld_stl, std::uint64_t memor
     GM_RETURN_IF_ERROR(format::read_mesh_file(stream_path(source), read, builder));
   }
   loaded.format = builder.header().format;
+  loaded.ignored_vertex_values = builder.header().ignored_vertex_values;
   loaded.owned = builder.take();
   loaded.view = loaded.owned.view();
   return loaded;
@@ -172,6 +173,9 @@ Result<std::uint64_t> write_mesh(const Sink& sink, MeshView mesh, const DracoOpt
     if (sink.mesh == nullptr) return Status::error(Code::kUsage, "sink", "a memory sink needs a mesh to fill");
     sink.mesh->positions.assign(mesh.positions.begin(), mesh.positions.end());
     sink.mesh->triangles.assign(mesh.triangles.begin(), mesh.triangles.end());
+    sink.mesh->normals.assign(mesh.normals.begin(), mesh.normals.end());
+    sink.mesh->colors.assign(mesh.colors.begin(), mesh.colors.end());
+    sink.mesh->texcoords.assign(mesh.texcoords.begin(), mesh.texcoords.end());
     return std::uint64_t{0};
   }
   const OutputFormat kind = sink.resolved_format();
@@ -185,6 +189,8 @@ Result<std::uint64_t> write_mesh(const Sink& sink, MeshView mesh, const DracoOpt
       format::DracoWriteOptions options;
       options.quantization_bits = draco.quantization_bits;
       options.compression_level = draco.compression_level;
+      options.normal_bits = draco.normal_bits;
+      options.texcoord_bits = draco.texcoord_bits;
       status = format::write_draco(**out, mesh, options);
       break;
     }

@@ -27,6 +27,9 @@ struct SimplifyArgs {
   bool weld = false, no_weld = false;
   int qp = 14;
   int cl = 7;
+  int qn = 10;
+  int qt = 12;
+  std::string normals = "keep";
   CommonFlags common;
   SamplingFlags sampling;
   ResourceFlags resources;
@@ -85,6 +88,12 @@ int run_simplify(const SimplifyArgs& args, const std::function<bool(const char*)
   options.resources = *resources;
   options.draco.quantization_bits = args.qp;
   options.draco.compression_level = args.cl;
+  options.draco.normal_bits = args.qn;
+  options.draco.texcoord_bits = args.qt;
+  if (args.normals == "keep") options.normals = Normals::kKeep;
+  else if (args.normals == "compute") options.normals = Normals::kCompute;
+  else if (args.normals == "none") options.normals = Normals::kNone;
+  else return report_error(Status::error(Code::kUsage, "--normals", "expected keep, compute or none, got '" + args.normals + "'"));
   auto target = target_options(args, sub_given);
   if (!target) return report_error(target.status());
   options.target = *target;
@@ -101,6 +110,11 @@ int run_simplify(const SimplifyArgs& args, const std::function<bool(const char*)
   const Sink sink = Sink::file(args.output, *output_format);
   auto stats = simplify(Source::file(args.input, input_format), sink, options);
   if (!stats) return report_error(stats.status());
+  if (verbosity() >= 1) {
+    for (const std::string& warning : stats->warnings) {
+      std::fprintf(stderr, "gaussmesh: %s: warning: %s\n", args.input == "-" ? "<stdin>" : args.input.c_str(), warning.c_str());
+    }
+  }
   if (stats->stopped_by == "approximation") {
     std::fprintf(stderr,
                  "gaussmesh: %s: %llu faces, below the target of %llu: the Gauss approximation has no more "
@@ -148,6 +162,10 @@ void register_simplify(CLI::App& app, Runner& run) {
   sub->add_option("--mesher", args->mesher, "patch (default, topology-preserving) or voronoi");
   sub->add_option("--qp", args->qp, "Draco position quantization bits 1-24 (default 14; encoder cost doubles per bit)")->check(CLI::Range(1, 24));
   sub->add_option("--cl", args->cl, "Draco compression level 0-10 (default 7)")->check(CLI::Range(0, 10));
+  sub->add_option("--qn", args->qn, "Draco normal quantization bits 1-30 (default 10)")->check(CLI::Range(1, 30));
+  sub->add_option("--qt", args->qt, "Draco texture coordinate quantization bits 1-30 (default 12)")->check(CLI::Range(1, 30));
+  sub->add_option("--normals", args->normals,
+                  "output normals: keep (the input's, interpolated; default), compute (from the output's faces) or none");
   add_common_flags(*sub, args->common, "print timings on stderr");
   add_sampling_options(*sub, args->sampling);
   add_resource_options(*sub, args->resources);

@@ -145,7 +145,13 @@ enum class Mesher { kPatch, kVoronoi };  // per-patch with the topology guarante
 struct DracoOptions {
   int quantization_bits = 14;  // 1..24
   int compression_level = 7;   // 0..10
+  int normal_bits = 10;        // --qn, 1..30: normals (octahedral), when the output has them
+  int texcoord_bits = 12;      // --qt, 1..30: texture coordinates, when the output has them
 };
+
+// The output's normals (docs/attributes.md): interpolated from the input's (none when it has
+// none), computed from the output's faces, or left out.
+enum class Normals { kKeep, kCompute, kNone };
 
 // What the output should be (docs/finish.md). Any of the three turns on the quadric finish,
 // which collapses the Gauss approximation with the input's plane quadrics until the first one
@@ -170,6 +176,7 @@ enum class Weld { kAuto, kOn, kOff };
 struct SimplifyOptions {
   TargetOptions target;
   Weld weld = Weld::kAuto;
+  Normals normals = Normals::kKeep;
   SamplingOptions sampling;
   Mesher mesher = Mesher::kPatch;  // kVoronoi runs in core only
   ResourceOptions resources;
@@ -200,6 +207,9 @@ struct SimplifyStats {
   std::uint64_t chunks = 0;
   std::uint64_t peak_rss_bytes = 0;
   double seconds = 0;  // the whole call
+  // What the caller should hear about and the run went on without: vertex values of the input
+  // that are not kept, each named once (docs/attributes.md). One sentence each.
+  std::vector<std::string> warnings;
   std::string report_json;
 };
 

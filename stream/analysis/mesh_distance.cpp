@@ -86,6 +86,7 @@ struct TriangleTree::Impl {
   };
   std::vector<Node> nodes;
   std::vector<std::array<float, 9>> corners;  // triangles in leaf order
+  std::vector<std::uint32_t> triangles;       // the mesh's index of each, in leaf order
 
   struct Item {
     float lo[3], hi[3], centre[3];
@@ -113,7 +114,10 @@ struct TriangleTree::Impl {
     if (end - begin <= kLeafSize) {
       node.first = static_cast<std::uint32_t>(corners.size());
       node.count = static_cast<std::uint32_t>(end - begin);
-      for (std::size_t i = begin; i < end; ++i) corners.push_back(input[items[i].triangle]);
+      for (std::size_t i = begin; i < end; ++i) {
+        corners.push_back(input[items[i].triangle]);
+        triangles.push_back(items[i].triangle);
+      }
       nodes[index] = node;
       return index;
     }
@@ -178,12 +182,15 @@ TriangleTree::TriangleTree(MeshView mesh) : impl_(std::make_unique<Impl>()) {
   if (n == 0) return;
   impl_->nodes.reserve(2 * (n / kLeafSize + 1));
   impl_->corners.reserve(n);
+  impl_->triangles.reserve(n);
   impl_->build(items, 0, n, input);
 }
 
 TriangleTree::~TriangleTree() = default;
 
 std::size_t TriangleTree::triangle_count() const { return impl_->corners.size(); }
+
+std::uint32_t TriangleTree::leaf_triangle(std::uint32_t leaf) const { return impl_->triangles.at(leaf); }
 
 Vec3d TriangleTree::leaf_normal(std::uint32_t leaf) const {
   const auto& c = impl_->corners.at(leaf);

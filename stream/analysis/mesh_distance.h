@@ -24,7 +24,7 @@ double point_triangle_distance_squared(const Vec3d& p, const Vec3d& a, const Vec
 
 // A bounding-volume hierarchy of axis-aligned boxes over a mesh's triangles, for nearest-
 // surface queries. Built by median splits on the longest axis (O(n log n)); holds a copy of the
-// triangles' corners (36 bytes per triangle) plus about 1 node per 2 triangles. Thread-safe for
+// triangles' corners and their indices (40 bytes per triangle) plus about 1 node per 2 triangles. Thread-safe for
 // concurrent queries once built.
 class TriangleTree {
  public:
@@ -41,6 +41,8 @@ class TriangleTree {
   // The normal (corners' cross product, not normalised) of the triangle at leaf-order index
   // `leaf`, as a query's hint names it.
   Vec3d leaf_normal(std::uint32_t leaf) const;
+  // The mesh's index of the triangle at leaf-order index `leaf`.
+  std::uint32_t leaf_triangle(std::uint32_t leaf) const;
   std::size_t triangle_count() const;
 
  private:

@@ -158,6 +158,10 @@ struct Partition {
   std::uint64_t cache_bytes = 0;    // the cache's size at the end: 1/8 of its budget, grown by reloads
   std::uint64_t untagged_frames = 0;
   bool reordered = false;           // the input was renumbered (reorder_scattered)
+  // The input's vertex attributes, which the streaming engine does not carry, and the other
+  // per-vertex values its reader named as not understood.
+  format::AttributeKinds dropped_attributes;
+  std::vector<std::string> ignored_vertex_values;
   std::uint64_t welded_vertices = 0;  // vertices welded away by the renumbering (vertices counts the rest)  // face frames the ring rounds scanned (partly) untagged: windows missing, disorder
   double seconds_ingest = 0, seconds_partition = 0;
   double seconds_reorder = 0;       // the renumbering, when reordered (not in seconds_partition)

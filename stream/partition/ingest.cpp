@@ -32,9 +32,14 @@ class IngestSink final : public format::MeshSink {
       : spills_(spills), positions_here_(positions_here), progress_(progress), input_is_file_(input_is_file) {}
   Status on_header(const format::MeshHeader& header) override {
     declared_faces_ = header.declared_faces.value_or(0);
+    attributes_ = header.attributes;
+    ignored_ = header.ignored_vertex_values;
     if (input_is_file_) raw_vertices_ = header.raw_vertices;
     return {};
   }
+  // The input's vertex values that the streaming engine does not carry.
+  const format::AttributeKinds& attributes() const { return attributes_; }
+  const std::vector<std::string>& ignored() const { return ignored_; }
   // Where the input holds the positions, when no copy is written.
   const std::optional<format::MeshHeader::RawVertices>& raw_vertices() const { return raw_vertices_; }
   Status on_vertices(std::span<const Vec3f> batch) override {
@@ -78,6 +83,8 @@ class IngestSink final : public format::MeshSink {
   OrderProbe probe_;
   std::uint64_t vertices_ = 0, faces_count_ = 0;
   std::uint64_t declared_faces_ = 0;  // the header's count (polygons): untrusted, for progress only
+  format::AttributeKinds attributes_;
+  std::vector<std::string> ignored_;
   FiniteBounds bounds_;
 };
 
@@ -122,6 +129,8 @@ Status PartitionRun::ingest(const std::string& input_path, const format::ReadOpt
   }
   out_.vertices = sink.vertices();
   out_.faces = sink.faces();
+  out_.dropped_attributes = sink.attributes();
+  out_.ignored_vertex_values = sink.ignored();
   scattered_ = sink.probe().scattered(sink.vertices());
   sink.bounds(out_.lo, out_.hi);
   bytes_spilled_ += faces.bytes();

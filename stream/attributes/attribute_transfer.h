@@ -1,0 +1,26 @@
+// Vertex attributes of a simplified mesh, taken from its input: every output vertex gets the
+// values of the nearest point of the input's surface (docs/attributes.md).
+#pragma once
+
+#include "format/mesh_types.h"
+#include "stream/core/mesh.h"
+
+namespace gaussmesh::stream {
+
+// What becomes of normals: interpolated from the input's (none when it has none), computed from
+// the output's faces, or left out.
+enum class NormalsMode { kKeep, kCompute, kNone };
+
+// Fills output's colours and texture coordinates when the input has them, and its normals by
+// `normals`. Each output vertex takes the input triangle nearest to it and the corner values
+// of that triangle interpolated at the nearest point (barycentric), so an output vertex that is
+// an input vertex keeps that vertex's values, and a moved one gets the values of the surface
+// under it; interpolated normals are renormalised. Computed normals are the area-weighted sums
+// of the output's face normals, normalised. Deterministic whatever the threads. Memory: an AABB
+// tree over the input's triangles (stream/analysis/mesh_distance.h), about 56 bytes a triangle.
+void transfer_attributes(format::MeshView input, Mesh& output, NormalsMode normals);
+
+// Area-weighted vertex normals of a mesh, normalised ((0, 0, 1) for a vertex without area).
+std::vector<format::Vec3f> vertex_normals(format::MeshView mesh);
+
+}  // namespace gaussmesh::stream

@@ -1,0 +1,129 @@
+// The attribute transfer: an input vertex keeps its values, a point of a face gets them
+// interpolated, a point off the surface gets those of the nearest surface point; normals kept,
+// computed or left out; the same values whatever the threads.
+#include <gtest/gtest.h>
+
+#include <oneapi/tbb/task_arena.h>
+
+#include <cmath>
+
+#include "stream/analysis/mesh_distance.h"
+#include "stream/attributes/attribute_transfer.h"
+#include "tests/support/shapes.h"
+
+namespace gaussmesh::stream {
+namespace {
+
+using format::Color;
+using format::Vec2f;
+
+// A linear function of position as colour (inside 0..1 on the torus) and texture coordinate.
+Color colour_at(const Vec3f& p) { return {0.5f + 0.3f * p.x, 0.5f + 0.3f * p.y, 0.5f + 0.8f * p.z, 1.0f}; }
+Vec2f uv_at(const Vec3f& p) { return {p.x - 2 * p.y, 3 * p.z}; }
+
+Mesh coloured_torus(std::size_t vertices) {
+  testing::ShapeOptions shape;
+  shape.vertices = vertices;
+  Mesh m = testing::make_torus(1.0, 0.4, shape);
+  for (const Vec3f& p : m.positions) {
+    m.colors.push_back(colour_at(p));
+    m.texcoords.push_back(uv_at(p));
+    const double r = std::hypot(p.x, p.y);
+    const double nx = p.x - p.x / r, ny = p.y - p.y / r, l = std::sqrt(nx * nx + ny * ny + double(p.z) * p.z);
+    m.normals.push_back({float(nx / l), float(ny / l), float(p.z / l)});
+  }
+  return m;
+}
+
+TEST(AttributeTransfer, InputVerticesKeepTheirValues) {
+  const Mesh input = coloured_torus(4000);
+  Mesh output;
+  output.positions = input.positions;
+  output.triangles = input.triangles;
+  transfer_attributes(input.view(), output, NormalsMode::kKeep);
+  ASSERT_EQ(output.colors.size(), input.positions.size());
+  for (std::size_t v = 0; v < input.positions.size(); ++v) {
+    EXPECT_NEAR(output.colors[v].r, input.colors[v].r, 1e-6) << v;
+    EXPECT_NEAR(output.colors[v].g, input.colors[v].g, 1e-6) << v;
+    EXPECT_NEAR(output.colors[v].b, input.colors[v].b, 1e-6) << v;
+    EXPECT_NEAR(output.texcoords[v].u, input.texcoords[v].u, 1e-6) << v;
+    EXPECT_NEAR(output.normals[v].x, input.normals[v].x, 1e-6) << v;
+    EXPECT_NEAR(output.normals[v].z, input.normals[v].z, 1e-6) << v;
+  }
+}
+
+// A point inside a face gets the linear function's value there (it is linear on the face); a
+// point above the surface gets the value at its nearest surface point, so it is off the function
+// by at most the gradient times its distance.
+TEST(AttributeTransfer, PointsOnAndOffTheSurfaceGetTheSurfacesValues) {
+  const Mesh input = coloured_torus(20000);
+  Mesh output;
+  for (std::size_t f = 0; f < input.triangles.size(); f += 7) {
+    const auto& t = input.triangles[f].v;
+    const Vec3f &a = input.positions[t[0]], &b = input.positions[t[1]], &c = input.positions[t[2]];
+    const float w[3] = {0.2f, 0.3f, 0.5f};
+    output.positions.push_back({w[0] * a.x + w[1] * b.x + w[2] * c.x, w[0] * a.y + w[1] * b.y + w[2] * c.y,
+                                w[0] * a.z + w[1] * b.z + w[2] * c.z});
+    const Vec3f& p = output.positions.back();
+    const float lift = (f % 2 == 0) ? 0.0f : 0.01f;  // every other point off the surface
+    const double r = std::hypot(p.x, p.y);
+    output.positions.push_back({float(p.x + lift * p.x / r), float(p.y + lift * p.y / r), p.z + lift * (p.z > 0 ? 1 : -1)});
+  }
+  transfer_attributes(input.view(), output, NormalsMode::kNone);
+  EXPECT_TRUE(output.normals.empty());
+  const TriangleTree tree(input.view());
+  double worst_on = 0, worst_off_excess = 0;
+  std::size_t on = 0, off = 0;
+  for (std::size_t v = 0; v < output.positions.size(); ++v) {
+    const Vec3f& p = output.positions[v];
+    const Color want = colour_at(p);
+    const double error = std::max({std::abs(output.colors[v].r - want.r), std::abs(output.colors[v].g - want.g),
+                                   std::abs(output.colors[v].b - want.b)});
+    const double distance = std::sqrt(tree.nearest_distance_squared({p.x, p.y, p.z}));
+    if (v % 2 == 0 && distance < 1e-6) worst_on = std::max(worst_on, error), ++on;
+    if (distance > 1e-3) ++off;
+    worst_off_excess = std::max(worst_off_excess, error - 0.8 * distance);  // 0.8: the largest gradient
+  }
+  EXPECT_EQ(on, output.positions.size() / 2);
+  EXPECT_GT(off, output.positions.size() / 5);
+  EXPECT_LT(worst_on, 1e-5);
+  EXPECT_LT(worst_off_excess, 1e-5);
+}
+
+TEST(AttributeTransfer, NormalsAreKeptComputedOrLeftOut) {
+  Mesh input = coloured_torus(6000);
+  Mesh output;
+  output.positions = input.positions;
+  output.triangles = input.triangles;
+  transfer_attributes(input.view(), output, NormalsMode::kCompute);
+  ASSERT_EQ(output.normals.size(), input.positions.size());
+  double worst = 1;
+  for (std::size_t v = 0; v < input.positions.size(); ++v) {
+    const Vec3f &n = output.normals[v], &m = input.normals[v];
+    EXPECT_NEAR(n.x * n.x + n.y * n.y + n.z * n.z, 1.0, 1e-5);
+    worst = std::min(worst, double(n.x * m.x + n.y * m.y + n.z * m.z));
+  }
+  EXPECT_GT(worst, std::cos(10 * std::acos(-1.0) / 180));  // computed from faces: within 10° of the true normal
+  transfer_attributes(input.view(), output, NormalsMode::kNone);
+  EXPECT_TRUE(output.normals.empty());
+  EXPECT_EQ(output.colors.size(), input.positions.size());
+  input.normals.clear();
+  transfer_attributes(input.view(), output, NormalsMode::kKeep);
+  EXPECT_TRUE(output.normals.empty());  // none to keep
+}
+
+TEST(AttributeTransfer, TheSameValuesWhateverTheThreads) {
+  const Mesh input = coloured_torus(8000);
+  testing::ShapeOptions shape;
+  shape.vertices = 3000;
+  Mesh one = testing::make_torus(1.0, 0.41, shape);  // a different surface near the input
+  Mesh two = one;
+  tbb::task_arena(1).execute([&] { transfer_attributes(input.view(), one, NormalsMode::kKeep); });
+  tbb::task_arena(2).execute([&] { transfer_attributes(input.view(), two, NormalsMode::kKeep); });
+  EXPECT_EQ(one.colors, two.colors);
+  EXPECT_EQ(one.normals, two.normals);
+  EXPECT_EQ(one.texcoords, two.texcoords);
+}
+
+}  // namespace
+}  // namespace gaussmesh::stream
