@@ -147,6 +147,29 @@ TEST(GaussmeshApi, TheOutputDoesNotDependOnTheScale) {
   }
 }
 
+// A mesh in memory with colours and texture coordinates gives them to the mesh out, one per
+// vertex, the normals as asked.
+TEST(GaussmeshApi, AttributesGoFromMeshToMesh) {
+  Mesh sphere = uv_sphere(24, 48);
+  for (const Vec3f& p : sphere.positions) {
+    sphere.colors.push_back({0.5f + 0.5f * p.x, 0.5f, 0.5f - 0.5f * p.z, 1});
+    sphere.texcoords.push_back({p.x, p.y});
+  }
+  for (Normals normals : {Normals::kKeep, Normals::kCompute, Normals::kNone}) {
+    SimplifyOptions options;
+    options.normals = normals;
+    options.target.ratio = 0.1;
+    Mesh out;
+    auto stats = simplify(Source::memory(sphere.view()), Sink::memory(&out), options);
+    ASSERT_TRUE(stats) << stats.status().to_string();
+    EXPECT_TRUE(stats->warnings.empty());
+    EXPECT_EQ(out.colors.size(), out.positions.size());
+    EXPECT_EQ(out.texcoords.size(), out.positions.size());
+    EXPECT_EQ(out.normals.size(), normals == Normals::kCompute ? out.positions.size() : 0u);
+    for (std::size_t v = 0; v < out.positions.size(); ++v) EXPECT_NEAR(out.colors[v].g, 0.5f, 1e-6);
+  }
+}
+
 TEST(GaussmeshApi, AFaceTargetGivesThatManyFacesInBothEngines) {
   ScratchDir tmp;
   Mesh in_core, streamed;

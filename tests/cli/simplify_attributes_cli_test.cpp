@@ -1,0 +1,178 @@
+// `gaussmesh simplify` on a coloured input, as a user runs it: two real fixtures given a colour
+// that is a linear function of position, texture coordinates, normals and a property it does
+// not know. Kept input vertices keep their colours; moved ones get the colour of the input
+// surface under them; Google's draco_decoder reads the same colours from the .drc; unknown
+// values and what the streaming engine drops are named in one warning each; --normals decides
+// the normals.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "format/mesh_writer.h"
+#include "format/output_file.h"
+#include "stream/analysis/mesh_distance.h"
+#include "stream/attributes/attribute_transfer.h"
+#include "stream/core/mesh.h"
+#include "tests/support/test_util.h"
+
+namespace gaussmesh::testing {
+namespace {
+
+using format::Color;
+using format::Vec3f;
+
+std::string q(const std::string& text) { return "'" + text + "'"; }
+
+// The colour function: each channel linear in one coordinate across the bounding box.
+struct Gradient {
+  Vec3f lo, hi;
+  float channel(const Vec3f& p, int k) const { return ((&p.x)[k] - (&lo.x)[k]) / ((&hi.x)[k] - (&lo.x)[k]); }
+  Color at(const Vec3f& p) const { return {channel(p, 0), channel(p, 1), channel(p, 2), 1}; }
+  // The largest change of a channel per unit of distance.
+  double slope() const { return 1 / std::min({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z}); }
+};
+
+Gradient gradient_of(const stream::Mesh& m) {
+  Gradient g{m.positions[0], m.positions[0]};
+  for (const Vec3f& p : m.positions) {
+    g.lo = {std::min(g.lo.x, p.x), std::min(g.lo.y, p.y), std::min(g.lo.z, p.z)};
+    g.hi = {std::max(g.hi.x, p.x), std::max(g.hi.y, p.y), std::max(g.hi.z, p.z)};
+  }
+  return g;
+}
+
+// The fixture with colours, texture coordinates (x and y across the box) and normals, written
+// as binary PLY with one property more ("quality") that the reader does not know.
+std::string coloured_copy(const std::string& name, const std::string& path, stream::Mesh& mesh) {
+  auto loaded = stream::load_mesh(fixture("real/" + name));
+  EXPECT_TRUE(loaded) << loaded.status().to_string();
+  mesh = std::move(*loaded);
+  const Gradient g = gradient_of(mesh);
+  for (const Vec3f& p : mesh.positions) {
+    mesh.colors.push_back(g.at(p));
+    mesh.texcoords.push_back({g.channel(p, 0), g.channel(p, 1)});
+  }
+  mesh.normals = stream::vertex_normals(mesh.view());
+  std::vector<float> quality(mesh.positions.size(), 0.5f);
+  format::PlyWriteOptions options;
+  options.vertex_attributes.push_back({"quality", std::span<const float>(quality)});
+  auto out = format::OutputFile::create(path, true);
+  EXPECT_TRUE(out);
+  EXPECT_TRUE(format::write_ply(**out, mesh.view(), options).is_ok());
+  EXPECT_TRUE((*out)->commit().is_ok());
+  return path;
+}
+
+stream::Mesh read_mesh(const std::string& path) {
+  auto m = stream::load_mesh(path);
+  EXPECT_TRUE(m) << m.status().to_string();
+  return m ? std::move(*m) : stream::Mesh{};
+}
+
+class SimplifyAttributes : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(SimplifyAttributes, ColoursFollowTheSurfaceAndDracoKeepsThem) {
+  ScratchDir dir;
+  stream::Mesh input;
+  const std::string in = coloured_copy(GetParam(), dir.file("in.ply"), input);
+  const Gradient g = gradient_of(input);
+  const stream::TriangleTree surface(input.view());
+  for (const std::string target : {"", " --ratio 0.1", " --ratio 0.01"}) {
+    SCOPED_TRACE(GetParam() + target);
+    const std::string ply = dir.file("out.ply"), drc = dir.file("out.drc");
+    auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(ply) + target);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_EQ(run.err.find("gaussmesh: " + in + ": warning: vertex values not understood and not kept: quality\n"), 0u)
+        << run.err;
+    EXPECT_EQ(run.err.find("warning:", run.err.find("warning:") + 1), std::string::npos) << run.err;  // one warning
+    const stream::Mesh out = read_mesh(ply);
+    ASSERT_EQ(out.colors.size(), out.positions.size());
+    ASSERT_EQ(out.texcoords.size(), out.positions.size());
+    ASSERT_EQ(out.normals.size(), out.positions.size());
+    // Each channel within one step of 8 bits (the input's bytes and the output's, half a step
+    // each) of the function at the nearest surface point, that is of the function at the vertex
+    // plus the slope times the vertex's distance.
+    double worst = 0;
+    for (std::size_t v = 0; v < out.positions.size(); ++v) {
+      const Vec3f& p = out.positions[v];
+      const double distance = std::sqrt(surface.nearest_distance_squared({p.x, p.y, p.z}));
+      const Color want = g.at(p);
+      for (int k = 0; k < 3; ++k) {
+        const double error = std::abs((&out.colors[v].r)[k] - (&want.r)[k]);
+        worst = std::max(worst, error - distance * g.slope());
+        EXPECT_LE(error, 1.0 / 255 + 1e-6 + distance * g.slope()) << "vertex " << v << " channel " << k;
+      }
+      if (target.empty()) EXPECT_LT(distance, 1e-9) << "the plain approximation keeps input vertices";
+    }
+    std::printf("  %s%s: %zu vertices, worst colour error beyond the distance term %.4f / 255\n", GetParam().c_str(),
+                target.c_str(), out.positions.size(), 255 * worst);
+    // The same run to Draco, decoded by Google's draco_decoder: the same colours, in bytes.
+    run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(drc) + target + " -q");
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const std::string decoded = dir.file("decoded.ply");
+    auto decode = run_command("draco_decoder -i " + q(drc) + " -o " + q(decoded));
+    ASSERT_EQ(decode.exit_code, 0) << decode.err;
+    const stream::Mesh back = read_mesh(decoded);
+    ASSERT_EQ(back.colors.size(), back.positions.size());
+    ASSERT_EQ(back.positions.size(), out.positions.size());
+    for (std::size_t v = 0; v < back.positions.size(); ++v) {
+      std::size_t nearest = 0;
+      double best = 1e30;
+      for (std::size_t w = 0; w < out.positions.size(); ++w) {
+        const Vec3f &a = back.positions[v], &b = out.positions[w];
+        const double d = (a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y) + (a.z - b.z) * (a.z - b.z);
+        if (d < best) best = d, nearest = w;
+      }
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_EQ(format::color_byte((&back.colors[v].r)[k]), format::color_byte((&out.colors[nearest].r)[k])) << v;
+      }
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Fixtures, SimplifyAttributes, ::testing::Values("homer.off", "mech-holes-shark.off"));
+
+TEST(SimplifyAttributesCli, NormalsAreKeptComputedOrLeftOut) {
+  ScratchDir dir;
+  stream::Mesh input;
+  const std::string in = coloured_copy("cow.off", dir.file("in.ply"), input);
+  const std::string out = dir.file("out.ply");
+  for (const std::string normals : {"keep", "compute", "none"}) {
+    auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(out) + " -q --normals " + normals);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const stream::Mesh m = read_mesh(out);
+    EXPECT_EQ(m.normals.size(), normals == "none" ? 0 : m.positions.size()) << normals;
+    EXPECT_EQ(m.colors.size(), m.positions.size()) << normals;
+  }
+  // A plain mesh gets normals only when asked to compute them.
+  auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(fixture("real/cow.off")) + " -o " + q(out) + " -q");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(read_mesh(out).normals.empty());
+  EXPECT_EQ(read_file(out).find("property uchar red"), std::string::npos);
+  run = run_command(q(gaussmesh_binary()) + " simplify " + q(fixture("real/cow.off")) + " -o " + q(out) + " -q --normals compute");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(read_mesh(out).normals.size(), read_mesh(out).positions.size());
+  run = run_command(q(gaussmesh_binary()) + " simplify " + q(fixture("real/cow.off")) + " -o " + q(out) + " --normals sideways");
+  EXPECT_EQ(run.exit_code, 1);
+}
+
+// The streaming engine carries positions only: it says so, once, and writes the mesh.
+TEST(SimplifyAttributesCli, TheStreamingEngineNamesWhatItDrops) {
+  ScratchDir dir, tmp;
+  stream::Mesh input;
+  const std::string in = coloured_copy("cow.off", dir.file("in.ply"), input);
+  const std::string out = dir.file("out.ply");
+  auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(out) + " --memory 16M --tmp " +
+                         q(tmp.path().string()));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("warning: colours, normals, texture coordinates not kept: the streaming engine carries "
+                         "positions only"),
+            std::string::npos)
+      << run.err;
+  EXPECT_NE(run.err.find("warning: vertex values not understood and not kept: quality"), std::string::npos) << run.err;
+  EXPECT_TRUE(read_mesh(out).colors.empty());
+}
+
+}  // namespace
+}  // namespace gaussmesh::testing
