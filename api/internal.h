@@ -45,7 +45,7 @@ struct LoadedMesh {
   stream::Mesh owned;
   MeshView view;
   MeshFormat format = MeshFormat::kUnknown;  // as read (kUnknown for a mesh in memory)
-  std::vector<std::string> ignored_vertex_values;  // the reader's (format::MeshHeader)
+  std::vector<std::string> ignored_vertex_values;  // what the reader did not deliver (MeshSink::on_ignored)
 };
 // weld_stl, memory_limit: format::ReadOptions's (0: no limit; an in-core run passes an explicit
 // --memory, so that a Draco input whose decode cannot fit is refused before it is decoded).

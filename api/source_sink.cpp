@@ -162,7 +162,7 @@ Result<LoadedMesh> load(const Source& source, bool weld_stl, std::uint64_t memor
     GM_RETURN_IF_ERROR(format::read_mesh_file(stream_path(source), read, builder));
   }
   loaded.format = builder.header().format;
-  loaded.ignored_vertex_values = builder.header().ignored_vertex_values;
+  loaded.ignored_vertex_values = builder.ignored();
   loaded.owned = builder.take();
   loaded.view = loaded.owned.view();
   return loaded;

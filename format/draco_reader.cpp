@@ -95,13 +95,13 @@ Status deliver(const draco::Mesh& mesh, const ByteSource& source, const ReadOpti
   if (color != nullptr && (color->num_components() < 3 || color->num_components() > 4)) color = nullptr;
   if (texcoord != nullptr && texcoord->num_components() != 2) texcoord = nullptr;
   header.attributes = {normal != nullptr, color != nullptr, texcoord != nullptr};
+  GM_RETURN_IF_ERROR(sink.on_header(header));
   for (int a = 0; a < mesh.num_attributes(); ++a) {
     const draco::PointAttribute* attribute = mesh.attribute(a);
     if (attribute != position && attribute != normal && attribute != color && attribute != texcoord) {
-      header.ignored_vertex_values.push_back(draco::GeometryAttribute::TypeToString(attribute->attribute_type()));
+      GM_RETURN_IF_ERROR(sink.on_ignored(draco::GeometryAttribute::TypeToString(attribute->attribute_type())));
     }
   }
-  GM_RETURN_IF_ERROR(sink.on_header(header));
   // An integer colour that Draco does not mark normalized holds 0..max of its type.
   const double color_divisor = color == nullptr || color->normalized() || color->data_type() == draco::DT_FLOAT32 ||
                                        color->data_type() == draco::DT_FLOAT64

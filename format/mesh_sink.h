@@ -47,10 +47,8 @@ struct MeshHeader {
     std::uint32_t xyz[3] = {0, 0, 0};
   };
   std::optional<RawVertices> raw_vertices;
-  // The attributes the reader delivers (on_vertex_attributes), and the names of the per-vertex
-  // values it found and does not understand (e.g. a PLY property "quality"), for one warning.
+  // The attributes the reader delivers (on_vertex_attributes).
   AttributeKinds attributes;
-  std::vector<std::string> ignored_vertex_values;
 };
 
 // Contract a reader keeps:
@@ -67,6 +65,9 @@ class MeshSink {
  public:
   virtual ~MeshSink() = default;
   virtual Status on_header(const MeshHeader& /*header*/) { return {}; }
+  // A per-vertex value the input has and the reader does not deliver (a PLY property "quality",
+  // OBJ texture coordinates), named once, at any time between on_header and on_end.
+  virtual Status on_ignored(const std::string& /*what*/) { return {}; }
   virtual Status on_vertex_attributes(std::span<const VertexAttributes> /*batch*/) { return {}; }
   virtual Status on_vertices(std::span<const Vec3f> batch) = 0;
   virtual Status on_triangles(std::span<const Triangle> batch) = 0;

@@ -234,8 +234,8 @@ class PlyReader {
         header_.face_element == SIZE_MAX ? 0 : header_.elements[header_.face_element].count;
     mesh_header.raw_vertices = raw_vertices();
     mesh_header.attributes = header_.attributes;
-    mesh_header.ignored_vertex_values = header_.ignored;
     GM_RETURN_IF_ERROR(sink_.on_header(mesh_header));
+    for (const std::string& name : header_.ignored) GM_RETURN_IF_ERROR(sink_.on_ignored(name));
     vertex_limit_ = header_.elements[header_.vertex_element].count;
     vertices_.resize(batch_size_);
     if (header_.attributes.any()) attributes_.resize(batch_size_);

@@ -8,6 +8,11 @@ format::Status MeshBuilder::on_header(const format::MeshHeader& header) {
   return {};
 }
 
+format::Status MeshBuilder::on_ignored(const std::string& what) {
+  ignored_.push_back(what);
+  return {};
+}
+
 // Keeps the attributes the header announced, each in its own array.
 format::Status MeshBuilder::on_vertex_attributes(std::span<const format::VertexAttributes> batch) {
   const format::AttributeKinds& kinds = header_.attributes;

@@ -33,8 +33,11 @@ class IngestSink final : public format::MeshSink {
   Status on_header(const format::MeshHeader& header) override {
     declared_faces_ = header.declared_faces.value_or(0);
     attributes_ = header.attributes;
-    ignored_ = header.ignored_vertex_values;
     if (input_is_file_) raw_vertices_ = header.raw_vertices;
+    return {};
+  }
+  Status on_ignored(const std::string& what) override {
+    ignored_.push_back(what);
     return {};
   }
   // The input's vertex values that the streaming engine does not carry.

@@ -31,6 +31,11 @@ class CollectSink final : public MeshSink {
     this->header = header;
     return {};
   }
+  Status on_ignored(const std::string& what) override {
+    if (header_calls != 1 || !positions.empty()) contract_broken = true;
+    ignored.push_back(what);
+    return {};
+  }
   Status on_vertex_attributes(std::span<const VertexAttributes> batch) override {
     if (header_calls != 1 || batch.empty() || !header.attributes.any()) contract_broken = true;
     pending_attributes = batch.size();
@@ -62,6 +67,7 @@ class CollectSink final : public MeshSink {
   }
 
   MeshHeader header;
+  std::vector<std::string> ignored;
   std::vector<VertexAttributes> attributes;
   size_t pending_attributes = 0;
   std::vector<Vec3f> positions;
@@ -479,7 +485,7 @@ TEST(PlyReader, DeliversColoursNormalsAndTextureCoordinates) {
         EXPECT_EQ(r.sink.header.attributes, (AttributeKinds{true, true, true}));
         const std::vector<std::string> ignored = with_list ? std::vector<std::string>{"quality", "ids"}
                                                            : std::vector<std::string>{"quality"};
-        EXPECT_EQ(r.sink.header.ignored_vertex_values, ignored);
+        EXPECT_EQ(r.sink.ignored, ignored);
         EXPECT_EQ(r.sink.positions, positions);
         ASSERT_EQ(r.sink.attributes.size(), positions.size());
         for (size_t i = 0; i < positions.size(); ++i) {
@@ -504,7 +510,7 @@ TEST(PlyReader, DeliversColoursNormalsAndTextureCoordinates) {
   ReadOutcome r = read_bytes(encode({partial}, Enc::kLittle));
   ASSERT_TRUE(r.status) << r.status.to_string();
   EXPECT_FALSE(r.sink.header.attributes.any());
-  EXPECT_EQ(r.sink.header.ignored_vertex_values, (std::vector<std::string>{"red", "green", "nx"}));
+  EXPECT_EQ(r.sink.ignored, (std::vector<std::string>{"red", "green", "nx"}));
   EXPECT_TRUE(r.sink.attributes.empty());
   TestElement rgb{"vertex",
                   {{"float", "x", ""}, {"float", "y", ""}, {"float", "z", ""}, {"uchar", "red", ""},
