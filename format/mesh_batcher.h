@@ -23,6 +23,13 @@ class MeshBatcher {
     if (with_attributes_) attributes_.reserve(batch_size_);
   }
 
+  // For a reader that learns from its header whether there are attributes: before any vertex.
+  void set_with_attributes(bool with_attributes) {
+    assert(vertex_count() == 0);
+    with_attributes_ = with_attributes;
+    if (with_attributes_) attributes_.reserve(batch_size_);
+  }
+
   // Vertices added so far (delivered or pending); the next vertex gets this index.
   uint64_t vertex_count() const { return delivered_vertices_ + vertices_.size(); }
   uint64_t triangle_count() const { return delivered_triangles_ + triangles_.size(); }

@@ -1,7 +1,8 @@
-// Streaming Wavefront OBJ reader: "v" positions and "f" polygons (v, v/vt, v//vn, v/vt/vn,
-// negative relative indices), fan-triangulated; every other statement is ignored. Vertices and
-// faces may interleave: pending vertices are delivered before a triangle that uses them.
-// docs/formats.md.
+// Streaming Wavefront OBJ reader: "v" positions, with colours when the first one has them
+// ("v x y z r g b", as MeshLab and Blender write them), and "f" polygons (v, v/vt, v//vn,
+// v/vt/vn, negative relative indices), fan-triangulated; vt and vn are named as not kept, every
+// other statement is ignored. Vertices and faces may interleave: pending vertices are delivered
+// before a triangle that uses them. docs/formats.md.
 #include <string>
 #include <string_view>
 
@@ -17,12 +18,13 @@ using text::NumberError;
 
 class ObjReader {
  public:
-  ObjReader(ByteSource& source, const ReadOptions& options, MeshSink& sink)
-      : source_(source), batcher_(sink, options.batch_size), sink_(sink) {}
+  ObjReader(ByteSource& source, const ReadOptions& options, MeshSink& sink, bool colors)
+      : source_(source), batcher_(sink, options.batch_size, colors), sink_(sink), colors_(colors) {}
 
   Status run() {
     MeshHeader header;
     header.format = MeshFormat::kObj;
+    header.attributes.colors = colors_;
     GM_RETURN_IF_ERROR(sink_.on_header(header));
     for (;;) {
       Result<std::optional<std::string_view>> line = source_.next_line();
@@ -82,25 +84,48 @@ class ObjReader {
     char c = scan.peek();
     if (c != 'v' && c != 'f') return {};  // comments, blank lines, o, g, s, usemtl, l, p, ...
     std::string_view keyword = scan.token();
-    if (keyword != "v" && keyword != "f") return {};  // vt, vn, vp, and anything else
+    if (keyword == "vt" || keyword == "vn") return name_ignored(keyword == "vt" ? named_vt_ : named_vn_, keyword);
+    if (keyword != "v" && keyword != "f") return {};  // vp, and anything else
     LineScanner data(text::strip_comment(scan.rest()));
     return keyword == "v" ? parse_vertex(data) : parse_face(data);
   }
 
+  Status name_ignored(bool& named, std::string_view keyword) {
+    if (named) return {};
+    named = true;
+    return sink_.on_ignored(keyword == "vt" ? "texture coordinates (vt)" : "normals (vn)");
+  }
+
   Status parse_vertex(LineScanner& scan) {
-    // Only the three coordinates are read; w or vertex colours after them are ignored.
-    float c[3];
-    for (int k = 0; k < 3; ++k) {
+    // Three coordinates, then a colour when the first vertex had one; a w (one number) or a
+    // colour when the first vertex had none is ignored.
+    float c[6];
+    const int count = colors_ ? 6 : 3;
+    for (int k = 0; k < count; ++k) {
       NumberError e = scan.read_float(c[k]);
       if (e != NumberError::kOk) {
-        static constexpr const char* kAxis[3] = {"x", "y", "z"};
-        return bad(text::number_problem(e, std::string("vertex ") + kAxis[k], scan.last_token()));
+        static constexpr const char* kValue[6] = {"x", "y", "z", "red", "green", "blue"};
+        if (k >= 3 && e == NumberError::kMissing) {
+          return bad("vertex has no colour, and the first vertex had one (v x y z r g b)");
+        }
+        return bad(text::number_problem(e, std::string("vertex ") + kValue[k], scan.last_token()));
       }
     }
     if (batcher_.vertex_count() >= kMaxVertices) {
       return bad("more than " + std::to_string(kMaxVertices) + " vertices are not supported");
     }
-    return batcher_.add_vertex(Vec3f{c[0], c[1], c[2]});
+    if (!colors_) {
+      float more[3];
+      if (!named_colors_ && scan.read_float(more[0]) == NumberError::kOk && scan.read_float(more[1]) == NumberError::kOk &&
+          scan.read_float(more[2]) == NumberError::kOk) {
+        named_colors_ = true;
+        GM_RETURN_IF_ERROR(sink_.on_ignored("vertex colours that start after the first vertex (v x y z r g b)"));
+      }
+      return batcher_.add_vertex(Vec3f{c[0], c[1], c[2]});
+    }
+    VertexAttributes attributes;
+    attributes.color = {c[3], c[4], c[5], 1};
+    return batcher_.add_vertex(Vec3f{c[0], c[1], c[2]}, attributes);
   }
 
   // Resolves one face corner "i", "i/t", "i//n" or "i/t/n" to a 0-based vertex index.
@@ -159,14 +184,40 @@ class ObjReader {
   ByteSource& source_;
   MeshBatcher batcher_;
   MeshSink& sink_;
+  const bool colors_;
+  bool named_vt_ = false, named_vn_ = false, named_colors_ = false;
   uint64_t statement_line_ = 0;
   std::string joined_;
 };
 
+// Whether the first vertex statement within the first window holds six numbers (a position
+// and a colour). A file whose first vertex lies further in is read without colours.
+Result<bool> first_vertex_has_colour(ByteSource& source) {
+  Result<size_t> got = source.ensure(ByteSource::kMaxWindow);
+  GM_RETURN_IF_ERROR(got.status());
+  std::string_view window(source.cursor(), *got);
+  for (std::size_t at = 0; at < window.size();) {
+    std::size_t end = window.find('\n', at);
+    if (end == std::string_view::npos) return false;  // the line runs past the window
+    LineScanner scan(window.substr(at, end - at));
+    if (scan.token() == "v") {
+      LineScanner data(text::strip_comment(scan.rest()));
+      int numbers = 0;
+      float value = 0;
+      while (data.read_float(value) == NumberError::kOk) ++numbers;
+      return numbers == 6 && data.at_end();
+    }
+    at = end + 1;
+  }
+  return false;
+}
+
 }  // namespace
 
 Status read_obj(ByteSource& source, const ReadOptions& options, MeshSink& sink) {
-  ObjReader reader(source, options, sink);
+  Result<bool> colors = first_vertex_has_colour(source);
+  GM_RETURN_IF_ERROR(colors.status());
+  ObjReader reader(source, options, sink, *colors);
   return reader.run();
 }
 

@@ -1,5 +1,6 @@
 // Streaming OFF reader (Geomview Object File Format, ascii): [ST][C][N][4][n]OFF header,
-// "V F [E]" counts, one vertex per line, one polygon per line, fan-triangulated. Declared
+// "V F [E]" counts, one vertex per line (its normal, colour and texture coordinate when the
+// header announces them), one polygon per line, fan-triangulated. Declared
 // counts are checked against the file size and never used to size memory. docs/formats.md.
 #include <string>
 #include <string_view>
@@ -14,12 +15,12 @@ namespace {
 using text::LineScanner;
 using text::NumberError;
 
-// What the header keyword says about each vertex line. Extra per-vertex fields (normal,
-// colour, texture coordinate) follow the position and are ignored, so only the number of
-// position coordinates matters.
+// What the header keyword says about each vertex line: the position, then (Geomview's order)
+// a normal for "N", a colour for "C", a texture coordinate for "ST".
 struct OffHeader {
   bool homogeneous = false;  // "4OFF": x y z w, position = (x, y, z) / w
   bool dimension_line = false;  // "nOFF": a dimension follows the keyword
+  AttributeKinds attributes;
 };
 
 // Parses "[ST][C][N][4][n]OFF" (ASCII case as Geomview writes it); false if it is not one.
@@ -32,9 +33,9 @@ bool parse_keyword(std::string_view keyword, OffHeader& header) {
     }
     return false;
   };
-  take("ST");
-  take("C");
-  take("N");
+  header.attributes.texcoords = take("ST");
+  header.attributes.colors = take("C");
+  header.attributes.normals = take("N");
   header.homogeneous = take("4");
   header.dimension_line = take("n");
   return keyword.substr(i) == "OFF";
@@ -145,6 +146,8 @@ class OffReader {
     header.format = MeshFormat::kOff;
     header.declared_vertices = vertices_;
     header.declared_faces = faces_;
+    header.attributes = header_.attributes;
+    batcher_.set_with_attributes(header.attributes.any());
     return sink_.on_header(header);
   }
 
@@ -167,7 +170,8 @@ class OffReader {
               scan.last_token()));
         }
       }
-      // Anything after the position (normal, colour, texture coordinate) is ignored.
+      VertexAttributes attributes;
+      GM_RETURN_IF_ERROR(read_attributes(scan, i, attributes));
       Vec3f p{c[0], c[1], c[2]};
       if (header_.homogeneous) {
         if (c[3] == 0) {
@@ -178,7 +182,45 @@ class OffReader {
           return source_.bad_at_line("vertex " + std::to_string(i) + ": x/w, y/w, z/w overflow");
         }
       }
-      GM_RETURN_IF_ERROR(batcher_.add_vertex(p));
+      GM_RETURN_IF_ERROR(header_.attributes.any() ? batcher_.add_vertex(p, attributes) : batcher_.add_vertex(p));
+    }
+    return {};
+  }
+
+  // The values after the position that the header announces: a normal (3 numbers), a colour
+  // (3 or 4: the numbers left before a texture coordinate; integers are 0..255, numbers with a
+  // point or an exponent 0..1), a texture coordinate (2). Anything after them is ignored.
+  Status read_attributes(LineScanner& scan, uint64_t vertex, VertexAttributes& out) {
+    const AttributeKinds& kinds = header_.attributes;
+    auto number = [&](const char* what, float& value) -> Status {
+      NumberError e = scan.read_float(value);
+      if (e == NumberError::kOk) return {};
+      return source_.bad_at_line(text::number_problem(e, "vertex " + std::to_string(vertex) + " " + what, scan.last_token()));
+    };
+    if (kinds.normals) {
+      for (float* n : {&out.normal.x, &out.normal.y, &out.normal.z}) GM_RETURN_IF_ERROR(number("normal", *n));
+    }
+    if (kinds.colors) {
+      std::string_view tokens[8];
+      size_t count = 0;
+      for (LineScanner ahead = scan; count < 8;) {
+        std::string_view t = ahead.token();
+        if (t.empty()) break;
+        tokens[count++] = t;
+      }
+      const size_t channels = count >= (kinds.texcoords ? 6u : 4u) ? 4 : 3;
+      bool bytes = true;
+      for (size_t k = 0; k < channels && k < count; ++k) {
+        if (tokens[k].find_first_of(".eEnN") != std::string_view::npos) bytes = false;
+      }
+      float rgba[4] = {0, 0, 0, 1};
+      for (size_t k = 0; k < channels; ++k) GM_RETURN_IF_ERROR(number("colour", rgba[k]));
+      const float divisor = bytes ? 255.0f : 1.0f;
+      out.color = {rgba[0] / divisor, rgba[1] / divisor, rgba[2] / divisor, channels == 4 ? rgba[3] / divisor : 1.0f};
+    }
+    if (kinds.texcoords) {
+      GM_RETURN_IF_ERROR(number("texture coordinate", out.texcoord.u));
+      GM_RETURN_IF_ERROR(number("texture coordinate", out.texcoord.v));
     }
     return {};
   }
