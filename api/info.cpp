@@ -31,6 +31,8 @@ api::Json report_json(const MeshInfo& i) {
   j["orientable"] = i.orientable ? api::Json(*i.orientable) : api::Json(nullptr);
   j["genus"] = i.genus ? api::Json(*i.genus) : api::Json(nullptr);
   j["bounds"] = {{"min", vec_json(i.bounds_min)}, {"max", vec_json(i.bounds_max)}, {"diagonal", i.diagonal}};
+  j["attributes"] = {{"normals", i.normals}, {"colors", i.colors}, {"texcoords", i.texcoords}};
+  j["ignored_vertex_values"] = i.ignored_vertex_values;
   j["peak_rss_bytes"] = i.peak_rss_bytes;
   j["seconds"] = {{"read", i.seconds_read}, {"analyse", i.seconds_analyse}};
   return j;
@@ -78,6 +80,10 @@ Result<MeshInfo> info_job(const Source& source) {
   i.genus = t.genus;
   i.manifold = t.is_manifold();
   i.closed = t.is_closed();
+  i.normals = !view.normals.empty();
+  i.colors = !view.colors.empty();
+  i.texcoords = !view.texcoords.empty();
+  i.ignored_vertex_values = mesh->ignored_vertex_values;
   i.seconds_read = read_s;
   i.seconds_analyse = stream::seconds_since(t1);
   i.peak_rss_bytes = peak_rss_bytes();

@@ -52,6 +52,16 @@ void print_summary(const MeshInfo& t) {
     std::printf("genus                  undefined: not an orientable manifold\n");
   }
   std::printf("closed manifold        %s\n", yes_no(t.closed && t.manifold).c_str());
+  std::string attributes;
+  for (const auto& [has, name] : {std::pair{t.normals, "normals"}, std::pair{t.colors, "colours"}, std::pair{t.texcoords, "texture coordinates"}}) {
+    if (has) attributes += (attributes.empty() ? "" : ", ") + std::string(name);
+  }
+  std::printf("vertex attributes      %s\n", attributes.empty() ? "none" : attributes.c_str());
+  if (!t.ignored_vertex_values.empty()) {
+    std::string names;
+    for (const std::string& name : t.ignored_vertex_values) names += (names.empty() ? "" : ", ") + name;
+    std::printf("not read               %s\n", names.c_str());
+  }
 }
 
 int run_info(const InfoOptions& options) {

@@ -286,6 +286,10 @@ struct MeshInfo {
   bool consistently_oriented = false;
   std::optional<long long> genus;  // defined for orientable manifolds
   bool manifold = false, closed = false;
+  // The per-vertex attributes read (docs/attributes.md), and the vertex values the reader named
+  // as not kept.
+  bool normals = false, colors = false, texcoords = false;
+  std::vector<std::string> ignored_vertex_values;
   double seconds_read = 0, seconds_analyse = 0;
   std::uint64_t peak_rss_bytes = 0;
   std::string report_json;

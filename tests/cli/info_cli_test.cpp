@@ -226,6 +226,19 @@ TEST_F(InfoCli, CowPlyBinaryBigEndianWithExtraProperties) {
   std::string path = dir_.file("cow-be.ply");
   write_file(path, ply_binary(*cow_, true));
   expect_counts(path, 2904, 5804);
+  // The properties it does not read are named; the cow has no attributes.
+  CommandResult r = run_command(info_command() + " " + shell_quoted(path));
+  EXPECT_NE(r.out.find("vertex attributes      none\nnot read               quality, flags\n"), std::string::npos) << r.out;
+}
+
+TEST_F(InfoCli, ColoursAndNormalsAreListed) {
+  std::string path = dir_.file("coloured.off");
+  std::string text = "CNOFF\n3 1 0\n0 0 0 0 0 1 255 0 0\n1 0 0 0 0 1 0 255 0\n0 1 0 0 0 1 0 0 255\n3 0 1 2\n";
+  write_file(path, text);
+  CommandResult r = run_command(info_command() + " " + shell_quoted(path));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("vertex attributes      normals, colours\n"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("not read"), std::string::npos) << r.out;
 }
 
 TEST_F(InfoCli, CowObjWithTextureAndNormalIndices) {
