@@ -1,4 +1,5 @@
-// Attribute transfer by nearest surface point (attribute_transfer.h).
+// Attribute transfer by nearest surface point (attribute_transfer.h): one pass over the input's
+// triangles against a grid of the output's vertices, then each vertex's values from its winner.
 #include "stream/attributes/attribute_transfer.h"
 
 #include <oneapi/tbb/blocked_range.h>
@@ -6,7 +7,11 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
+#include <bit>
 #include <cmath>
+#include <limits>
+#include <unordered_map>
 #include <vector>
 
 #include "stream/analysis/mesh_distance.h"
@@ -19,6 +24,99 @@ using format::Triangle;
 using format::Vec2f;
 using format::Vec3f;
 
+constexpr std::uint64_t kNone = std::numeric_limits<std::uint64_t>::max();
+
+// A vertex's nearest triangle so far, as one word: the squared distance's float bits above the
+// triangle's index. Non-negative floats order as their bits, so the smallest word is the nearest
+// triangle, the lowest index among equally near ones: the same winner in any order of the
+// triangles and any split into threads.
+std::uint64_t pack(double distance_squared, std::size_t triangle) {
+  const float d = static_cast<float>(distance_squared);
+  return (std::uint64_t{std::bit_cast<std::uint32_t>(d)} << 32) | static_cast<std::uint32_t>(triangle);
+}
+
+void lower(std::atomic<std::uint64_t>& slot, std::uint64_t word) {
+  std::uint64_t seen = slot.load(std::memory_order_relaxed);
+  while (word < seen && !slot.compare_exchange_weak(seen, word, std::memory_order_relaxed)) {
+  }
+}
+
+// The chosen vertices of the output in cells of side `cell`: a triangle visits the cells its
+// box, grown by the search radius, overlaps.
+class VertexGrid {
+ public:
+  VertexGrid(const std::vector<Vec3f>& positions, const std::vector<std::uint32_t>& chosen, double cell)
+      : positions_(positions), cell_(cell) {
+    lo_ = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+           std::numeric_limits<double>::infinity()};
+    for (std::uint32_t v : chosen) {
+      const Vec3f& p = positions[v];
+      lo_ = {std::min(lo_.x, double(p.x)), std::min(lo_.y, double(p.y)), std::min(lo_.z, double(p.z))};
+    }
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed;
+    keyed.reserve(chosen.size());
+    for (std::uint32_t v : chosen) keyed.push_back({key(cell_of(positions[v])), v});
+    std::sort(keyed.begin(), keyed.end());
+    vertices_.reserve(keyed.size());
+    for (std::size_t i = 0; i < keyed.size(); ++i) {
+      if (i == 0 || keyed[i].first != keyed[i - 1].first) cells_[keyed[i].first] = {std::uint32_t(i), std::uint32_t(i)};
+      vertices_.push_back(keyed[i].second);
+      cells_[keyed[i].first].second = std::uint32_t(i + 1);
+    }
+    all_ = chosen;
+  }
+
+  // The last cell looked up, per caller: neighbouring triangles mostly meet the same cell.
+  struct Cursor {
+    std::uint64_t key = ~std::uint64_t{0};
+    std::pair<std::uint32_t, std::uint32_t> range{0, 0};
+  };
+
+  // Calls fn(v) for every chosen vertex in a cell that the box [lo, hi] grown by r overlaps;
+  // every vertex when that box spans more cells than there are vertices.
+  template <class Fn>
+  void near(Vec3d lo, Vec3d hi, double r, Cursor& cursor, Fn&& fn) const {
+    const std::array<std::int64_t, 3> a = cell_of(Vec3d{lo.x - r, lo.y - r, lo.z - r});
+    const std::array<std::int64_t, 3> b = cell_of(Vec3d{hi.x + r, hi.y + r, hi.z + r});
+    const double span = double(b[0] - a[0] + 1) * double(b[1] - a[1] + 1) * double(b[2] - a[2] + 1);
+    if (span > double(all_.size())) {
+      for (std::uint32_t v : all_) fn(v);
+      return;
+    }
+    for (std::int64_t x = a[0]; x <= b[0]; ++x) {
+      for (std::int64_t y = a[1]; y <= b[1]; ++y) {
+        for (std::int64_t z = a[2]; z <= b[2]; ++z) {
+          const std::uint64_t k = key({x, y, z});
+          if (k != cursor.key) {
+            const auto it = cells_.find(k);
+            cursor.key = k;
+            cursor.range = it == cells_.end() ? std::pair<std::uint32_t, std::uint32_t>{0, 0} : it->second;
+          }
+          for (std::uint32_t i = cursor.range.first; i < cursor.range.second; ++i) fn(vertices_[i]);
+        }
+      }
+    }
+  }
+
+ private:
+  std::array<std::int64_t, 3> cell_of(const Vec3d& p) const {
+    // Clamped to ±2^20 cells from the chosen vertices' corner: beyond that the box spans all.
+    auto c = [&](double value, double origin) {
+      return std::int64_t(std::clamp(std::floor((value - origin) / cell_), -1048576.0, 1048576.0));
+    };
+    return {c(p.x, lo_.x), c(p.y, lo_.y), c(p.z, lo_.z)};
+  }
+  std::array<std::int64_t, 3> cell_of(const Vec3f& p) const { return cell_of(Vec3d{p.x, p.y, p.z}); }
+  static std::uint64_t key(const std::array<std::int64_t, 3>& c) {
+    return (std::uint64_t(c[0] + 1048576) << 42) | (std::uint64_t(c[1] + 1048576) << 21) | std::uint64_t(c[2] + 1048576);
+  }
+
+  const std::vector<Vec3f>& positions_;
+  double cell_;
+  Vec3d lo_;
+  std::unordered_map<std::uint64_t, std::pair<std::uint32_t, std::uint32_t>> cells_;
+  std::vector<std::uint32_t> vertices_, all_;
+};
 
 // Barycentric weights of q, a point of triangle (a, b, c), by the sub-triangles' areas along
 // the triangle's normal; a degenerate triangle gives its nearest corner all the weight.
@@ -43,6 +141,65 @@ Vec3f normalised(double x, double y, double z) {
   const double length = std::sqrt(x * x + y * y + z * z);
   if (!(length > 0)) return {0, 0, 1};
   return {float(x / length), float(y / length), float(z / length)};
+}
+
+// Each output vertex's nearest input triangle. Passes over the input's triangles, each taking
+// only triangles within its radius of a vertex: a vertex that found one has its nearest (a
+// nearer triangle is within the radius too, and its box grown by the radius holds the vertex);
+// the others go to the next pass, at twice the radius. The first radius is a quarter of a grid
+// cell (of about the output's vertex spacing): most triangles' grown boxes then meet one cell,
+// and the output's distance to the input rarely passes it.
+std::vector<std::uint64_t> nearest_triangles(format::MeshView input, const std::vector<Vec3f>& positions,
+                                             const std::vector<Triangle>& output_triangles) {
+  const std::size_t n = positions.size();
+  // The cell: about two output vertices per occupied cell, from the output's area.
+  double area = 0;
+  for (const Triangle& t : output_triangles) {
+    const Vec3d a = to_d(positions[t.v[0]]);
+    const Vec3d e = cross(to_d(positions[t.v[1]]) - a, to_d(positions[t.v[2]]) - a);
+    area += 0.5 * std::sqrt(dot(e, e));
+  }
+  double cell = std::sqrt(2 * area / double(std::max<std::size_t>(n, 1)));
+  if (!(cell > 0) || !std::isfinite(cell)) cell = 1;
+  std::vector<std::atomic<std::uint64_t>> best(n);
+  for (auto& b : best) b.store(kNone, std::memory_order_relaxed);
+  std::vector<std::uint32_t> open(n);
+  for (std::size_t v = 0; v < n; ++v) open[v] = std::uint32_t(v);
+  double radius = cell / 4;
+  while (!open.empty()) {
+    const VertexGrid grid(positions, open, cell);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, input.triangles.size(), 4096),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        VertexGrid::Cursor cursor;
+                        for (std::size_t f = range.begin(); f < range.end(); ++f) {
+                          const Triangle& t = input.triangles[f];
+                          const Vec3d a = to_d(input.positions[t.v[0]]), b = to_d(input.positions[t.v[1]]),
+                                      c = to_d(input.positions[t.v[2]]);
+                          const Vec3d lo{std::min({a.x, b.x, c.x}), std::min({a.y, b.y, c.y}), std::min({a.z, b.z, c.z})};
+                          const Vec3d hi{std::max({a.x, b.x, c.x}), std::max({a.y, b.y, c.y}), std::max({a.z, b.z, c.z})};
+                          grid.near(lo, hi, radius, cursor, [&](std::uint32_t v) {
+                            // The box's distance first: most vertices of a cell are far from a
+                            // triangle much smaller than the cell.
+                            const Vec3d p = to_d(positions[v]);
+                            const double bx = std::max({lo.x - p.x, p.x - hi.x, 0.0});
+                            const double by = std::max({lo.y - p.y, p.y - hi.y, 0.0});
+                            const double bz = std::max({lo.z - p.z, p.z - hi.z, 0.0});
+                            if (bx * bx + by * by + bz * bz > radius * radius) return;
+                            const double d = point_triangle_distance_squared(p, a, b, c);
+                            if (d <= radius * radius) lower(best[v], pack(d, f));
+                          });
+                        }
+                      });
+    std::vector<std::uint32_t> still;
+    for (std::uint32_t v : open) {
+      if (best[v].load(std::memory_order_relaxed) == kNone) still.push_back(v);
+    }
+    open.swap(still);
+    radius *= 2;
+  }
+  std::vector<std::uint64_t> out(n);
+  for (std::size_t v = 0; v < n; ++v) out[v] = best[v].load(std::memory_order_relaxed);
+  return out;
 }
 
 }  // namespace
@@ -70,19 +227,15 @@ void transfer_attributes(format::MeshView input, Mesh& output, NormalsMode norma
   output.normals.clear();
   output.colors.clear();
   output.texcoords.clear();
-  if (take_normals) output.normals.resize(n);
-  if (take_colors) output.colors.resize(n);
-  if (take_texcoords) output.texcoords.resize(n);
   if ((take_normals || take_colors || take_texcoords) && !input.triangles.empty()) {
-    const TriangleTree tree(input);
+    if (take_normals) output.normals.resize(n);
+    if (take_colors) output.colors.resize(n);
+    if (take_texcoords) output.texcoords.resize(n);
+    const std::vector<std::uint64_t> nearest = nearest_triangles(input, output.positions, output.triangles);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& range) {
       for (std::size_t v = range.begin(); v < range.end(); ++v) {
         const Vec3d p = to_d(output.positions[v]);
-        // Every search starts from the same leaf, so that a tie goes the same way whatever the
-        // split into threads (a hint from the last vertex would decide it by the split).
-        std::uint32_t leaf = 0;
-        tree.nearest_distance_squared(p, &leaf);
-        const Triangle& t = input.triangles[tree.leaf_triangle(leaf)];
+        const Triangle& t = input.triangles[static_cast<std::uint32_t>(nearest[v])];
         const Vec3d a = to_d(input.positions[t.v[0]]), b = to_d(input.positions[t.v[1]]), c = to_d(input.positions[t.v[2]]);
         Vec3d q;
         point_triangle_distance_squared(p, a, b, c, &q);

@@ -12,12 +12,14 @@ namespace gaussmesh::stream {
 enum class NormalsMode { kKeep, kCompute, kNone };
 
 // Fills output's colours and texture coordinates when the input has them, and its normals by
-// `normals`. Each output vertex takes the input triangle nearest to it and the corner values
-// of that triangle interpolated at the nearest point (barycentric), so an output vertex that is
-// an input vertex keeps that vertex's values, and a moved one gets the values of the surface
-// under it; interpolated normals are renormalised. Computed normals are the area-weighted sums
-// of the output's face normals, normalised. Deterministic whatever the threads. Memory: an AABB
-// tree over the input's triangles (stream/analysis/mesh_distance.h), about 56 bytes a triangle.
+// `normals`. Each output vertex takes the input triangle nearest to it (the lowest index among
+// equally near ones) and the corner values of that triangle interpolated at the nearest point
+// (barycentric), so an output vertex that is an input vertex keeps that vertex's values, and a
+// moved one gets the values of the surface under it; interpolated normals are renormalised.
+// Computed normals are the area-weighted sums of the output's face normals, normalised. The
+// search is a pass over the input's triangles against a grid of the output's vertices, so it
+// holds memory of the output's size only (about 40 bytes a vertex) and the same answer comes
+// whatever the order of the triangles or the threads.
 void transfer_attributes(format::MeshView input, Mesh& output, NormalsMode normals);
 
 // Area-weighted vertex normals of a mesh, normalised ((0, 0, 1) for a vertex without area).

@@ -103,7 +103,9 @@ TEST_P(SimplifyAttributes, ColoursFollowTheSurfaceAndDracoKeepsThem) {
         worst = std::max(worst, error - distance * g.slope());
         EXPECT_LE(error, 1.0 / 255 + 1e-6 + distance * g.slope()) << "vertex " << v << " channel " << k;
       }
-      if (target.empty()) EXPECT_LT(distance, 1e-9) << "the plain approximation keeps input vertices";
+      if (target.empty()) {
+        EXPECT_LT(distance, 1e-9) << "the plain approximation keeps input vertices";
+      }
     }
     std::printf("  %s%s: %zu vertices, worst colour error beyond the distance term %.4f / 255\n", GetParam().c_str(),
                 target.c_str(), out.positions.size(), 255 * worst);
