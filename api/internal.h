@@ -66,6 +66,8 @@ Result<std::uint64_t> write_mesh(const Sink& sink, MeshView mesh, const DracoOpt
 std::uint64_t whole_output_bytes_per_face(const Sink& sink);
 Result<std::uint64_t> write_mesh_parts(const Sink& sink, format::MeshParts& mesh, const DracoOptions& draco,
                                        std::uint64_t memory_limit);
+// A mesh delivered in parts, held whole.
+Result<Mesh> gather(format::MeshParts& parts);
 
 // The engine for a job that has no streaming form (the Voronoi mesher, the patch mesh): in core,
 // unless it is forced out of core, or an explicit budget under the automatic engine is smaller

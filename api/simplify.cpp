@@ -91,8 +91,13 @@ void finish_report(Json& report, const stream::FinishOptions& o, const std::opti
   report["finish_seconds"] = {{"quadrics", f->seconds_quadrics}, {"collapses", f->seconds_decimate}};
 }
 
+// What the output holds a face while it takes its attributes out of core (its vertices, about
+// half as many as faces, with their attributes and the search's state), and the process itself.
+constexpr std::uint64_t kAttributedBytesPerFace = 18 + 60;
+constexpr std::uint64_t kProcessBytes = std::uint64_t{20} << 20;
+
 // One warning for the input's per-vertex values the reader did not understand, and one for the
-// attributes the run drops (out of core), each naming what.
+// attributes the run drops (the chunked finish's output), each naming what.
 std::vector<std::string> value_warnings(const std::vector<std::string>& ignored, const format::AttributeKinds& dropped) {
   std::vector<std::string> warnings;
   if (!ignored.empty()) {
@@ -105,9 +110,15 @@ std::vector<std::string> value_warnings(const std::vector<std::string>& ignored,
     if (dropped.colors) kinds = "colours";
     if (dropped.normals) kinds += std::string(kinds.empty() ? "" : ", ") + "normals";
     if (dropped.texcoords) kinds += std::string(kinds.empty() ? "" : ", ") + "texture coordinates";
-    warnings.push_back(kinds + " not kept: the streaming engine carries positions only (in core keeps them)");
+    warnings.push_back(kinds + " not kept: the output is too large to hold within --memory with them (PLY and OBJ stream it without)");
   }
   return warnings;
+}
+
+stream::NormalsMode normals_mode(Normals normals) {
+  return normals == Normals::kKeep      ? stream::NormalsMode::kKeep
+         : normals == Normals::kCompute ? stream::NormalsMode::kCompute
+                                        : stream::NormalsMode::kNone;
 }
 
 Status no_faces(const Source& source, std::uint64_t vertices) {
@@ -149,7 +160,36 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   const std::uint64_t output_faces = result->parts ? result->parts->face_count() : result->mesh.triangles.size();
   const std::uint64_t output_vertices = result->parts ? result->parts->vertex_count() : result->mesh.positions.size();
   if (output_faces == 0) return empty_approximation(source);
+  // The input's attributes from its vertex spill, when the output is held whole (the chunked
+  // finish's streams from its files: it goes without them, and says so).
   auto t = Clock::now();
+  format::AttributeKinds dropped;
+  const stream::NormalsMode normals = normals_mode(o.normals);
+  if (result->parts && (result->attribute_spill || normals == stream::NormalsMode::kCompute)) {
+    // The chunked finish's output, gathered to take its attributes when that fits the budget.
+    const std::uint64_t need = result->parts->face_count() * (kAttributedBytesPerFace + api::whole_output_bytes_per_face(sink)) +
+                               kProcessBytes;
+    if (options.memory_explicit && need > options.memory.bytes()) {
+      dropped = result->input_attributes;
+    } else {
+      auto whole = api::gather(*result->parts);
+      if (!whole) return whole.status();
+      result->mesh = std::move(*whole);
+      result->parts.reset();
+    }
+  }
+  if (result->parts) {
+    // Streamed as it is read back: without attributes.
+  } else if (result->attribute_spill) {
+    const stream::VertexAttributeSpill& spill = *result->attribute_spill;
+    GM_RETURN_IF_ERROR(stream::transfer_nearest_vertex([&spill](const stream::VertexBatchFn& batch) { return spill.each(batch); },
+                                                       spill.kinds(), result->mesh, normals));
+  } else if (normals == stream::NormalsMode::kCompute) {
+    result->mesh.normals = stream::vertex_normals(result->mesh.view());
+  }
+  result->attribute_spill.reset();  // and its file
+  const double seconds_attributes = seconds_since(t);
+  t = Clock::now();
   auto bytes = result->parts ? api::write_mesh_parts(sink, *result->parts, o.draco,
                                                      options.memory_explicit ? options.memory.bytes() : 0)
                              : api::write_mesh(sink, result->mesh.view(), o.draco);
@@ -166,7 +206,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   stats.samples = result->samples;
   stats.out_of_core = true;
   stats.memory_bytes = memory;
-  stats.warnings = value_warnings(result->ignored_vertex_values, result->dropped_attributes);
+  stats.warnings = value_warnings(result->ignored_vertex_values, dropped);
   stats.chunks = result->chunks;
   stats.peak_rss_bytes = peak_rss_bytes();
   stats.seconds = seconds_since(started);
@@ -178,7 +218,9 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   result->seconds_cleanup += seconds_since(t);
   finish_report(report, result->finish_options, result->finish, stats);
   if (result->finish) report["approximation"] = result->collapsed_input ? "input" : "gauss";
-  report["output_attributes"] = {{"normals", false}, {"colors", false}, {"texcoords", false}};
+  report["output_attributes"] = {{"normals", !result->mesh.normals.empty()},
+                                 {"colors", !result->mesh.colors.empty()},
+                                 {"texcoords", !result->mesh.texcoords.empty()}};
   report["warnings"] = stats.warnings;
   report["merged_patches"] = result->merged_patches;
   report["merge_rounds"] = result->merge_rounds;
@@ -227,6 +269,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
                        {"stitch", result->seconds_stitch},
                        {"mesh", result->seconds_mesh},
                        {"cleanup", result->seconds_cleanup},
+                       {"attributes", seconds_attributes},
                        {"write", seconds_write},
                        {"total", stats.seconds}};
   report["partition_seconds"] = {{"plan", result->partition_steps.plan},
@@ -321,10 +364,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   }
   t = Clock::now();
   if (has_attributes || o.normals == Normals::kCompute) {
-    const stream::NormalsMode normals = o.normals == Normals::kKeep      ? stream::NormalsMode::kKeep
-                                        : o.normals == Normals::kCompute ? stream::NormalsMode::kCompute
-                                                                         : stream::NormalsMode::kNone;
-    stream::transfer_attributes(attribute_input, result->mesh, normals);
+    stream::transfer_attributes(attribute_input, result->mesh, normals_mode(o.normals));
   }
   const double seconds_attributes = seconds_since(t);
   std::optional<stream::MeshDistance> measured;

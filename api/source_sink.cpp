@@ -243,18 +243,24 @@ Result<std::uint64_t> write_mesh_parts(const Sink& sink, format::MeshParts& mesh
                              ", above the budget of " + std::to_string(memory_limit >> 20) +
                              " MiB: write PLY or OBJ (streamed), raise --memory or lower the target");
   }
+  auto whole = gather(mesh);
+  if (!whole) return whole.status();
+  return write_mesh(sink, whole->view(), draco);
+}
+
+Result<Mesh> gather(format::MeshParts& parts) {
   Mesh whole;
-  whole.positions.reserve(mesh.vertex_count());
-  whole.triangles.reserve(mesh.face_count());
-  GM_RETURN_IF_ERROR(mesh.vertices([&](std::span<const format::Vec3f> b) {
+  whole.positions.reserve(parts.vertex_count());
+  whole.triangles.reserve(parts.face_count());
+  GM_RETURN_IF_ERROR(parts.vertices([&](std::span<const format::Vec3f> b) {
     whole.positions.insert(whole.positions.end(), b.begin(), b.end());
     return Status();
   }));
-  GM_RETURN_IF_ERROR(mesh.faces([&](std::span<const format::Triangle> b) {
+  GM_RETURN_IF_ERROR(parts.faces([&](std::span<const format::Triangle> b) {
     whole.triangles.insert(whole.triangles.end(), b.begin(), b.end());
     return Status();
   }));
-  return write_mesh(sink, whole.view(), draco);
+  return whole;
 }
 
 Status check_not_a_terminal(const Source& source, const char* job) {

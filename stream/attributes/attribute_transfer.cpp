@@ -118,6 +118,18 @@ class VertexGrid {
   std::vector<std::uint32_t> vertices_, all_;
 };
 
+// Output vertices' cell size: about two output vertices per occupied cell, from the output's area.
+double grid_cell(const std::vector<Vec3f>& positions, const std::vector<Triangle>& triangles) {
+  double area = 0;
+  for (const Triangle& t : triangles) {
+    const Vec3d a = to_d(positions[t.v[0]]);
+    const Vec3d e = cross(to_d(positions[t.v[1]]) - a, to_d(positions[t.v[2]]) - a);
+    area += 0.5 * std::sqrt(dot(e, e));
+  }
+  const double cell = std::sqrt(2 * area / double(std::max<std::size_t>(positions.size(), 1)));
+  return cell > 0 && std::isfinite(cell) ? cell : 1;
+}
+
 // Barycentric weights of q, a point of triangle (a, b, c), by the sub-triangles' areas along
 // the triangle's normal; a degenerate triangle gives its nearest corner all the weight.
 std::array<double, 3> barycentric(const Vec3d& q, const Vec3d& a, const Vec3d& b, const Vec3d& c) {
@@ -152,15 +164,7 @@ Vec3f normalised(double x, double y, double z) {
 std::vector<std::uint64_t> nearest_triangles(format::MeshView input, const std::vector<Vec3f>& positions,
                                              const std::vector<Triangle>& output_triangles) {
   const std::size_t n = positions.size();
-  // The cell: about two output vertices per occupied cell, from the output's area.
-  double area = 0;
-  for (const Triangle& t : output_triangles) {
-    const Vec3d a = to_d(positions[t.v[0]]);
-    const Vec3d e = cross(to_d(positions[t.v[1]]) - a, to_d(positions[t.v[2]]) - a);
-    area += 0.5 * std::sqrt(dot(e, e));
-  }
-  double cell = std::sqrt(2 * area / double(std::max<std::size_t>(n, 1)));
-  if (!(cell > 0) || !std::isfinite(cell)) cell = 1;
+  const double cell = grid_cell(positions, output_triangles);
   std::vector<std::atomic<std::uint64_t>> best(n);
   for (auto& b : best) b.store(kNone, std::memory_order_relaxed);
   std::vector<std::uint32_t> open(n);
@@ -218,6 +222,58 @@ std::vector<Vec3f> vertex_normals(format::MeshView mesh) {
   std::vector<Vec3f> normals(mesh.positions.size());
   for (std::size_t v = 0; v < normals.size(); ++v) normals[v] = normalised(sum[3 * v], sum[3 * v + 1], sum[3 * v + 2]);
   return normals;
+}
+
+format::Status transfer_nearest_vertex(const VertexPassFn& pass, const format::AttributeKinds& kinds, Mesh& output,
+                                       NormalsMode normals) {
+  const bool take_normals = normals == NormalsMode::kKeep && kinds.normals;
+  const std::size_t n = output.positions.size();
+  output.normals.clear();
+  output.colors.clear();
+  output.texcoords.clear();
+  if (take_normals || kinds.colors || kinds.texcoords) {
+    const double cell = grid_cell(output.positions, output.triangles);
+    std::vector<double> best(n, std::numeric_limits<double>::infinity());
+    std::vector<format::VertexAttributes> values(n);
+    std::vector<std::uint32_t> open(n);
+    for (std::size_t v = 0; v < n; ++v) open[v] = std::uint32_t(v);
+    // The first radius finds vertices that are input vertices (distance 0) and most moved ones.
+    double radius = cell / 4;
+    while (!open.empty()) {
+      const VertexGrid grid(output.positions, open, cell);
+      VertexGrid::Cursor cursor;
+      // Input order, strictly nearer only: the first among equally near input vertices wins.
+      GM_RETURN_IF_ERROR(pass([&](std::span<const Vec3f> points, std::span<const format::VertexAttributes> attributes) {
+        for (std::size_t i = 0; i < points.size(); ++i) {
+          const Vec3d q = to_d(points[i]);
+          grid.near(q, q, radius, cursor, [&](std::uint32_t v) {
+            const Vec3d d = to_d(output.positions[v]) - q;
+            const double d2 = dot(d, d);
+            if (d2 <= radius * radius && d2 < best[v]) best[v] = d2, values[v] = attributes[i];
+          });
+        }
+        return format::Status();
+      }));
+      std::vector<std::uint32_t> still;
+      for (std::uint32_t v : open) {
+        if (!std::isfinite(best[v])) still.push_back(v);
+      }
+      if (still.size() == open.size() && radius > 1e300) break;  // an input without vertices
+      open.swap(still);
+      radius *= 2;
+    }
+    if (take_normals) output.normals.resize(n);
+    if (kinds.colors) output.colors.resize(n);
+    if (kinds.texcoords) output.texcoords.resize(n);
+    for (std::size_t v = 0; v < n; ++v) {
+      const format::VertexAttributes& a = values[v];
+      if (take_normals) output.normals[v] = normalised(a.normal.x, a.normal.y, a.normal.z);
+      if (kinds.colors) output.colors[v] = a.color;
+      if (kinds.texcoords) output.texcoords[v] = a.texcoord;
+    }
+  }
+  if (normals == NormalsMode::kCompute) output.normals = vertex_normals(output.view());
+  return {};
 }
 
 void transfer_attributes(format::MeshView input, Mesh& output, NormalsMode normals) {

@@ -2,6 +2,10 @@
 // values of the nearest point of the input's surface (docs/attributes.md).
 #pragma once
 
+#include <functional>
+#include <span>
+
+#include "format/mesh_sink.h"
 #include "format/mesh_types.h"
 #include "stream/core/mesh.h"
 
@@ -21,6 +25,21 @@ enum class NormalsMode { kKeep, kCompute, kNone };
 // holds memory of the output's size only (about 40 bytes a vertex) and the same answer comes
 // whatever the order of the triangles or the threads.
 void transfer_attributes(format::MeshView input, Mesh& output, NormalsMode normals);
+
+// The input as batches of vertices with their attributes, in input order: a call streams it
+// once through `batch`, stopping at the first error either returns.
+using VertexBatchFn = std::function<format::Status(std::span<const format::Vec3f>, std::span<const format::VertexAttributes>)>;
+using VertexPassFn = std::function<format::Status(const VertexBatchFn& batch)>;
+
+// The same for an input that is streamed, not held (out of core): each output vertex takes the
+// attributes of the nearest input vertex (the first in input order among equally near ones),
+// so an output vertex that is an input vertex keeps that vertex's values, and a moved one gets
+// those of the input vertex nearest to it. `kinds` are the input's; `pass` is called once per
+// search round (each round doubles the radius for the vertices still without an input vertex
+// within it; the first round finds every vertex that lies on an input vertex). Memory: the
+// output's size.
+format::Status transfer_nearest_vertex(const VertexPassFn& pass, const format::AttributeKinds& kinds, Mesh& output,
+                                       NormalsMode normals);
 
 // Area-weighted vertex normals of a mesh, normalised ((0, 0, 1) for a vertex without area).
 std::vector<format::Vec3f> vertex_normals(format::MeshView mesh);

@@ -17,6 +17,7 @@
 #include "format/mesh_types.h"
 #include "format/record_file.h"
 #include "format/status.h"
+#include "stream/attributes/vertex_attribute_spill.h"
 #include "stream/partition/spatial_order.h"
 
 namespace gaussmesh::stream {
@@ -158,9 +159,11 @@ struct Partition {
   std::uint64_t cache_bytes = 0;    // the cache's size at the end: 1/8 of its budget, grown by reloads
   std::uint64_t untagged_frames = 0;
   bool reordered = false;           // the input was renumbered (reorder_scattered)
-  // The input's vertex attributes, which the streaming engine does not carry, and the other
+  // The input's vertex attributes, which the passes do not carry: the ingest spills them with
+  // the positions (null when there are none) for the transfer after the run. And the other
   // per-vertex values its reader named as not understood.
-  format::AttributeKinds dropped_attributes;
+  format::AttributeKinds input_attributes;
+  std::shared_ptr<VertexAttributeSpill> attribute_spill;
   std::vector<std::string> ignored_vertex_values;
   std::uint64_t welded_vertices = 0;  // vertices welded away by the renumbering (vertices counts the rest)  // face frames the ring rounds scanned (partly) untagged: windows missing, disorder
   double seconds_ingest = 0, seconds_partition = 0;

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "format/mesh_reader.h"
+#include "stream/attributes/vertex_attribute_spill.h"
 #include "stream/partition/face_spill.h"
 #include "stream/partition/input_positions.h"
 #include "stream/partition/partition_run.h"
@@ -27,14 +28,32 @@ class IngestSink final : public format::MeshSink {
  public:
   // input_is_file: the input can be opened again by name, so its own vertex records (when the
   // reader says where they are) stand in for the position files.
+  // attribute_dir: where the vertex attribute spill goes when the input has attributes (it
+  // outlives the partition's own directory: the transfer comes after the passes).
   IngestSink(SpillThread& spills, SpillWriter& positions_here,
-             const std::function<void(const char*, std::uint64_t, std::uint64_t)>& progress, bool input_is_file)
-      : spills_(spills), positions_here_(positions_here), progress_(progress), input_is_file_(input_is_file) {}
+             const std::function<void(const char*, std::uint64_t, std::uint64_t)>& progress, bool input_is_file,
+             std::string attribute_dir)
+      : spills_(spills), positions_here_(positions_here), progress_(progress), input_is_file_(input_is_file),
+        attribute_dir_(std::move(attribute_dir)) {}
   Status on_header(const format::MeshHeader& header) override {
     declared_faces_ = header.declared_faces.value_or(0);
     attributes_ = header.attributes;
     if (input_is_file_) raw_vertices_ = header.raw_vertices;
+    if (attributes_.any()) {
+      auto spill = VertexAttributeSpill::create(attribute_dir_, attributes_);
+      if (!spill) return spill.status();
+      attribute_spill_ = std::move(*spill);
+    }
     return {};
+  }
+  Status on_vertex_attributes(std::span<const format::VertexAttributes> batch) override {
+    pending_attributes_.assign(batch.begin(), batch.end());
+    return {};
+  }
+  // The input's vertices with their attributes (null when it has none), finished.
+  Result<std::shared_ptr<VertexAttributeSpill>> take_attribute_spill() {
+    if (attribute_spill_) GM_RETURN_IF_ERROR(attribute_spill_->finish());
+    return std::shared_ptr<VertexAttributeSpill>(std::move(attribute_spill_));
   }
   Status on_ignored(const std::string& what) override {
     ignored_.push_back(what);
@@ -51,6 +70,7 @@ class IngestSink final : public format::MeshSink {
                                                      " vertices: chunk records hold 32-bit vertex ids");
     }
     for (const Vec3f& p : batch) bounds_.add(p);
+    if (attribute_spill_) GM_RETURN_IF_ERROR(attribute_spill_->add(batch, pending_attributes_));
     if (raw_vertices_) {
       vertices_ += batch.size();
       return {};
@@ -88,6 +108,9 @@ class IngestSink final : public format::MeshSink {
   std::uint64_t declared_faces_ = 0;  // the header's count (polygons): untrusted, for progress only
   format::AttributeKinds attributes_;
   std::vector<std::string> ignored_;
+  std::string attribute_dir_;
+  std::unique_ptr<VertexAttributeSpill> attribute_spill_;
+  std::vector<format::VertexAttributes> pending_attributes_;
   FiniteBounds bounds_;
 };
 
@@ -104,7 +127,7 @@ Status PartitionRun::ingest(const std::string& input_path, const format::ReadOpt
   SpillThread spills(positions[0], faces, options_.threads > 1);
   struct stat input{};
   const bool input_is_file = input_path != "-" && ::stat(input_path.c_str(), &input) == 0 && S_ISREG(input.st_mode);
-  IngestSink sink(spills, positions[1], options_.progress, input_is_file);
+  IngestSink sink(spills, positions[1], options_.progress, input_is_file, out_.dir.substr(0, out_.dir.rfind('/')));
   Status status = format::read_mesh_file(input_path, read, sink);
   // A write error stops the reader (the sink returns it) and is the run's error.
   if (Status written = spills.finish(); !written.is_ok()) return written;
@@ -132,7 +155,11 @@ Status PartitionRun::ingest(const std::string& input_path, const format::ReadOpt
   }
   out_.vertices = sink.vertices();
   out_.faces = sink.faces();
-  out_.dropped_attributes = sink.attributes();
+  out_.input_attributes = sink.attributes();
+  auto attribute_spill = sink.take_attribute_spill();
+  if (!attribute_spill) return attribute_spill.status();
+  out_.attribute_spill = std::move(*attribute_spill);
+  if (out_.attribute_spill) bytes_spilled_ += out_.attribute_spill->bytes();
   out_.ignored_vertex_values = sink.ignored();
   scattered_ = sink.probe().scattered(sink.vertices());
   sink.bounds(out_.lo, out_.hi);

@@ -49,7 +49,8 @@ struct OutOfCoreSampling {
   std::uint64_t bytes_spilled = 0;
   bool reordered = false;  // the input was renumbered first (PartitionOptions::reorder_scattered)
   std::uint64_t welded_vertices = 0;  // welded away by it (vertices counts the rest)
-  format::AttributeKinds dropped_attributes;         // Partition's
+  format::AttributeKinds input_attributes;                // Partition's
+  std::shared_ptr<VertexAttributeSpill> attribute_spill;  // Partition's
   std::vector<std::string> ignored_vertex_values;    // Partition's
   double seconds_reorder = 0;
   double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0;

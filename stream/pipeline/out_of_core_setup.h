@@ -52,7 +52,8 @@ void record_partition(const Partition& partition, Result& out) {
   out.seconds_ingest = partition.seconds_ingest;
   out.reordered = partition.reordered;
   out.welded_vertices = partition.welded_vertices;
-  out.dropped_attributes = partition.dropped_attributes;
+  out.input_attributes = partition.input_attributes;
+  out.attribute_spill = partition.attribute_spill;
   out.ignored_vertex_values = partition.ignored_vertex_values;
   out.seconds_reorder = partition.seconds_reorder;
   out.seconds_partition = partition.seconds_partition;

@@ -3,10 +3,11 @@
 // not know. Kept input vertices keep their colours; moved ones get the colour of the input
 // surface under them; Google's draco_decoder reads the same colours from the .drc; unknown
 // values and what the streaming engine drops are named in one warning each; --normals decides
-// the normals.
+// the normals; out of core the same from a spill of the input's vertices.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <string>
 
 #include "format/mesh_writer.h"
@@ -159,21 +160,67 @@ TEST(SimplifyAttributesCli, NormalsAreKeptComputedOrLeftOut) {
   EXPECT_EQ(run.exit_code, 1);
 }
 
-// The streaming engine carries positions only: it says so, once, and writes the mesh.
-TEST(SimplifyAttributesCli, TheStreamingEngineNamesWhatItDrops) {
+// Out of core the input's vertices and their attributes are spilled at the ingest and each
+// output vertex takes the nearest input vertex's: the plain approximation (input vertices) gives
+// the in-core bytes, from a file and from a pipe; a target gives colours within the slope times
+// the distance to the nearest input vertex; nothing is left in --tmp.
+TEST(SimplifyAttributesCli, TheStreamingEngineKeepsThem) {
   ScratchDir dir, tmp;
   stream::Mesh input;
-  const std::string in = coloured_copy("cow.off", dir.file("in.ply"), input);
-  const std::string out = dir.file("out.ply");
-  auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(out) + " --memory 16M --tmp " +
-                         q(tmp.path().string()));
+  const std::string in = coloured_copy("homer.off", dir.file("in.ply"), input);
+  const Gradient g = gradient_of(input);
+  const std::string in_core = dir.file("in-core.ply"), streamed = dir.file("streamed.ply"), piped = dir.file("piped.ply");
+  const std::string budget = " --tmp " + q(tmp.path().string()) + " -q";
+  auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(in_core) + " --engine in-core -q");
   ASSERT_EQ(run.exit_code, 0) << run.err;
-  EXPECT_NE(run.err.find("warning: colours, normals, texture coordinates not kept: the streaming engine carries "
-                         "positions only"),
+  run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(streamed) + " --memory 16M" + budget);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  run = run_command("cat " + q(in) + " | " + q(gaussmesh_binary()) + " simplify - -o " + q(piped) + " --memory 16M" + budget);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(read_file(streamed), read_file(in_core));
+  EXPECT_EQ(read_file(piped), read_file(in_core));
+  EXPECT_EQ(read_mesh(streamed).colors.size(), read_mesh(streamed).positions.size());
+  EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
+
+  const std::string target = dir.file("target.ply");
+  run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(target) +
+                    " --ratio 0.1 --engine out-of-core --memory 64M" + budget);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const stream::Mesh out = read_mesh(target);
+  ASSERT_EQ(out.colors.size(), out.positions.size());
+  ASSERT_EQ(out.normals.size(), out.positions.size());
+  for (std::size_t v = 0; v < out.positions.size(); ++v) {
+    double nearest = 1e30;
+    for (const Vec3f& p : input.positions) {
+      const Vec3f& o = out.positions[v];
+      nearest = std::min(nearest, double(p.x - o.x) * (p.x - o.x) + double(p.y - o.y) * (p.y - o.y) + double(p.z - o.z) * (p.z - o.z));
+    }
+    const Color want = g.at(out.positions[v]);
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_LE(std::abs((&out.colors[v].r)[k] - (&want.r)[k]), 1.0 / 255 + 1e-6 + std::sqrt(nearest) * g.slope()) << v;
+    }
+  }
+  EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
+}
+
+// The chunked finish's output held whole to take the attributes must fit an explicit budget;
+// when it does not, the run writes it without them and says so, once.
+TEST(SimplifyAttributesCli, AnOutputTooLargeToHoldGoesWithoutThemAndSaysSo) {
+  ScratchDir dir, tmp;
+  stream::Mesh input;
+  const std::string in = coloured_copy("homer.off", dir.file("in.ply"), input);
+  const std::string out = dir.file("out.ply");
+  auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(out) + " --ratio 0.1 --memory 16M --tmp " +
+                         q(tmp.path().string()) + " --report " + q(dir.file("r.json")));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(read_file(dir.file("r.json")).find("\"chunked_finish\""), std::string::npos);
+  EXPECT_NE(run.err.find("warning: colours, normals, texture coordinates not kept: the output is too large to hold "
+                         "within --memory with them"),
             std::string::npos)
       << run.err;
   EXPECT_NE(run.err.find("warning: vertex values not understood and not kept: quality"), std::string::npos) << run.err;
   EXPECT_TRUE(read_mesh(out).colors.empty());
+  EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
 }
 
 }  // namespace

@@ -125,5 +125,51 @@ TEST(AttributeTransfer, TheSameValuesWhateverTheThreads) {
   EXPECT_EQ(one.texcoords, two.texcoords);
 }
 
+// The streamed form: the input's vertices in batches of any size give each output vertex the
+// nearest input vertex's values (an input vertex its own, exactly), the first in input order on
+// a tie, whatever the batches.
+TEST(AttributeTransfer, StreamedVerticesGiveTheNearestVertexsValues) {
+  const Mesh input = coloured_torus(6000);
+  std::vector<format::VertexAttributes> values(input.positions.size());
+  for (std::size_t v = 0; v < values.size(); ++v) {
+    values[v].color = input.colors[v];
+    values[v].normal = input.normals[v];
+    values[v].texcoord = input.texcoords[v];
+  }
+  auto pass_in = [&](std::size_t batch) {
+    return [&, batch](const VertexBatchFn& fn) {
+      for (std::size_t i = 0; i < input.positions.size(); i += batch) {
+        const std::size_t n = std::min(batch, input.positions.size() - i);
+        GM_RETURN_IF_ERROR(fn(std::span(input.positions).subspan(i, n), std::span<const format::VertexAttributes>(values).subspan(i, n)));
+      }
+      return format::Status();
+    };
+  };
+  testing::ShapeOptions shape;
+  shape.vertices = 2000;
+  Mesh output = testing::make_torus(1.0, 0.41, shape);  // off the input's vertices
+  for (std::size_t v = 0; v < 50; ++v) output.positions[v] = input.positions[7 * v];  // and on some
+  Mesh other = output;
+  ASSERT_TRUE(transfer_nearest_vertex(pass_in(7), {true, true, true}, output, NormalsMode::kKeep).is_ok());
+  ASSERT_TRUE(transfer_nearest_vertex(pass_in(100000), {true, true, true}, other, NormalsMode::kKeep).is_ok());
+  EXPECT_EQ(output.colors, other.colors);
+  EXPECT_EQ(output.normals, other.normals);
+  for (std::size_t v = 0; v < output.positions.size(); ++v) {
+    std::size_t nearest = 0;
+    double best = 1e30;
+    for (std::size_t w = 0; w < input.positions.size(); ++w) {
+      const Vec3f &a = output.positions[v], &b = input.positions[w];
+      const double d = double(a.x - b.x) * (a.x - b.x) + double(a.y - b.y) * (a.y - b.y) + double(a.z - b.z) * (a.z - b.z);
+      if (d < best) best = d, nearest = w;
+    }
+    EXPECT_EQ(output.colors[v], input.colors[nearest]) << v;
+    EXPECT_EQ(output.texcoords[v], input.texcoords[nearest]) << v;
+  }
+  ASSERT_TRUE(transfer_nearest_vertex(pass_in(64), {false, true, false}, other, NormalsMode::kNone).is_ok());
+  EXPECT_TRUE(other.normals.empty());
+  EXPECT_TRUE(other.texcoords.empty());
+  EXPECT_EQ(other.colors, output.colors);
+}
+
 }  // namespace
 }  // namespace gaussmesh::stream

@@ -1,0 +1,45 @@
+// The input's vertices with their attributes, written as the ingest reads them, so that an
+// out-of-core run can give its output the input's attributes (transfer_nearest_vertex) after
+// the passes that carry positions only. A record file of its own in the temporary directory,
+// registered for signal cleanup and removed with the object (docs/attributes.md).
+#pragma once
+
+#include <memory>
+#include <span>
+#include <string>
+
+#include "format/mesh_sink.h"
+#include "format/record_file.h"
+#include "stream/attributes/attribute_transfer.h"
+
+namespace gaussmesh::stream {
+
+class VertexAttributeSpill {
+ public:
+  // A new, empty spill in directory `dir` for an input with attributes `kinds`.
+  static format::Result<std::unique_ptr<VertexAttributeSpill>> create(const std::string& dir,
+                                                                      const format::AttributeKinds& kinds);
+  ~VertexAttributeSpill();
+  VertexAttributeSpill(const VertexAttributeSpill&) = delete;
+  VertexAttributeSpill& operator=(const VertexAttributeSpill&) = delete;
+
+  // The next vertices, in input order: positions and their attributes, as many of each.
+  format::Status add(std::span<const format::Vec3f> positions, std::span<const format::VertexAttributes> attributes);
+  format::Status finish();
+
+  const format::AttributeKinds& kinds() const { return kinds_; }
+  std::uint64_t bytes() const { return bytes_; }  // compressed, on disk (after finish)
+  // Streams the vertices back in input order (a VertexPassFn).
+  format::Status each(const VertexBatchFn& batch) const;
+
+ private:
+  VertexAttributeSpill() = default;
+  struct Record;
+  std::string path_;
+  int slot_ = -1;
+  format::AttributeKinds kinds_;
+  std::unique_ptr<format::RecordWriter> writer_;
+  std::uint64_t bytes_ = 0;
+};
+
+}  // namespace gaussmesh::stream
