@@ -151,6 +151,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
     };
   }
   options.partition.weld = stream_weld(o.weld);
+  options.partition.spill_attributes = true;
   format::ReadOptions read = api::read_options(source);
   read.weld_stl = o.weld == Weld::kOff;  // else STL comes as a soup, welded with the rest in bounded memory
   read.memory_limit = api::whole_input_limit(o.resources);

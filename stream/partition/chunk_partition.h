@@ -78,6 +78,9 @@ struct PartitionOptions {
   std::function<void(const char*, std::uint64_t, std::uint64_t)> progress;
   // Where the run's temporary directory is made (empty = $TMPDIR, else /tmp).
   std::string tmp_dir;
+  // Spill the input's vertices with their attributes, when it has any, for a transfer after the
+  // run (Partition::attribute_spill); off for jobs whose output has no attributes (sample).
+  bool spill_attributes = false;
   // Renumber an input whose ids are scattered (OrderProbe) in spatial order first
   // (spatial_order.h): vertex and face ids in the chunk files are then the new ones. For
   // commands whose output does not name input ids (simplify).

@@ -32,14 +32,14 @@ class IngestSink final : public format::MeshSink {
   // outlives the partition's own directory: the transfer comes after the passes).
   IngestSink(SpillThread& spills, SpillWriter& positions_here,
              const std::function<void(const char*, std::uint64_t, std::uint64_t)>& progress, bool input_is_file,
-             std::string attribute_dir)
+             bool spill_attributes, std::string attribute_dir)
       : spills_(spills), positions_here_(positions_here), progress_(progress), input_is_file_(input_is_file),
-        attribute_dir_(std::move(attribute_dir)) {}
+        spill_attributes_(spill_attributes), attribute_dir_(std::move(attribute_dir)) {}
   Status on_header(const format::MeshHeader& header) override {
     declared_faces_ = header.declared_faces.value_or(0);
     attributes_ = header.attributes;
     if (input_is_file_) raw_vertices_ = header.raw_vertices;
-    if (attributes_.any()) {
+    if (attributes_.any() && spill_attributes_) {
       auto spill = VertexAttributeSpill::create(attribute_dir_, attributes_);
       if (!spill) return spill.status();
       attribute_spill_ = std::move(*spill);
@@ -108,6 +108,7 @@ class IngestSink final : public format::MeshSink {
   std::uint64_t declared_faces_ = 0;  // the header's count (polygons): untrusted, for progress only
   format::AttributeKinds attributes_;
   std::vector<std::string> ignored_;
+  bool spill_attributes_;
   std::string attribute_dir_;
   std::unique_ptr<VertexAttributeSpill> attribute_spill_;
   std::vector<format::VertexAttributes> pending_attributes_;
@@ -127,7 +128,8 @@ Status PartitionRun::ingest(const std::string& input_path, const format::ReadOpt
   SpillThread spills(positions[0], faces, options_.threads > 1);
   struct stat input{};
   const bool input_is_file = input_path != "-" && ::stat(input_path.c_str(), &input) == 0 && S_ISREG(input.st_mode);
-  IngestSink sink(spills, positions[1], options_.progress, input_is_file, out_.dir.substr(0, out_.dir.rfind('/')));
+  IngestSink sink(spills, positions[1], options_.progress, input_is_file, options_.spill_attributes,
+                  out_.dir.substr(0, out_.dir.rfind('/')));
   Status status = format::read_mesh_file(input_path, read, sink);
   // A write error stops the reader (the sink returns it) and is the run's error.
   if (Status written = spills.finish(); !written.is_ok()) return written;
