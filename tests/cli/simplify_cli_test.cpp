@@ -106,6 +106,36 @@ TEST(SimplifyCli, FormatsFollowTheExtensionOrTheFlag) {
   EXPECT_NE(info.out.find("closed manifold        yes"), std::string::npos) << info.out;
 }
 
+// Decision (docs/cli.md): a face that names a vertex twice (or three times) has no surface; it
+// is left out, so the cow with such faces added gives the cow's bytes, in core (which counts
+// them in skipped_input_faces) and out of core.
+TEST(SimplifyCli, FacesWithARepeatedCornerAreLeftOut) {
+  ScratchDir dir, tmp;
+  std::string text = read_file(fixture("real/cow.off"));
+  std::smatch counts;
+  ASSERT_TRUE(std::regex_search(text, counts, std::regex("OFF\\s+(\\d+)\\s+(\\d+)")));
+  const long faces = std::stol(counts[2]);
+  std::string extra;
+  for (int i = 0; i < 40; ++i) extra += "3 " + std::to_string(i * 7) + " " + std::to_string(i * 7) + " " + std::to_string(i * 7 + 1) + "\n";
+  extra += "3 5 5 5\n";
+  text.replace(counts.position(2), counts.length(2), std::to_string(faces + 41));
+  if (text.back() != '\n') text += '\n';
+  write_file(dir.file("with-repeats.off"), text + extra);
+  for (const std::string& engine : {std::string(" --engine in-core"), " --memory 16M --tmp " + q(tmp.path().string())}) {
+    auto clean = run_command(binary() + " simplify " + q(fixture("real/cow.off")) + " -o " + q(dir.file("clean.drc")) + engine + " -q");
+    auto repeats = run_command(binary() + " simplify " + q(dir.file("with-repeats.off")) + " -o " + q(dir.file("repeats.drc")) +
+                               engine + " -q --report " + q(dir.file("r.json")));
+    ASSERT_EQ(clean.exit_code, 0) << clean.err;
+    ASSERT_EQ(repeats.exit_code, 0) << repeats.err;
+    EXPECT_EQ(read_file(dir.file("repeats.drc")), read_file(dir.file("clean.drc"))) << engine;
+    auto json = nlohmann::json::parse(read_file(dir.file("r.json")));
+    EXPECT_EQ(json["input_faces"], faces + 41) << engine;
+    if (engine == " --engine in-core") {
+      EXPECT_EQ(json["skipped_input_faces"], 41);
+    }
+  }
+}
+
 TEST(SimplifyCli, BadInputLeavesNothingBehind) {
   ScratchDir dir;
   for (const char* bad : {"bad/OutOfMemory.off", "bad/empty.ply", "bad/invalid.off", "bad/malformed2.obj", "bad/nan-vertex.ply", "bad/inf-vertex.ply"}) {
