@@ -47,7 +47,7 @@ ProgressFn MemoryGuard::noting_pass(ProgressFn progress) {
 void MemoryGuard::watch() {
   std::unique_lock lock(mutex_);
   while (!stop_.wait_for(lock, std::chrono::milliseconds(10), [this] { return stopping_; })) {
-    // The peak (getrusage: no /proc needed, as in a bare chroot) includes the current resident set.
+    // The peak since exec (stream::peak_rss) includes the current resident set.
     const std::uint64_t resident = peak_rss_bytes();
     if (resident <= limit_) continue;
     const char* pass = pass_[0] != '\0' ? pass_ : nullptr;

@@ -13,7 +13,23 @@
 
 namespace gaussmesh::stream {
 
+// VmHWM, the high-water mark of this process image's own memory: getrusage's ru_maxrss carries
+// over exec, so a process started by a large parent (a Python pipeline holding gigabytes) would
+// start with the parent's peak. getrusage only where /proc is missing (a bare chroot).
 std::uint64_t peak_rss() {
+  if (std::FILE* f = std::fopen("/proc/self/status", "re")) {
+    char line[256];
+    std::uint64_t kib = 0;
+    bool found = false;
+    while (std::fgets(line, sizeof line, f) != nullptr) {
+      if (std::sscanf(line, "VmHWM: %" SCNu64 " kB", &kib) == 1) {
+        found = true;
+        break;
+      }
+    }
+    std::fclose(f);
+    if (found) return kib * 1024;
+  }
   rusage usage{};
   return ::getrusage(RUSAGE_SELF, &usage) == 0 ? static_cast<std::uint64_t>(usage.ru_maxrss) * 1024 : 0;
 }

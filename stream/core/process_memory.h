@@ -6,7 +6,8 @@
 
 namespace gaussmesh::stream {
 
-// The process's peak RSS so far (getrusage), in bytes.
+// The process's peak RSS so far, in bytes: since its last exec (/proc/self/status VmHWM), or
+// getrusage's where /proc is missing (which carries a parent's peak over exec).
 std::uint64_t peak_rss();
 // The process's resident set now (0 where unknown).
 std::uint64_t current_rss();

@@ -5,9 +5,12 @@
 // the limit is refused with exit 5 and one line, before any output.
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -142,6 +145,34 @@ TEST(MemoryLimitCli, AnExplicitBudgetIsGuarded) {
   run = run_command(simplify_command(dir, sheet, "--engine in-core --memory 16M --ratio 0.5"));
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_GT(nlohmann::json::parse(read_file(dir.file("report.json")))["peak_rss_bytes"].get<std::uint64_t>(), std::uint64_t{52} << 20);
+}
+
+// A large parent does not count against the budget: the command is started by a process that
+// holds 384 MiB resident (a Python pipeline holding a mesh, say). getrusage's peak carries over
+// exec, so a guard that read it stopped this run at once with exit 5 ("410 MiB resident in the
+// ingest pass"); the peak since exec is the command's own.
+TEST(MemoryLimitCli, ALargeParentDoesNotCountAgainstTheBudget) {
+  ScratchDir dir;
+  const std::string tmp = dir.file("tmp");
+  std::filesystem::create_directory(tmp);
+  const std::string command = simplify_command(dir, fixture("real/cow.off"), "--engine out-of-core --memory 16M --tmp " + q(tmp));
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    const std::size_t bytes = std::size_t{384} << 20;
+    char* held = static_cast<char*>(std::malloc(bytes));
+    if (held == nullptr) std::_Exit(98);
+    std::memset(held, 1, bytes);  // resident
+    ::execl("/bin/sh", "sh", "-c", ("exec " + command).c_str(), static_cast<char*>(nullptr));
+    std::_Exit(99);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  const auto report = nlohmann::json::parse(read_file(dir.file("report.json")));
+  EXPECT_LT(report["peak_rss_bytes"].get<std::uint64_t>(), std::uint64_t{16 + 4 + 32} << 20);
+  EXPECT_TRUE(std::filesystem::is_empty(tmp));
 }
 
 }  // namespace
