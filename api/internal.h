@@ -64,6 +64,9 @@ Result<std::uint64_t> write_mesh(const Sink& sink, MeshView mesh, const DracoOpt
 // when that would pass `memory_limit` bytes (0: no limit).
 // What write_mesh_parts holds a face of the output when the sink needs the mesh whole (0: it streams).
 std::uint64_t whole_output_bytes_per_face(const Sink& sink);
+// What the process holds to write an output of `faces` faces gathered whole, with
+// `more_per_face` bytes a face beside what the sink needs, the process itself included.
+std::uint64_t whole_output_bytes(const Sink& sink, std::uint64_t faces, std::uint64_t more_per_face = 0);
 Result<std::uint64_t> write_mesh_parts(const Sink& sink, format::MeshParts& mesh, const DracoOptions& draco,
                                        std::uint64_t memory_limit);
 // A mesh delivered in parts, held whole.

@@ -91,10 +91,14 @@ void finish_report(Json& report, const stream::FinishOptions& o, const std::opti
   report["finish_seconds"] = {{"quadrics", f->seconds_quadrics}, {"collapses", f->seconds_decimate}};
 }
 
-// What the output holds a face while it takes its attributes out of core (its vertices, about
-// half as many as faces, with their attributes and the search's state), and the process itself.
+// What the output holds a face while it takes its attributes out of core: the gathered mesh
+// (18 bytes a face) and its vertices, about half as many as faces, with their attributes and
+// the search's state.
 constexpr std::uint64_t kAttributedBytesPerFace = 18 + 60;
-constexpr std::uint64_t kProcessBytes = std::uint64_t{20} << 20;
+
+Json output_attributes_json(const Mesh& mesh) {
+  return {{"normals", !mesh.normals.empty()}, {"colors", !mesh.colors.empty()}, {"texcoords", !mesh.texcoords.empty()}};
+}
 
 // One warning for the input's per-vertex values the reader did not understand, and one for the
 // attributes the run drops (the chunked finish's output), each naming what.
@@ -168,8 +172,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   const stream::NormalsMode normals = normals_mode(o.normals);
   if (result->parts && (result->attribute_spill || normals == stream::NormalsMode::kCompute)) {
     // The chunked finish's output, gathered to take its attributes when that fits the budget.
-    const std::uint64_t need = result->parts->face_count() * (kAttributedBytesPerFace + api::whole_output_bytes_per_face(sink)) +
-                               kProcessBytes;
+    const std::uint64_t need = api::whole_output_bytes(sink, result->parts->face_count(), kAttributedBytesPerFace);
     if (options.memory_explicit && need > options.memory.bytes()) {
       dropped = result->input_attributes;
     } else {
@@ -179,14 +182,11 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
       result->parts.reset();
     }
   }
-  if (result->parts) {
-    // Streamed as it is read back: without attributes.
-  } else if (result->attribute_spill) {
-    const stream::VertexAttributeSpill& spill = *result->attribute_spill;
-    GM_RETURN_IF_ERROR(stream::transfer_nearest_vertex([&spill](const stream::VertexBatchFn& batch) { return spill.each(batch); },
-                                                       spill.kinds(), result->mesh, normals));
-  } else if (normals == stream::NormalsMode::kCompute) {
-    result->mesh.normals = stream::vertex_normals(result->mesh.view());
+  if (!result->parts) {  // else it streams as it is read back, without attributes
+    const stream::VertexAttributeSpill* spill = result->attribute_spill.get();
+    GM_RETURN_IF_ERROR(stream::transfer_nearest_vertex(
+        [spill](const stream::VertexBatchFn& batch) { return spill ? spill->each(batch) : Status(); },
+        spill ? spill->kinds() : format::AttributeKinds{}, result->mesh, normals));
   }
   result->attribute_spill.reset();  // and its file
   const double seconds_attributes = seconds_since(t);
@@ -219,9 +219,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   result->seconds_cleanup += seconds_since(t);
   finish_report(report, result->finish_options, result->finish, stats);
   if (result->finish) report["approximation"] = result->collapsed_input ? "input" : "gauss";
-  report["output_attributes"] = {{"normals", !result->mesh.normals.empty()},
-                                 {"colors", !result->mesh.colors.empty()},
-                                 {"texcoords", !result->mesh.texcoords.empty()}};
+  report["output_attributes"] = output_attributes_json(result->mesh);
   report["warnings"] = stats.warnings;
   report["merged_patches"] = result->merged_patches;
   report["merge_rounds"] = result->merge_rounds;
@@ -303,17 +301,21 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   const bool weld = stream::should_weld(stream_weld(o.weld), mesh->view.positions.size(), mesh->view.triangles.size());
   const bool reordered = weld || probe.scattered(mesh->view.positions.size());
   const bool has_attributes = !mesh->view.normals.empty() || !mesh->view.colors.empty() || !mesh->view.texcoords.empty();
-  // The attributes are taken from the input as read (a copy of it when the renumbering below
-  // rewrites it): the transfer needs its surface, not its numbering.
+  // The attributes are taken from the input as read (a copy of its positions and faces when the
+  // renumbering below rewrites them, beside its attributes, which the renumbered mesh does not
+  // keep): the transfer needs its surface, not its numbering.
   stream::Mesh as_read;
   std::uint64_t welded = 0;
   if (reordered) {
     if (has_attributes) {
       as_read.positions.assign(mesh->view.positions.begin(), mesh->view.positions.end());
       as_read.triangles.assign(mesh->view.triangles.begin(), mesh->view.triangles.end());
-      as_read.normals.assign(mesh->view.normals.begin(), mesh->view.normals.end());
-      as_read.colors.assign(mesh->view.colors.begin(), mesh->view.colors.end());
-      as_read.texcoords.assign(mesh->view.texcoords.begin(), mesh->view.texcoords.end());
+      auto take = [](auto& owned, auto view) {
+        return owned.empty() ? std::vector(view.begin(), view.end()) : std::move(owned);
+      };
+      as_read.normals = take(mesh->owned.normals, mesh->view.normals);
+      as_read.colors = take(mesh->owned.colors, mesh->view.colors);
+      as_read.texcoords = take(mesh->owned.texcoords, mesh->view.texcoords);
     }
     if (mesh->owned.positions.empty() && mesh->owned.triangles.empty()) {
       mesh->owned.positions.assign(mesh->view.positions.begin(), mesh->view.positions.end());
@@ -398,9 +400,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
                               result->orientation_index, *bytes);
   finish_report(report, finish, finished, stats);
   if (finished) report["approximation"] = collapsed_input ? "input" : "gauss";
-  report["output_attributes"] = {{"normals", !result->mesh.normals.empty()},
-                                 {"colors", !result->mesh.colors.empty()},
-                                 {"texcoords", !result->mesh.texcoords.empty()}};
+  report["output_attributes"] = output_attributes_json(result->mesh);
   report["warnings"] = stats.warnings;
   if (measured) {
     stats.measured = true;

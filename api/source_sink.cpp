@@ -221,6 +221,10 @@ std::uint64_t whole_output_bytes_per_face(const Sink& sink) {
   return kind == OutputFormat::kAuto || kind == OutputFormat::kDraco ? kGatheredBytesPerFace + kDracoBytesPerFace : 0;
 }
 
+std::uint64_t whole_output_bytes(const Sink& sink, std::uint64_t faces, std::uint64_t more_per_face) {
+  return faces * (whole_output_bytes_per_face(sink) + more_per_face) + kProcessBytes;
+}
+
 Result<std::uint64_t> write_mesh_parts(const Sink& sink, format::MeshParts& mesh, const DracoOptions& draco,
                                        std::uint64_t memory_limit) {
   const OutputFormat kind = sink.kind == Sink::Kind::kMemory ? OutputFormat::kAuto : sink.resolved_format();
@@ -234,8 +238,7 @@ Result<std::uint64_t> write_mesh_parts(const Sink& sink, format::MeshParts& mesh
     GM_RETURN_IF_ERROR((*out)->commit());
     return (*out)->bytes_written();
   }
-  const std::uint64_t need =
-      mesh.face_count() * whole_output_bytes_per_face(sink) + kProcessBytes;
+  const std::uint64_t need = whole_output_bytes(sink, mesh.face_count());
   if (memory_limit > 0 && need > memory_limit) {
     return Status::error(Code::kResources, "--memory",
                          std::string("the output's ") + std::to_string(mesh.face_count()) + " faces need about " +

@@ -68,13 +68,6 @@ Result<std::unique_ptr<draco::Mesh>> decode(const std::vector<char>& bytes, cons
   return std::move(decoded).value();
 }
 
-bool finite(const VertexAttributes& a) {
-  for (float v : {a.normal.x, a.normal.y, a.normal.z, a.color.r, a.color.g, a.color.b, a.color.a, a.texcoord.u, a.texcoord.v}) {
-    if (!std::isfinite(v)) return false;
-  }
-  return true;
-}
-
 Status deliver(const draco::Mesh& mesh, const ByteSource& source, const ReadOptions& options, MeshSink& sink) {
   const draco::PointAttribute* position = mesh.GetNamedAttribute(draco::GeometryAttribute::POSITION);
   if (position == nullptr || position->num_components() < 3) {
@@ -115,7 +108,7 @@ Status deliver(const draco::Mesh& mesh, const ByteSource& source, const ReadOpti
     if (!position->ConvertValue<float, 3>(position->mapped_index(point), xyz)) {
       return Status::error(Code::kBadInput, source.name(), "Draco: point " + std::to_string(i) + " has no position");
     }
-    if (!std::isfinite(xyz[0]) || !std::isfinite(xyz[1]) || !std::isfinite(xyz[2])) {
+    if (!is_finite(Vec3f{xyz[0], xyz[1], xyz[2]})) {
       return Status::error(Code::kBadInput, source.name(), "Draco: point " + std::to_string(i) + " has a coordinate that is not a finite number");
     }
     VertexAttributes attributes;
@@ -128,7 +121,7 @@ Status deliver(const draco::Mesh& mesh, const ByteSource& source, const ReadOpti
                           color->num_components() == 4 ? float(rgba[3] / color_divisor) : 1.0f};
     }
     if (texcoord != nullptr) converted &= texcoord->ConvertValue<float, 2>(texcoord->mapped_index(point), &attributes.texcoord.u);
-    if (!converted || !finite(attributes)) {
+    if (!converted || !is_finite(attributes)) {
       return Status::error(Code::kBadInput, source.name(),
                            "Draco: point " + std::to_string(i) + " has a normal, colour or texture coordinate it cannot convert to finite numbers");
     }

@@ -15,7 +15,8 @@ namespace gaussmesh::format {
 class MeshBatcher {
  public:
   // Memory: batch_size vertices and batch_size triangles, whatever the input.
-  // with_attributes: the header announced attributes; every vertex then comes with its own.
+  // with_attributes: the header announced attributes; every vertex then comes with its own (an
+  // add_vertex with attributes when there are none drops them).
   MeshBatcher(MeshSink& sink, size_t batch_size, bool with_attributes = false)
       : sink_(sink), batch_size_(std::max<size_t>(batch_size, 1)), with_attributes_(with_attributes) {
     vertices_.reserve(batch_size_);

@@ -2,6 +2,7 @@
 // triangles. Readers never hold the whole mesh; a sink decides what to keep.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <optional>
 #include <span>
@@ -27,6 +28,13 @@ struct VertexAttributes {
   Color color;
   Vec2f texcoord;
 };
+
+// Whether every value is a finite number (readers refuse a vertex with a NaN or an infinity).
+inline bool is_finite(const Vec3f& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
+inline bool is_finite(const VertexAttributes& a) {
+  return is_finite(a.normal) && std::isfinite(a.color.r) && std::isfinite(a.color.g) && std::isfinite(a.color.b) &&
+         std::isfinite(a.color.a) && std::isfinite(a.texcoord.u) && std::isfinite(a.texcoord.v);
+}
 
 struct MeshHeader {
   MeshFormat format = MeshFormat::kUnknown;

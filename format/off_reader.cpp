@@ -182,7 +182,7 @@ class OffReader {
           return source_.bad_at_line("vertex " + std::to_string(i) + ": x/w, y/w, z/w overflow");
         }
       }
-      GM_RETURN_IF_ERROR(header_.attributes.any() ? batcher_.add_vertex(p, attributes) : batcher_.add_vertex(p));
+      GM_RETURN_IF_ERROR(batcher_.add_vertex(p, attributes));
     }
     return {};
   }

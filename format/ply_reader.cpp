@@ -87,16 +87,13 @@ struct Header {
   size_t face_element = SIZE_MAX;
   size_t xyz[3] = {0, 0, 0};  // property indices of x, y, z in the vertex element
   size_t face_list = 0;       // property index of vertex_indices in the face element
-  // The vertex properties read as attributes: property index, channel, and what the stored
-  // value is divided by for the channel's (an 8-bit colour channel c is c / 255).
-  struct AttributeProperty {
-    size_t property = 0;
-    int channel = 0;  // kChannel*
+  // Per vertex property: the attribute channel it fills (kChannel*, -1 for none) and what the
+  // stored value is divided by for the channel's (an 8-bit colour channel c is c / 255).
+  struct VertexChannel {
+    int channel = -1;
     double divisor = 1;
   };
-  std::vector<AttributeProperty> attribute_properties;
-  std::vector<int> channel_of_property;  // per vertex property: its channel, or -1
-  std::vector<double> divisor_of_property;
+  std::vector<VertexChannel> vertex_channels;
   AttributeKinds attributes;
   std::vector<std::string> ignored;  // other vertex properties, by name
 };
@@ -163,8 +160,6 @@ bool parse_number(std::string_view token, T& value) {
   auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
   return ec == std::errc() && end == token.data() + token.size();
 }
-
-bool is_finite(const Vec3f& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
 
 std::string not_finite_message(uint64_t vertex) {
   return "vertex " + std::to_string(vertex) + " has a coordinate that is not a finite number";
@@ -438,44 +433,27 @@ class PlyReader {
     kinds.normals = all(kNormalX, kNormalZ);
     kinds.colors = all(kRed, kBlue);
     kinds.texcoords = all(kTextureU, kTextureV);
-    std::vector<bool> used(vertex.properties.size(), false);
-    for (size_t axis : header_.xyz) used[axis] = true;
+    std::vector<Header::VertexChannel>& channels = header_.vertex_channels;
+    channels.assign(vertex.properties.size(), {});
     auto take = [&](int first, int last) {
       for (int c = first; c <= last; ++c) {
         const size_t p = property_of[c];
         if (p == SIZE_MAX) continue;
         const Scalar type = vertex.properties[p].type;
-        const double divisor = type == Scalar::kUint8 ? 255 : type == Scalar::kUint16 ? 65535 : 1;
-        header_.attribute_properties.push_back({p, c, divisor});
-        used[p] = true;
+        channels[p] = {c, type == Scalar::kUint8 ? 255.0 : type == Scalar::kUint16 ? 65535.0 : 1.0};
       }
     };
     if (kinds.normals) take(kNormalX, kNormalZ);
     if (kinds.colors) take(kRed, kAlpha);
     if (kinds.texcoords) take(kTextureU, kTextureV);
     for (size_t p = 0; p < vertex.properties.size(); ++p) {
-      if (!used[p]) header_.ignored.push_back(vertex.properties[p].name);
-    }
-    header_.channel_of_property.assign(vertex.properties.size(), -1);
-    header_.divisor_of_property.assign(vertex.properties.size(), 1.0);
-    for (const Header::AttributeProperty& a : header_.attribute_properties) {
-      header_.channel_of_property[a.property] = a.channel;
-      header_.divisor_of_property[a.property] = a.divisor;
+      const bool position = p == header_.xyz[0] || p == header_.xyz[1] || p == header_.xyz[2];
+      if (!position && channels[p].channel < 0) header_.ignored.push_back(vertex.properties[p].name);
     }
   }
 
   std::string bad_attribute_message(uint64_t vertex) const {
     return "vertex " + std::to_string(vertex) + " has a normal, colour or texture coordinate that is not a finite number";
-  }
-
-  // Refuses a vertex whose attributes hold a NaN or an infinity.
-  static bool finite(const VertexAttributes& a) {
-    const float values[] = {a.normal.x, a.normal.y, a.normal.z, a.color.r, a.color.g,
-                            a.color.b,  a.color.a,  a.texcoord.u, a.texcoord.v};
-    for (float v : values) {
-      if (!std::isfinite(v)) return false;
-    }
-    return true;
   }
 
   // ---- batches --------------------------------------------------------------------------
@@ -620,10 +598,9 @@ class PlyReader {
       double divisor;
     };
     std::vector<Slot> slots;
-    for (const Header::AttributeProperty& a : header_.attribute_properties) {
-      size_t at = 0;
-      for (size_t p = 0; p < a.property; ++p) at += scalar_size(element.properties[p].type);
-      slots.push_back({at, element.properties[a.property].type, a.channel, a.divisor});
+    for (size_t p = 0, at = 0; p < element.properties.size(); at += scalar_size(element.properties[p].type), ++p) {
+      const Header::VertexChannel& c = header_.vertex_channels[p];
+      if (c.channel >= 0) slots.push_back({at, element.properties[p].type, c.channel, c.divisor});
     }
     uint64_t done = 0;
     while (done < element.count) {
@@ -653,7 +630,7 @@ class PlyReader {
           for (const Slot& slot : slots) {
             set_channel(a, slot.channel, static_cast<float>(load_real<kSwap>(record + slot.offset, slot.type) / slot.divisor));
           }
-          if (!finite(a)) {
+          if (!is_finite(a)) {
             return Status::error(Code::kBadInput, source_.at_byte(source_.offset() + i * size), bad_attribute_message(done + i));
           }
           attributes_[vertex_fill_ + i] = a;
@@ -731,9 +708,8 @@ class PlyReader {
           for (int axis = 0; axis < 3; ++axis) {
             if (header_.xyz[axis] == p) xyz[axis] = static_cast<float>(load_real<kSwap>(source_.cursor(), property.type));
           }
-          if (header_.channel_of_property[p] >= 0) {
-            set_channel(attributes, header_.channel_of_property[p],
-                        static_cast<float>(load_real<kSwap>(source_.cursor(), property.type) / header_.divisor_of_property[p]));
+          if (const Header::VertexChannel& c = header_.vertex_channels[p]; c.channel >= 0) {
+            set_channel(attributes, c.channel, static_cast<float>(load_real<kSwap>(source_.cursor(), property.type) / c.divisor));
           }
         }
         source_.advance(item);
@@ -773,7 +749,7 @@ class PlyReader {
     if (is_vertex) {
       const Vec3f position{xyz[0], xyz[1], xyz[2]};
       if (!is_finite(position)) return Status::error(Code::kBadInput, source_.at_byte(start), not_finite_message(record));
-      if (!finite(attributes)) return Status::error(Code::kBadInput, source_.at_byte(start), bad_attribute_message(record));
+      if (!is_finite(attributes)) return Status::error(Code::kBadInput, source_.at_byte(start), bad_attribute_message(record));
       if (!attributes_.empty()) attributes_[vertex_fill_] = attributes;
       vertices_[vertex_fill_++] = position;
       if (vertex_fill_ == batch_size_) GM_RETURN_IF_ERROR(flush_vertices());
@@ -835,12 +811,12 @@ class PlyReader {
                 return ascii_error(element, record, "bad number " + quote(token) + " for " + property.name);
               }
             }
-            if (header_.channel_of_property[p] >= 0) {
+            if (const Header::VertexChannel& c = header_.vertex_channels[p]; c.channel >= 0) {
               double value = 0;
               if (!parse_number(token, value)) {
                 return ascii_error(element, record, "bad number " + quote(token) + " for " + property.name);
               }
-              set_channel(attributes, header_.channel_of_property[p], static_cast<float>(value / header_.divisor_of_property[p]));
+              set_channel(attributes, c.channel, static_cast<float>(value / c.divisor));
             }
           }
           continue;
@@ -874,7 +850,7 @@ class PlyReader {
       if (is_vertex) {
         const Vec3f position{xyz[0], xyz[1], xyz[2]};
         if (!is_finite(position)) return source_.bad_at_line(not_finite_message(record));
-        if (!finite(attributes)) return source_.bad_at_line(bad_attribute_message(record));
+        if (!is_finite(attributes)) return source_.bad_at_line(bad_attribute_message(record));
         if (!attributes_.empty()) attributes_[vertex_fill_] = attributes;
         vertices_[vertex_fill_++] = position;
         if (vertex_fill_ == batch_size_) GM_RETURN_IF_ERROR(flush_vertices());

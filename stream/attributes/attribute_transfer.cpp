@@ -45,8 +45,7 @@ void lower(std::atomic<std::uint64_t>& slot, std::uint64_t word) {
 // box, grown by the search radius, overlaps.
 class VertexGrid {
  public:
-  VertexGrid(const std::vector<Vec3f>& positions, const std::vector<std::uint32_t>& chosen, double cell)
-      : positions_(positions), cell_(cell) {
+  VertexGrid(const std::vector<Vec3f>& positions, const std::vector<std::uint32_t>& chosen, double cell) : cell_(cell) {
     lo_ = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
            std::numeric_limits<double>::infinity()};
     for (std::uint32_t v : chosen) {
@@ -111,12 +110,17 @@ class VertexGrid {
     return (std::uint64_t(c[0] + 1048576) << 42) | (std::uint64_t(c[1] + 1048576) << 21) | std::uint64_t(c[2] + 1048576);
   }
 
-  const std::vector<Vec3f>& positions_;
   double cell_;
   Vec3d lo_;
   std::unordered_map<std::uint64_t, std::pair<std::uint32_t, std::uint32_t>> cells_;
   std::vector<std::uint32_t> vertices_, all_;
 };
+
+Vec3f normalised(double x, double y, double z) {
+  const double length = std::sqrt(x * x + y * y + z * z);
+  if (!(length > 0)) return {0, 0, 1};
+  return {float(x / length), float(y / length), float(z / length)};
+}
 
 // Output vertices' cell size: about two output vertices per occupied cell, from the output's area.
 double grid_cell(const std::vector<Vec3f>& positions, const std::vector<Triangle>& triangles) {
@@ -128,6 +132,40 @@ double grid_cell(const std::vector<Vec3f>& positions, const std::vector<Triangle
   }
   const double cell = std::sqrt(2 * area / double(std::max<std::size_t>(positions.size(), 1)));
   return cell > 0 && std::isfinite(cell) ? cell : 1;
+}
+
+// Rounds of a search from the output's vertices, each over the whole input with a search radius:
+// round(grid, radius) visits the input against a grid of the vertices still open, and a vertex
+// for which found(v) holds after a round is done. The first radius is a quarter of a grid cell
+// (of about the output's vertex spacing): the input's elements then mostly meet one cell, and
+// the output's distance to the input rarely passes it; each further round doubles it.
+template <class Round, class Found>
+format::Status search_rounds(const std::vector<Vec3f>& positions, const std::vector<Triangle>& triangles, Round&& round,
+                             Found&& found) {
+  const double cell = grid_cell(positions, triangles);
+  std::vector<std::uint32_t> open(positions.size());
+  for (std::size_t v = 0; v < open.size(); ++v) open[v] = std::uint32_t(v);
+  for (double radius = cell / 4; !open.empty() && std::isfinite(radius); radius *= 2) {
+    GM_RETURN_IF_ERROR(round(VertexGrid(positions, open, cell), radius));
+    std::erase_if(open, found);
+  }
+  return {};
+}
+
+// Writes the values found for each output vertex (normals already unit length) into its arrays:
+// the kinds the input has, normals by `normals`.
+void assign(const std::vector<format::VertexAttributes>& values, const format::AttributeKinds& kinds, NormalsMode normals,
+            Mesh& output) {
+  const bool take_normals = normals == NormalsMode::kKeep && kinds.normals;
+  output.normals.clear();
+  output.colors.clear();
+  output.texcoords.clear();
+  for (const format::VertexAttributes& a : values) {
+    if (take_normals) output.normals.push_back(a.normal);
+    if (kinds.colors) output.colors.push_back(a.color);
+    if (kinds.texcoords) output.texcoords.push_back(a.texcoord);
+  }
+  if (normals == NormalsMode::kCompute) output.normals = vertex_normals(output.view());
 }
 
 // Barycentric weights of q, a point of triangle (a, b, c), by the sub-triangles' areas along
@@ -149,29 +187,14 @@ std::array<double, 3> barycentric(const Vec3d& q, const Vec3d& a, const Vec3d& b
   return {wa / sum, wb / sum, wc / sum};
 }
 
-Vec3f normalised(double x, double y, double z) {
-  const double length = std::sqrt(x * x + y * y + z * z);
-  if (!(length > 0)) return {0, 0, 1};
-  return {float(x / length), float(y / length), float(z / length)};
-}
-
-// Each output vertex's nearest input triangle. Passes over the input's triangles, each taking
-// only triangles within its radius of a vertex: a vertex that found one has its nearest (a
-// nearer triangle is within the radius too, and its box grown by the radius holds the vertex);
-// the others go to the next pass, at twice the radius. The first radius is a quarter of a grid
-// cell (of about the output's vertex spacing): most triangles' grown boxes then meet one cell,
-// and the output's distance to the input rarely passes it.
-std::vector<std::uint64_t> nearest_triangles(format::MeshView input, const std::vector<Vec3f>& positions,
-                                             const std::vector<Triangle>& output_triangles) {
-  const std::size_t n = positions.size();
-  const double cell = grid_cell(positions, output_triangles);
-  std::vector<std::atomic<std::uint64_t>> best(n);
+// Each output vertex's nearest input triangle. A round takes only triangles within its radius of
+// a vertex: a vertex that found one has its nearest (a nearer triangle is within the radius too,
+// and its box grown by the radius holds the vertex).
+std::vector<std::uint64_t> nearest_triangles(format::MeshView input, const Mesh& output) {
+  const std::vector<Vec3f>& positions = output.positions;
+  std::vector<std::atomic<std::uint64_t>> best(positions.size());
   for (auto& b : best) b.store(kNone, std::memory_order_relaxed);
-  std::vector<std::uint32_t> open(n);
-  for (std::size_t v = 0; v < n; ++v) open[v] = std::uint32_t(v);
-  double radius = cell / 4;
-  while (!open.empty()) {
-    const VertexGrid grid(positions, open, cell);
+  auto round = [&](const VertexGrid& grid, double radius) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, input.triangles.size(), 4096),
                       [&](const tbb::blocked_range<std::size_t>& range) {
                         VertexGrid::Cursor cursor;
@@ -194,15 +217,12 @@ std::vector<std::uint64_t> nearest_triangles(format::MeshView input, const std::
                           });
                         }
                       });
-    std::vector<std::uint32_t> still;
-    for (std::uint32_t v : open) {
-      if (best[v].load(std::memory_order_relaxed) == kNone) still.push_back(v);
-    }
-    open.swap(still);
-    radius *= 2;
-  }
-  std::vector<std::uint64_t> out(n);
-  for (std::size_t v = 0; v < n; ++v) out[v] = best[v].load(std::memory_order_relaxed);
+    return format::Status();
+  };
+  (void)search_rounds(positions, output.triangles, round,
+                      [&](std::uint32_t v) { return best[v].load(std::memory_order_relaxed) != kNone; });
+  std::vector<std::uint64_t> out(positions.size());
+  for (std::size_t v = 0; v < out.size(); ++v) out[v] = best[v].load(std::memory_order_relaxed);
   return out;
 }
 
@@ -226,24 +246,13 @@ std::vector<Vec3f> vertex_normals(format::MeshView mesh) {
 
 format::Status transfer_nearest_vertex(const VertexPassFn& pass, const format::AttributeKinds& kinds, Mesh& output,
                                        NormalsMode normals) {
-  const bool take_normals = normals == NormalsMode::kKeep && kinds.normals;
-  const std::size_t n = output.positions.size();
-  output.normals.clear();
-  output.colors.clear();
-  output.texcoords.clear();
-  if (take_normals || kinds.colors || kinds.texcoords) {
-    const double cell = grid_cell(output.positions, output.triangles);
-    std::vector<double> best(n, std::numeric_limits<double>::infinity());
-    std::vector<format::VertexAttributes> values(n);
-    std::vector<std::uint32_t> open(n);
-    for (std::size_t v = 0; v < n; ++v) open[v] = std::uint32_t(v);
-    // The first radius finds vertices that are input vertices (distance 0) and most moved ones.
-    double radius = cell / 4;
-    while (!open.empty()) {
-      const VertexGrid grid(output.positions, open, cell);
+  std::vector<format::VertexAttributes> values(output.positions.size());
+  if (kinds.any()) {
+    std::vector<double> best(output.positions.size(), std::numeric_limits<double>::infinity());
+    auto round = [&](const VertexGrid& grid, double radius) {
       VertexGrid::Cursor cursor;
       // Input order, strictly nearer only: the first among equally near input vertices wins.
-      GM_RETURN_IF_ERROR(pass([&](std::span<const Vec3f> points, std::span<const format::VertexAttributes> attributes) {
+      return pass([&](std::span<const Vec3f> points, std::span<const format::VertexAttributes> attributes) {
         for (std::size_t i = 0; i < points.size(); ++i) {
           const Vec3d q = to_d(points[i]);
           grid.near(q, q, radius, cursor, [&](std::uint32_t v) {
@@ -253,77 +262,50 @@ format::Status transfer_nearest_vertex(const VertexPassFn& pass, const format::A
           });
         }
         return format::Status();
-      }));
-      std::vector<std::uint32_t> still;
-      for (std::uint32_t v : open) {
-        if (!std::isfinite(best[v])) still.push_back(v);
-      }
-      if (still.size() == open.size() && radius > 1e300) break;  // an input without vertices
-      open.swap(still);
-      radius *= 2;
-    }
-    if (take_normals) output.normals.resize(n);
-    if (kinds.colors) output.colors.resize(n);
-    if (kinds.texcoords) output.texcoords.resize(n);
-    for (std::size_t v = 0; v < n; ++v) {
-      const format::VertexAttributes& a = values[v];
-      if (take_normals) output.normals[v] = normalised(a.normal.x, a.normal.y, a.normal.z);
-      if (kinds.colors) output.colors[v] = a.color;
-      if (kinds.texcoords) output.texcoords[v] = a.texcoord;
-    }
+      });
+    };
+    GM_RETURN_IF_ERROR(search_rounds(output.positions, output.triangles, round,
+                                     [&](std::uint32_t v) { return std::isfinite(best[v]); }));
+    for (format::VertexAttributes& a : values) a.normal = normalised(a.normal.x, a.normal.y, a.normal.z);
   }
-  if (normals == NormalsMode::kCompute) output.normals = vertex_normals(output.view());
+  assign(values, kinds, normals, output);
   return {};
 }
 
 void transfer_attributes(format::MeshView input, Mesh& output, NormalsMode normals) {
-  const bool take_normals = normals == NormalsMode::kKeep && !input.normals.empty();
-  const bool take_colors = !input.colors.empty(), take_texcoords = !input.texcoords.empty();
-  const std::size_t n = output.positions.size();
-  output.normals.clear();
-  output.colors.clear();
-  output.texcoords.clear();
-  if ((take_normals || take_colors || take_texcoords) && !input.triangles.empty()) {
-    if (take_normals) output.normals.resize(n);
-    if (take_colors) output.colors.resize(n);
-    if (take_texcoords) output.texcoords.resize(n);
-    const std::vector<std::uint64_t> nearest = nearest_triangles(input, output.positions, output.triangles);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& range) {
+  const bool surface = !input.triangles.empty();
+  const format::AttributeKinds kinds{surface && !input.normals.empty(), surface && !input.colors.empty(),
+                                     surface && !input.texcoords.empty()};
+  std::vector<format::VertexAttributes> values(output.positions.size());
+  if (kinds.any()) {
+    const std::vector<std::uint64_t> nearest = nearest_triangles(input, output);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, values.size(), 1024), [&](const tbb::blocked_range<std::size_t>& range) {
       for (std::size_t v = range.begin(); v < range.end(); ++v) {
-        const Vec3d p = to_d(output.positions[v]);
         const Triangle& t = input.triangles[static_cast<std::uint32_t>(nearest[v])];
         const Vec3d a = to_d(input.positions[t.v[0]]), b = to_d(input.positions[t.v[1]]), c = to_d(input.positions[t.v[2]]);
         Vec3d q;
-        point_triangle_distance_squared(p, a, b, c, &q);
+        point_triangle_distance_squared(to_d(output.positions[v]), a, b, c, &q);
         const std::array<double, 3> w = barycentric(q, a, b, c);
-        if (take_normals) {
-          double x = 0, y = 0, z = 0;
-          for (int k = 0; k < 3; ++k) {
-            const Vec3f& m = input.normals[t.v[k]];
-            x += w[k] * m.x, y += w[k] * m.y, z += w[k] * m.z;
+        // The corners' values weighted in double, rounded once.
+        double sum[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+        for (int k = 0; k < 3; ++k) {
+          const std::uint32_t corner = t.v[k];
+          if (kinds.normals) {
+            const Vec3f& m = input.normals[corner];
+            sum[0] += w[k] * m.x, sum[1] += w[k] * m.y, sum[2] += w[k] * m.z;
           }
-          output.normals[v] = normalised(x, y, z);
-        }
-        if (take_colors) {
-          double rgba[4] = {0, 0, 0, 0};
-          for (int k = 0; k < 3; ++k) {
-            const Color& m = input.colors[t.v[k]];
-            rgba[0] += w[k] * m.r, rgba[1] += w[k] * m.g, rgba[2] += w[k] * m.b, rgba[3] += w[k] * m.a;
+          if (kinds.colors) {
+            const Color& m = input.colors[corner];
+            sum[3] += w[k] * m.r, sum[4] += w[k] * m.g, sum[5] += w[k] * m.b, sum[6] += w[k] * m.a;
           }
-          output.colors[v] = {float(rgba[0]), float(rgba[1]), float(rgba[2]), float(rgba[3])};
+          if (kinds.texcoords) sum[7] += w[k] * input.texcoords[corner].u, sum[8] += w[k] * input.texcoords[corner].v;
         }
-        if (take_texcoords) {
-          double u = 0, s = 0;
-          for (int k = 0; k < 3; ++k) {
-            u += w[k] * input.texcoords[t.v[k]].u;
-            s += w[k] * input.texcoords[t.v[k]].v;
-          }
-          output.texcoords[v] = {float(u), float(s)};
-        }
+        values[v] = {normalised(sum[0], sum[1], sum[2]), {float(sum[3]), float(sum[4]), float(sum[5]), float(sum[6])},
+                     {float(sum[7]), float(sum[8])}};
       }
     });
   }
-  if (normals == NormalsMode::kCompute) output.normals = vertex_normals(output.view());
+  assign(values, kinds, normals, output);
 }
 
 }  // namespace gaussmesh::stream
