@@ -33,6 +33,7 @@ api::Json report_json(const MeshInfo& i) {
   j["bounds"] = {{"min", vec_json(i.bounds_min)}, {"max", vec_json(i.bounds_max)}, {"diagonal", i.diagonal}};
   j["attributes"] = {{"normals", i.normals}, {"colors", i.colors}, {"texcoords", i.texcoords}};
   j["ignored_vertex_values"] = i.ignored_vertex_values;
+  j["warnings"] = i.warnings;
   j["peak_rss_bytes"] = i.peak_rss_bytes;
   j["seconds"] = {{"read", i.seconds_read}, {"analyse", i.seconds_analyse}};
   return j;
@@ -84,6 +85,7 @@ Result<MeshInfo> info_job(const Source& source) {
   i.colors = !view.colors.empty();
   i.texcoords = !view.texcoords.empty();
   i.ignored_vertex_values = mesh->ignored_vertex_values;
+  i.warnings = mesh->input_warnings;
   i.seconds_read = read_s;
   i.seconds_analyse = stream::seconds_since(t1);
   i.peak_rss_bytes = peak_rss_bytes();

@@ -46,6 +46,7 @@ struct LoadedMesh {
   MeshView view;
   MeshFormat format = MeshFormat::kUnknown;  // as read (kUnknown for a mesh in memory)
   std::vector<std::string> ignored_vertex_values;  // what the reader did not deliver (MeshSink::on_ignored)
+  std::vector<std::string> input_warnings;         // what the reader skipped (MeshSink::on_warning)
 };
 // weld_stl, memory_limit: format::ReadOptions's (0: no limit; an in-core run passes an explicit
 // --memory, so that a Draco input whose decode cannot fit is refused before it is decoded).

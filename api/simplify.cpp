@@ -100,10 +100,12 @@ Json output_attributes_json(const Mesh& mesh) {
   return {{"normals", !mesh.normals.empty()}, {"colors", !mesh.colors.empty()}, {"texcoords", !mesh.texcoords.empty()}};
 }
 
-// One warning for the input's per-vertex values the reader did not understand, and one for the
-// attributes the run drops (the chunked finish's output), each naming what.
-std::vector<std::string> value_warnings(const std::vector<std::string>& ignored, const format::AttributeKinds& dropped) {
-  std::vector<std::string> warnings;
+// The reader's own warnings (what it skipped), one for the input's per-vertex values it did not
+// understand, and one for the attributes the run drops (the chunked finish's output), each
+// naming what.
+std::vector<std::string> input_warnings(const std::vector<std::string>& skipped, const std::vector<std::string>& ignored,
+                                        const format::AttributeKinds& dropped) {
+  std::vector<std::string> warnings = skipped;
   if (!ignored.empty()) {
     std::string names;
     for (const std::string& name : ignored) names += (names.empty() ? "" : ", ") + name;
@@ -207,7 +209,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   stats.samples = result->samples;
   stats.out_of_core = true;
   stats.memory_bytes = memory;
-  stats.warnings = value_warnings(result->ignored_vertex_values, dropped);
+  stats.warnings = input_warnings(result->input_warnings, result->ignored_vertex_values, dropped);
   stats.chunks = result->chunks;
   stats.peak_rss_bytes = peak_rss_bytes();
   stats.seconds = seconds_since(started);
@@ -391,7 +393,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   stats.output_bytes = *bytes;
   stats.samples = result->samples;
   stats.chunks = 1;
-  stats.warnings = value_warnings(mesh->ignored_vertex_values, {});
+  stats.warnings = input_warnings(mesh->input_warnings, mesh->ignored_vertex_values, {});
   stats.peak_rss_bytes = peak_rss_bytes();
   stats.seconds = seconds_since(started);
 

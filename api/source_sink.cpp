@@ -163,6 +163,7 @@ Result<LoadedMesh> load(const Source& source, bool weld_stl, std::uint64_t memor
   }
   loaded.format = builder.header().format;
   loaded.ignored_vertex_values = builder.ignored();
+  loaded.input_warnings = builder.warnings();
   loaded.owned = builder.take();
   loaded.view = loaded.owned.view();
   return loaded;

@@ -76,6 +76,11 @@ int run_info(const InfoOptions& options) {
   }
   auto mesh_info = info(Source::file(options.input, format));
   if (!mesh_info) return report_error(mesh_info.status());
+  if (verbosity() >= 1) {
+    for (const std::string& warning : mesh_info->warnings) {
+      std::fprintf(stderr, "gaussmesh: %s: warning: %s\n", options.input == "-" ? "<stdin>" : options.input.c_str(), warning.c_str());
+    }
+  }
   // With --report -, standard output carries the JSON only.
   if (options.common.report != "-") print_summary(*mesh_info);
   if (verbosity() >= 2) {

@@ -52,6 +52,48 @@ std::string_view first_keyword(std::string_view head) {
   return {};
 }
 
+// A text encoding the readers do not take: UTF-32 or UTF-16 by their byte-order marks, or UTF-16
+// without one (every other byte zero, the others ASCII text, over the first bytes). Empty when
+// the head is none of these.
+std::string unread_text_encoding(std::string_view head) {
+  using namespace std::string_view_literals;
+  if (starts_with(head, "\x00\x00\xFE\xFF"sv)) return "UTF-32 (big-endian byte-order mark)";
+  if (starts_with(head, "\xFF\xFE\x00\x00"sv)) return "UTF-32 (little-endian byte-order mark)";
+  if (starts_with(head, "\xFE\xFF"sv)) return "UTF-16 (big-endian byte-order mark)";
+  if (starts_with(head, "\xFF\xFE"sv)) return "UTF-16 (little-endian byte-order mark)";
+  constexpr size_t kLook = 512;
+  size_t n = std::min(head.size(), kLook) & ~size_t{1};
+  if (n < 16) return {};
+  auto is_text = [](unsigned char c) { return (c >= 0x20 && c < 0x7f) || c == '\t' || c == '\n' || c == '\r'; };
+  for (size_t zero : {size_t{0}, size_t{1}}) {
+    bool pattern = true;
+    for (size_t i = 0; i < n && pattern; i += 2) {
+      pattern = head[i + zero] == '\0' && is_text(static_cast<unsigned char>(head[i + 1 - zero]));
+    }
+    if (pattern) return zero == 0 ? "UTF-16 (big-endian, no byte-order mark)" : "UTF-16 (little-endian, no byte-order mark)";
+  }
+  return {};
+}
+
+// Refuses a text encoding the readers do not take, naming it; steps over a UTF-8 byte-order mark
+// in front of text (the rest reads the same). Binary formats are not looked at.
+Status check_text_encoding(ByteSource& source, MeshFormat format) {
+  if (format == MeshFormat::kStl || format == MeshFormat::kDraco) return {};
+  Result<size_t> got = source.ensure(kDetectBytes);
+  GM_RETURN_IF_ERROR(got.status());
+  std::string_view head(source.cursor(), std::min(*got, kDetectBytes));
+  std::string encoding = unread_text_encoding(head);
+  if (!encoding.empty()) {
+    return Status::error(Code::kBadInput, source.at_byte(0),
+                         "text encoded as " + encoding +
+                             ", which gaussmesh does not read: convert it to UTF-8 or ASCII first (iconv -f " +
+                             encoding.substr(0, 6) + " -t UTF-8)");
+  }
+  constexpr std::string_view kUtf8Mark = "\xEF\xBB\xBF";
+  if (starts_with(head, kUtf8Mark) && !looks_binary(head.substr(kUtf8Mark.size(), 4096))) source.advance(kUtf8Mark.size());
+  return {};
+}
+
 Status unknown_format(const ByteSource& source) {
   return Status::error(Code::kBadInput, source.name(),
                        "unrecognised mesh format (not PLY, OFF, OBJ, STL or Draco); name it explicitly "
@@ -108,6 +150,7 @@ MeshFormat format_from_extension(std::string_view path) {
 
 Status read_mesh(ByteSource& source, const ReadOptions& options, MeshSink& sink) {
   MeshFormat format = options.format;
+  GM_RETURN_IF_ERROR(check_text_encoding(source, format));
   if (format == MeshFormat::kUnknown) {
     Result<MeshFormat> detected = detect_format(source);
     GM_RETURN_IF_ERROR(detected.status());

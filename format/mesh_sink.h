@@ -76,6 +76,10 @@ class MeshSink {
   // A per-vertex value the input has and the reader does not deliver (a PLY property "quality",
   // OBJ texture coordinates), named once, at any time between on_header and on_end.
   virtual Status on_ignored(const std::string& /*what*/) { return {}; }
+  // Something the reader skipped because the input reads the same without it (a PLY header line
+  // with no keyword, such as Blender 2.4's "Created by …"): one sentence naming where and what,
+  // at most once per kind of thing.
+  virtual Status on_warning(const std::string& /*message*/) { return {}; }
   virtual Status on_vertex_attributes(std::span<const VertexAttributes> /*batch*/) { return {}; }
   virtual Status on_vertices(std::span<const Vec3f> batch) = 0;
   virtual Status on_triangles(std::span<const Triangle> batch) = 0;

@@ -231,6 +231,10 @@ class PlyReader {
     mesh_header.attributes = header_.attributes;
     GM_RETURN_IF_ERROR(sink_.on_header(mesh_header));
     for (const std::string& name : header_.ignored) GM_RETURN_IF_ERROR(sink_.on_ignored(name));
+    if (skipped_lines_ > 0) {
+      std::string more = skipped_lines_ > 1 ? " (and " + std::to_string(skipped_lines_ - 1) + " more such lines)" : "";
+      GM_RETURN_IF_ERROR(sink_.on_warning(first_skipped_ + more));
+    }
     vertex_limit_ = header_.elements[header_.vertex_element].count;
     vertices_.resize(batch_size_);
     if (header_.attributes.any()) attributes_.resize(batch_size_);
@@ -297,12 +301,32 @@ class PlyReader {
         GM_RETURN_IF_ERROR(parse_element_line(rest, **line));
       } else if (keyword == "property") {
         GM_RETURN_IF_ERROR(parse_property_line(rest, **line));
-      } else {
+      } else if (could_be_structure(**line)) {
         return source_.bad_at_line("unknown header line " + quote(**line));
+      } else {
+        // Free text without a keyword (Blender 2.4 writes "Created by Blender3D 247 - …"): the
+        // header reads the same without it.
+        if (skipped_lines_++ == 0) {
+          first_skipped_ = "line " + std::to_string(source_.line_number()) + ": header line with no PLY keyword skipped: " + quote(**line);
+        }
       }
     }
     if (!have_format) return source_.bad_at_line("header has no format line");
     return check_header();
+  }
+
+  // An unknown header line that has the shape of an element or a property line (a misspelled
+  // keyword: "elemnt vertex 8", "propery float x") changes how the body reads, so it is refused;
+  // any other is free text and skipped.
+  static bool could_be_structure(std::string_view line) {
+    std::string_view tokens[6];
+    size_t n = 0;
+    for (std::string_view t = next_token(line); !t.empty() && n < 6; t = next_token(line)) tokens[n++] = t;
+    std::uint64_t count = 0;
+    bool element_shape = n == 3 && parse_number(tokens[2], count);
+    bool property_shape = n == 3 && parse_scalar_name(tokens[1]).has_value();
+    bool list_shape = n == 5 && tokens[1] == "list";
+    return element_shape || property_shape || list_shape;
   }
 
   Status parse_element_line(std::string_view rest, std::string_view line) {
@@ -878,6 +902,8 @@ class PlyReader {
   Header header_;
   uint64_t vertex_limit_ = 0;
   uint64_t face_line_ = 0;  // header line of "element face"
+  uint64_t skipped_lines_ = 0;  // header lines of free text, skipped
+  std::string first_skipped_;   // the warning for the first of them
   std::vector<Vec3f> vertices_;
   std::vector<VertexAttributes> attributes_;  // beside vertices_, when the header has attributes
   std::vector<Triangle> triangles_;

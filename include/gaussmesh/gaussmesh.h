@@ -207,8 +207,9 @@ struct SimplifyStats {
   std::uint64_t chunks = 0;
   std::uint64_t peak_rss_bytes = 0;
   double seconds = 0;  // the whole call
-  // What the caller should hear about and the run went on without: vertex values of the input
-  // that are not kept, each named once (docs/attributes.md). One sentence each.
+  // What the caller should hear about and the run went on without: parts of the input the reader
+  // skipped (docs/formats.md), vertex values of the input that are not kept, each named once
+  // (docs/attributes.md). One sentence each.
   std::vector<std::string> warnings;
   std::string report_json;
 };
@@ -290,6 +291,8 @@ struct MeshInfo {
   // as not kept.
   bool normals = false, colors = false, texcoords = false;
   std::vector<std::string> ignored_vertex_values;
+  // What the reader skipped and went on without (docs/formats.md), one sentence each.
+  std::vector<std::string> warnings;
   double seconds_read = 0, seconds_analyse = 0;
   std::uint64_t peak_rss_bytes = 0;
   std::string report_json;

@@ -13,6 +13,11 @@ format::Status MeshBuilder::on_ignored(const std::string& what) {
   return {};
 }
 
+format::Status MeshBuilder::on_warning(const std::string& message) {
+  warnings_.push_back(message);
+  return {};
+}
+
 // Keeps the attributes the header announced, each in its own array.
 format::Status MeshBuilder::on_vertex_attributes(std::span<const format::VertexAttributes> batch) {
   const format::AttributeKinds& kinds = header_.attributes;

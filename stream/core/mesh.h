@@ -25,17 +25,20 @@ class MeshBuilder final : public format::MeshSink {
  public:
   format::Status on_header(const format::MeshHeader& header) override;
   format::Status on_ignored(const std::string& what) override;
+  format::Status on_warning(const std::string& message) override;
   format::Status on_vertex_attributes(std::span<const format::VertexAttributes> batch) override;
   format::Status on_vertices(std::span<const Vec3f> batch) override;
   format::Status on_triangles(std::span<const Triangle> batch) override;
   const format::MeshHeader& header() const { return header_; }
   // What the reader named as not delivered (format::MeshSink::on_ignored), in its order.
   const std::vector<std::string>& ignored() const { return ignored_; }
+  // What the reader skipped (format::MeshSink::on_warning), in its order.
+  const std::vector<std::string>& warnings() const { return warnings_; }
   Mesh take() { return std::move(mesh_); }
 
  private:
   format::MeshHeader header_;
-  std::vector<std::string> ignored_;
+  std::vector<std::string> ignored_, warnings_;
   Mesh mesh_;
 };
 

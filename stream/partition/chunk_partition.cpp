@@ -54,6 +54,7 @@ Partition& Partition::operator=(Partition&& other) noexcept {
   input_attributes = other.input_attributes;
   attribute_spill = std::move(other.attribute_spill);
   ignored_vertex_values = std::move(other.ignored_vertex_values);
+  input_warnings = std::move(other.input_warnings);
   welded_vertices = other.welded_vertices;
   seconds_ingest = other.seconds_ingest;
   seconds_reorder = other.seconds_reorder;

@@ -168,6 +168,7 @@ struct Partition {
   format::AttributeKinds input_attributes;
   std::shared_ptr<VertexAttributeSpill> attribute_spill;
   std::vector<std::string> ignored_vertex_values;
+  std::vector<std::string> input_warnings;  // what the reader skipped (MeshSink::on_warning)
   std::uint64_t welded_vertices = 0;  // vertices welded away by the renumbering (vertices counts the rest)  // face frames the ring rounds scanned (partly) untagged: windows missing, disorder
   double seconds_ingest = 0, seconds_partition = 0;
   double seconds_reorder = 0;       // the renumbering, when reordered (not in seconds_partition)

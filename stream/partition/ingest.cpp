@@ -59,9 +59,14 @@ class IngestSink final : public format::MeshSink {
     ignored_.push_back(what);
     return {};
   }
+  Status on_warning(const std::string& message) override {
+    warnings_.push_back(message);
+    return {};
+  }
   // The input's vertex values that the streaming engine does not carry.
   const format::AttributeKinds& attributes() const { return attributes_; }
   const std::vector<std::string>& ignored() const { return ignored_; }
+  const std::vector<std::string>& warnings() const { return warnings_; }
   // Where the input holds the positions, when no copy is written.
   const std::optional<format::MeshHeader::RawVertices>& raw_vertices() const { return raw_vertices_; }
   Status on_vertices(std::span<const Vec3f> batch) override {
@@ -107,7 +112,7 @@ class IngestSink final : public format::MeshSink {
   std::uint64_t vertices_ = 0, faces_count_ = 0;
   std::uint64_t declared_faces_ = 0;  // the header's count (polygons): untrusted, for progress only
   format::AttributeKinds attributes_;
-  std::vector<std::string> ignored_;
+  std::vector<std::string> ignored_, warnings_;
   bool spill_attributes_;
   std::string attribute_dir_;
   std::unique_ptr<VertexAttributeSpill> attribute_spill_;
@@ -163,6 +168,7 @@ Status PartitionRun::ingest(const std::string& input_path, const format::ReadOpt
   out_.attribute_spill = std::move(*attribute_spill);
   if (out_.attribute_spill) bytes_spilled_ += out_.attribute_spill->bytes();
   out_.ignored_vertex_values = sink.ignored();
+  out_.input_warnings = sink.warnings();
   scattered_ = sink.probe().scattered(sink.vertices());
   sink.bounds(out_.lo, out_.hi);
   bytes_spilled_ += faces.bytes();

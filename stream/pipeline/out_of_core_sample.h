@@ -52,6 +52,7 @@ struct OutOfCoreSampling {
   format::AttributeKinds input_attributes;                // Partition's
   std::shared_ptr<VertexAttributeSpill> attribute_spill;  // Partition's
   std::vector<std::string> ignored_vertex_values;    // Partition's
+  std::vector<std::string> input_warnings;           // Partition's
   double seconds_reorder = 0;
   double seconds_ingest = 0, seconds_partition = 0, seconds_sample = 0;
   double seconds_cleanup = 0;  // removing the temporary directory (the file system's writeback can stall it)

@@ -55,6 +55,7 @@ void record_partition(const Partition& partition, Result& out) {
   out.input_attributes = partition.input_attributes;
   out.attribute_spill = partition.attribute_spill;
   out.ignored_vertex_values = partition.ignored_vertex_values;
+  out.input_warnings = partition.input_warnings;
   out.seconds_reorder = partition.seconds_reorder;
   out.seconds_partition = partition.seconds_partition;
   out.partition_steps = partition.steps;

@@ -125,6 +125,54 @@ TEST(ReadMesh, UnknownAndUnsupportedInputsGiveOneClearError) {
   EXPECT_EQ(r.status.where(), "/nonexistent/dir/cow.off");
 }
 
+// Each byte of text as a UTF-16 code unit, in either byte order.
+std::string utf16(const std::string& text, bool big_endian) {
+  std::string out;
+  for (char c : text) {
+    out += big_endian ? std::string{'\0', c} : std::string{c, '\0'};
+  }
+  return out;
+}
+
+TEST(ReadMesh, TextInUtf16OrUtf32IsRefusedByName) {
+  const std::string off = to_off(tetrahedron());
+  struct Case {
+    std::string bytes, encoding;
+  };
+  const Case cases[] = {
+      {"\xFE\xFF" + utf16(off, true), "UTF-16 (big-endian byte-order mark)"},
+      {"\xFF\xFE" + utf16(off, false), "UTF-16 (little-endian byte-order mark)"},
+      {utf16(off, true), "UTF-16 (big-endian, no byte-order mark)"},
+      {utf16(tetra_obj(), false), "UTF-16 (little-endian, no byte-order mark)"},
+      {std::string("\xFF\xFE\0\0", 4) + "O\0\0\0F\0\0\0F\0\0\0", "UTF-32 (little-endian byte-order mark)"},
+  };
+  for (const Case& c : cases) {
+    for (MeshFormat forced : {MeshFormat::kUnknown, MeshFormat::kOff, MeshFormat::kObj, MeshFormat::kPly}) {
+      ReadOutcome r = read_bytes(c.bytes, "u.off", forced);
+      ASSERT_FALSE(r.status.is_ok()) << c.encoding;
+      EXPECT_EQ(r.status.code(), Code::kBadInput);
+      EXPECT_EQ(r.status.where(), "u.off: byte 0");
+      EXPECT_EQ(r.status.message().rfind("text encoded as " + c.encoding + ", which gaussmesh does not read", 0), 0u)
+          << r.status.message();
+      EXPECT_TRUE(single_line(r.status));
+    }
+  }
+  // A binary STL whose 80-byte header is zeros is not UTF-16.
+  EXPECT_TRUE(read_bytes(to_binary_stl(tetrahedron(), std::string(80, '\0')), "z.stl").status.is_ok());
+}
+
+TEST(ReadMesh, AUtf8ByteOrderMarkBeforeTextIsSkipped) {
+  const std::string mark = "\xEF\xBB\xBF";
+  for (const std::string& text : {to_off(tetrahedron()), tetra_obj(), tetra_ply(), to_ascii_stl(tetrahedron())}) {
+    ReadOutcome plain = read_bytes(text, "m");
+    ASSERT_TRUE(plain.status.is_ok()) << plain.status.to_string();
+    ReadOutcome marked = read_bytes(mark + text, "m");
+    ASSERT_TRUE(marked.status.is_ok()) << marked.status.to_string();
+    EXPECT_EQ(marked.mesh.positions, plain.mesh.positions);
+    EXPECT_EQ(marked.mesh.triangles, plain.mesh.triangles);
+  }
+}
+
 TEST(ReadMesh, ExtensionDecidesWhenContentCannot) {
   // An OBJ that opens with more comment than detection looks at.
   std::string text(70000, ' ');

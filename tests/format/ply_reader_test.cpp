@@ -36,6 +36,11 @@ class CollectSink final : public MeshSink {
     ignored.push_back(what);
     return {};
   }
+  Status on_warning(const std::string& message) override {
+    if (header_calls != 1 || end_calls != 0) contract_broken = true;
+    warnings.push_back(message);
+    return {};
+  }
   Status on_vertex_attributes(std::span<const VertexAttributes> batch) override {
     if (header_calls != 1 || batch.empty() || !header.attributes.any()) contract_broken = true;
     pending_attributes = batch.size();
@@ -67,7 +72,7 @@ class CollectSink final : public MeshSink {
   }
 
   MeshHeader header;
-  std::vector<std::string> ignored;
+  std::vector<std::string> ignored, warnings;
   std::vector<VertexAttributes> attributes;
   size_t pending_attributes = 0;
   std::vector<Vec3f> positions;
@@ -667,6 +672,32 @@ std::string with_header(const std::string& header_lines, const std::string& body
   return "ply\nformat ascii 1.0\n" + header_lines + "end_header\n" + body;
 }
 
+TEST(PlyReader, FreeTextHeaderLinesAreSkippedWithOneWarning) {
+  // Blender 2.4's exporter writes a line with no "comment" keyword.
+  const std::string xyz = "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                          "element face 1\nproperty list uchar int vertex_indices\n";
+  const std::string body = "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+  ReadOutcome clean = read_bytes(with_header(xyz, body));
+  ASSERT_TRUE(clean.status.is_ok()) << clean.status.to_string();
+  EXPECT_TRUE(clean.sink.warnings.empty());
+
+  ReadOutcome blender = read_bytes(with_header("Created by Blender3D 247 - www.blender.org, source file: \n" + xyz, body));
+  ASSERT_TRUE(blender.status.is_ok()) << blender.status.to_string();
+  EXPECT_FALSE(blender.sink.contract_broken);
+  EXPECT_EQ(blender.sink.positions, clean.sink.positions);
+  EXPECT_EQ(blender.sink.triangles, clean.sink.triangles);
+  ASSERT_EQ(blender.sink.warnings.size(), 1u);
+  EXPECT_EQ(blender.sink.warnings[0],
+            "line 3: header line with no PLY keyword skipped: 'Created by Blender3D 247 - www.blender.org, source file: '");
+
+  // Several such lines: still one warning, which counts the rest.
+  ReadOutcome several = read_bytes(with_header("exported by hand\n" + xyz + "bogus line\nanother one here\n", body));
+  ASSERT_TRUE(several.status.is_ok()) << several.status.to_string();
+  EXPECT_EQ(several.sink.triangles, clean.sink.triangles);
+  ASSERT_EQ(several.sink.warnings.size(), 1u);
+  EXPECT_EQ(several.sink.warnings[0], "line 3: header line with no PLY keyword skipped: 'exported by hand' (and 2 more such lines)");
+}
+
 TEST(PlyReaderErrors, HeaderProblemsNameTheLine) {
   expect_bad(read_bytes(""), "not a PLY file", "test.ply: byte 0");
   expect_bad(read_bytes("OFF\n3 1 0\n"), "not a PLY file");
@@ -683,7 +714,10 @@ TEST(PlyReaderErrors, HeaderProblemsNameTheLine) {
   expect_bad(read_bytes(with_header("property float x\n")), "before any element");
   expect_bad(read_bytes(with_header("element vertex -3\n")), "is not a number");
   expect_bad(read_bytes(with_header("element vertex 99999999999999999999999\n")), "is not a number");
-  expect_bad(read_bytes(with_header("bogus line\n")), "unknown header line 'bogus line'", "test.ply:3");
+  // A misspelled keyword on a line shaped like an element or a property changes the body.
+  expect_bad(read_bytes(with_header("elemnt vertex 8\n")), "unknown header line 'elemnt vertex 8'", "test.ply:3");
+  expect_bad(read_bytes(with_header("element vertex 1\npropery float x\n")), "unknown header line", "test.ply:4");
+  expect_bad(read_bytes(with_header("element face 1\npropery list uchar int vertex_indices\n")), "unknown header line");
   expect_bad(read_bytes(with_header("element face 1\nproperty list uchar int vertex_indices\n")), "no element vertex");
   expect_bad(read_bytes(with_header("element face 0\nproperty list uchar int vertex_indices\nelement vertex 0\n"
                                     "property float x\nproperty float y\nproperty float z\n")),
