@@ -10,6 +10,7 @@
 #include <cstring>
 #include <random>
 
+#include "format/temp_ownership.h"
 #include "format/temp_registry.h"
 
 namespace gaussmesh::format {
@@ -42,23 +43,26 @@ Result<std::unique_ptr<OutputFile>> OutputFile::create(const std::string& path, 
     base = path.substr(slash + 1);
   }
   if (base.empty()) return Status::error(Code::kUsage, path, "output path names a directory");
+  // A run killed while writing this output left its temporary file: it goes now.
+  const std::string temp_prefix = "." + base + ".gaussmesh-";
+  remove_dead_runs_temps(dir, temp_prefix);
   std::random_device rd;
   for (int attempt = 0; attempt < 16; ++attempt) {
     char suffix[32];
     std::snprintf(suffix, sizeof suffix, "%d-%08x", static_cast<int>(::getpid()), rd());
-    std::string temp = dir + "/." + base + ".gaussmesh-" + suffix + ".tmp";
+    std::string temp = dir + "/" + temp_prefix + suffix + ".tmp";
     int slot = register_temp_path(temp, false);
-    int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-    if (fd >= 0) {
-      out->fd_ = fd;
+    bool exists = false;
+    Result<TempOwnership> owned = create_owned_file(temp, exists);
+    if (owned.is_ok()) {
+      out->fd_ = owned->release();  // held until commit or destruction: the lock says a live run owns it
       out->temp_ = temp;
       out->slot_ = slot;
       return out;
     }
-    int err = errno;
     unregister_temp_path(slot);
-    if (err != EEXIST) {
-      return Status::error(Code::kOutput, path, "cannot create output: " + errno_text(err));
+    if (!exists) {
+      return Status::error(Code::kOutput, path, "cannot create output: " + owned.status().message());
     }
   }
   return Status::error(Code::kOutput, path, "cannot create a unique temporary file beside the output");

@@ -29,8 +29,12 @@ format::Result<std::unique_ptr<VertexAttributeSpill>> VertexAttributeSpill::crea
   static std::atomic<unsigned> counter{0};
   std::unique_ptr<VertexAttributeSpill> spill(new VertexAttributeSpill);
   spill->kinds_ = kinds;
-  spill->path_ = (dir.empty() ? std::string(".") : dir) + "/gaussmesh-attributes-" + std::to_string(::getpid()) + "-" +
+  spill->path_ = (dir.empty() ? std::string(".") : dir) + "/" + kAttributeSpillPrefix + std::to_string(::getpid()) + "-" +
                  std::to_string(counter++) + ".rec";
+  bool exists = false;
+  auto owned = format::create_owned_file(spill->path_, exists);
+  if (!owned) return format::Status::error(format::Code::kOutput, spill->path_, "cannot create: " + owned.status().message());
+  spill->lock_ = std::move(*owned);
   spill->slot_ = format::register_temp_path(spill->path_, false);
   auto writer = format::RecordWriter::create(spill->path_, kVertexAttributeRecordKind, sizeof(Record));
   if (!writer) return writer.status();

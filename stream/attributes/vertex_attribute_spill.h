@@ -10,9 +10,14 @@
 
 #include "format/mesh_sink.h"
 #include "format/record_file.h"
+#include "format/temp_ownership.h"
 #include "stream/attributes/attribute_transfer.h"
 
 namespace gaussmesh::stream {
+
+// How a spill's file name starts (then the pid and a counter), so that a later run finds the
+// file of a killed one (format::remove_dead_runs_temps).
+inline constexpr char kAttributeSpillPrefix[] = "gaussmesh-attributes-";
 
 class VertexAttributeSpill {
  public:
@@ -36,6 +41,7 @@ class VertexAttributeSpill {
   VertexAttributeSpill() = default;
   struct Record;
   std::string path_;
+  format::TempOwnership lock_;  // held while the file exists
   int slot_ = -1;
   format::AttributeKinds kinds_;
   std::unique_ptr<format::RecordWriter> writer_;

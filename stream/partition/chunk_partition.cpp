@@ -10,7 +10,9 @@
 #include <system_error>
 #include <utility>
 
+#include "format/temp_ownership.h"
 #include "format/temp_registry.h"
+#include "stream/attributes/vertex_attribute_spill.h"
 #include "stream/partition/cell_grid.h"
 #include "stream/partition/partition_run.h"
 #include "stream/partition/posix_io.h"
@@ -62,6 +64,7 @@ Partition& Partition::operator=(Partition&& other) noexcept {
   seconds_partition = other.seconds_partition;
   steps = other.steps;
   temp_slot = other.temp_slot;
+  dir_lock = std::move(other.dir_lock);
   owner_map = std::move(other.owner_map);
   other.dir.clear();
   other.temp_slot = -1;
@@ -82,6 +85,7 @@ std::uint32_t Partition::owner_of(const Vec3f& p) const {
 void Partition::remove_temp() {
   if (!dir.empty()) remove_tree(dir);
   if (temp_slot >= 0) format::unregister_temp_path(temp_slot);
+  dir_lock = {};
   dir.clear();
   temp_slot = -1;
 }
@@ -102,12 +106,13 @@ format::Result<Partition> partition_mesh(const std::string& input_path, const fo
     const char* env = std::getenv("TMPDIR");
     parent = env != nullptr && *env != '\0' ? env : "/tmp";
   }
-  std::string pattern = parent + "/gaussmesh-partition-XXXXXX";
-  if (::mkdtemp(pattern.data()) == nullptr) {
-    return Status::error(Code::kOutput, parent, "cannot create a temporary directory: " + errno_text());
-  }
+  // What runs killed before their cleanup (SIGKILL, the OOM killer) left here goes first.
+  format::remove_dead_runs_temps(parent, kPartitionDirPrefix);
+  format::remove_dead_runs_temps(parent, kAttributeSpillPrefix);
   Partition partition;
-  partition.dir = pattern;
+  auto owned = format::create_owned_directory(parent, kPartitionDirPrefix, partition.dir);
+  if (!owned) return owned.status();
+  partition.dir_lock = std::move(*owned);
   partition.temp_slot = format::register_temp_path(partition.dir, true);
   PartitionRun run(options, partition);
   GM_RETURN_IF_ERROR(run.run(input_path, read));

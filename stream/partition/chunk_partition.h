@@ -16,11 +16,16 @@
 #include "format/mesh_reader.h"
 #include "format/mesh_types.h"
 #include "format/record_file.h"
+#include "format/temp_ownership.h"
 #include "format/status.h"
 #include "stream/attributes/vertex_attribute_spill.h"
 #include "stream/partition/spatial_order.h"
 
 namespace gaussmesh::stream {
+
+// How a run's temporary directory in --tmp is named (then six random characters); a later run
+// removes those whose run has died (format::remove_dead_runs_temps).
+inline constexpr char kPartitionDirPrefix[] = "gaussmesh-partition-";
 
 // Record kind of chunk face files (format/record_file.h): "GMCG" read as a little-endian u32.
 inline constexpr std::uint32_t kChunkFaceRecordKind = 0x47434D47u;
@@ -207,6 +212,7 @@ struct Partition {
   } owner_map;
 
   int temp_slot = -1;  // format::register_temp_path slot of dir
+  format::TempOwnership dir_lock;  // held while dir exists: a later run leaves it alone
 };
 
 // The ingest and partition passes from input_path (a file, or "-" for stdin) through format::read_mesh_file.
