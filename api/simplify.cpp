@@ -394,6 +394,18 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   stats.samples = result->samples;
   stats.chunks = 1;
   stats.warnings = input_warnings(mesh->input_warnings, mesh->ignored_vertex_values, {});
+  if (result->mesher_fallback) {
+    // The collapse mesher leaves out the faces it cannot add without an edge or a vertex that is
+    // not a manifold (docs/cli.md, "Non-manifold input"); faces with a repeated corner are left out
+    // on every input and are not news.
+    std::size_t repeated = 0;
+    for (const Triangle& t : input.triangles) repeated += t.v[0] == t.v[1] || t.v[1] == t.v[2] || t.v[0] == t.v[2];
+    if (result->skipped_input_faces > repeated) {
+      stats.warnings.push_back(std::to_string(result->skipped_input_faces - repeated) +
+                               " input faces left out at edges with more than two faces or vertices joining separate fans, "
+                               "so that the output is a manifold (the first faces in file order are kept)");
+    }
+  }
   stats.peak_rss_bytes = peak_rss_bytes();
   stats.seconds = seconds_since(started);
 

@@ -758,10 +758,31 @@ format::Result<OutOfCoreSimplify> simplify_ladder(Partition& partition, const Ou
 format::Status simplify_input(Partition& partition, const OutOfCoreSimplifyOptions& options, OutOfCoreSimplify& out,
                               bool& done);
 
+format::Result<OutOfCoreSimplify> run_simplify(const std::string& input_path, const format::ReadOptions& read,
+                                               const OutOfCoreSimplifyOptions& options);
+
 }  // namespace
 
 format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_path, const format::ReadOptions& read,
                                                        const OutOfCoreSimplifyOptions& options) {
+  auto run = run_simplify(input_path, read, options);
+  // The records' polygon mesher refuses a patch layout whose output would not be a manifold. On
+  // a manifold input that does not happen (docs/meshing.md); on a non-manifold one it does, and
+  // out of core there is no whole-input collapse mesher to fall back to (docs/cli.md,
+  // "Non-manifold input"): the error names the input and says so.
+  if (!run && run.status().code() == format::Code::kProcessing && run.status().where() == "polygon mesher") {
+    return format::Status::error(format::Code::kProcessing, input_path == "-" ? "<stdin>" : input_path,
+                                 "not a manifold where the out-of-core mesher needs one (" + run.status().message() +
+                                     "): an edge with more than two faces or a vertex joining separate fans, which "
+                                     "`gaussmesh info` counts; the in-core engine (--engine in-core) leaves such faces out");
+  }
+  return run;
+}
+
+namespace {
+
+format::Result<OutOfCoreSimplify> run_simplify(const std::string& input_path, const format::ReadOptions& read,
+                                               const OutOfCoreSimplifyOptions& options) {
   GM_RETURN_IF_ERROR(check_out_of_core_options("simplify", options.spheres, options.threads));
   // The frequency ladder (auto, exact test) creates its spheres pass by pass.
   const bool ladder = options.auto_frequency && options.finish.any() && options.spheres.size() > 1 &&
@@ -817,8 +838,6 @@ format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_
   }
   return simplify_sampled(*partition, spheres, options, std::move(base));
 }
-
-namespace {
 
 // --frequency auto, exact test: the ladder's sample counts from counting passes over the chunks
 // (the cheap frequencies, up to kLadderGroupFrequency, in one pass; each finer one in a pass of
