@@ -5,6 +5,7 @@
 #include "api/internal.h"
 #include "stream/analysis/mesh_distance.h"
 #include "stream/attributes/attribute_transfer.h"
+#include "stream/core/fan_split.h"
 #include "stream/core/stopwatch.h"
 #include "stream/finish/quadric_finish.h"
 #include "stream/partition/spatial_order.h"
@@ -343,25 +344,61 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   if (o.target.any() && o.sampling.frequency == kAutoFrequency)
     options.min_samples = stream::finish_min_samples(finish, input.triangles.size());
   options.mesher = o.mesher == Mesher::kVoronoi ? stream::MesherKind::kVoronoi : stream::MesherKind::kPatch;
-  // The finish on the input itself where the target asks for it (stream::finish_collapses_input),
-  // else on the Gauss approximation; also when the input is not a manifold OpenMesh can hold.
-  std::optional<stream::FinishResult> finished;
-  bool collapsed_input = false;
-  if (o.target.any() && o.sampling.frequency == kAutoFrequency &&
-      stream::finish_collapses_input(finish, input.triangles.size())) {
-    const stream::Mesh compact = stream::compact_input(input.positions, input.triangles);
-    auto f = stream::finish_input(compact.view(), finish);
-    if (!f && f.status().code() != Code::kProcessing) return f.status();
-    if (f) finished = std::move(f).value(), collapsed_input = true;
+  // One run on `faces`: the finish on the input itself where the target asks for it
+  // (stream::finish_collapses_input), else on the Gauss approximation; also when the input is not
+  // a manifold OpenMesh can hold. `non_manifold`: a stage found it not a manifold.
+  struct Attempt {
+    std::optional<stream::FinishResult> finished;
+    bool collapsed_input = false;
+    stream::SimplifyResult result;
+    bool non_manifold = false;
+  };
+  auto attempt = [&](MeshView faces) -> Result<Attempt> {
+    Attempt a;
+    if (o.target.any() && o.sampling.frequency == kAutoFrequency &&
+        stream::finish_collapses_input(finish, faces.triangles.size())) {
+      const stream::Mesh compact = stream::compact_input(faces.positions, faces.triangles);
+      auto f = stream::finish_input(compact.view(), finish);
+      if (!f && f.status().code() != Code::kProcessing) return f.status();
+      if (f) a.finished = std::move(f).value(), a.collapsed_input = true;
+      a.non_manifold = !f;
+    }
+    if (!a.collapsed_input) {
+      auto simplified = stream::simplify_mesh(faces, options);
+      if (!simplified) return simplified.status();
+      a.result = std::move(simplified).value();
+      a.non_manifold = a.non_manifold || a.result.mesher_fallback;
+    }
+    return a;
+  };
+  auto first = attempt(input);
+  if (!first) return first.status();
+  // A non-manifold input runs again with a vertex per fan of faces, so that every face is kept
+  // (stream/core/fan_split.h, docs/cli.md "Non-manifold input"). The copy has no attributes: they
+  // come from the input's surface, which the split does not change.
+  stream::FanSplit split;
+  stream::Mesh split_input;
+  MeshView faces = input;
+  if (first->non_manifold) {
+    split_input.positions.assign(input.positions.begin(), input.positions.end());
+    split_input.triangles.assign(input.triangles.begin(), input.triangles.end());
+    auto s = stream::split_vertex_fans(split_input);
+    if (!s) return s.status();
+    split = *s;
+    if (split.added_vertices > 0) {
+      faces = split_input.view();
+      first = attempt(faces);
+      if (!first) return first.status();
+    }
   }
-  auto result = collapsed_input ? Result<stream::SimplifyResult>(stream::SimplifyResult{})
-                                : stream::simplify_mesh(input, options);
-  if (!result) return result.status();
+  std::optional<stream::FinishResult> finished = std::move(first->finished);
+  const bool collapsed_input = first->collapsed_input;
+  auto result = Result<stream::SimplifyResult>(std::move(first->result));
   if (collapsed_input) result->mesh = std::move(finished->mesh);
   if (result->mesh.triangles.empty()) return empty_approximation(source);
 
   if (finish.enabled() && !finished) {
-    auto f = stream::finish_in_core(input, result->mesh.view(), finish);
+    auto f = stream::finish_in_core(faces, result->mesh.view(), finish);
     if (!f) return f.status();
     result->mesh = std::move(f->mesh);
     result->birth.clear();  // moved vertices are no longer input vertices
@@ -399,7 +436,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
     // not a manifold (docs/cli.md, "Non-manifold input"); faces with a repeated corner are left out
     // on every input and are not news.
     std::size_t repeated = 0;
-    for (const Triangle& t : input.triangles) repeated += t.v[0] == t.v[1] || t.v[1] == t.v[2] || t.v[0] == t.v[2];
+    for (const Triangle& f : input.triangles) repeated += f.v[0] == f.v[1] || f.v[1] == f.v[2] || f.v[0] == f.v[2];
     if (result->skipped_input_faces > repeated) {
       stats.warnings.push_back(std::to_string(result->skipped_input_faces - repeated) +
                                " input faces left out at edges with more than two faces or vertices joining separate fans, "
@@ -437,6 +474,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   report["kept_chain_vertices"] = result->kept_chain_vertices;
   report["kept_interior_vertices"] = result->kept_interior_vertices;
   report["skipped_input_faces"] = result->skipped_input_faces;
+  report["split_vertices"] = split.added_vertices;
   report["planar_patches"] = result->planar_patches;
   report["collapse_patches"] = result->collapse_patches;
   report["mean_plane_patches"] = result->polygon.mean_plane_patches;
