@@ -68,8 +68,9 @@ std::uint64_t whole_output_bytes_per_face(const Sink& sink);
 // What the process holds to write an output of `faces` faces gathered whole, with
 // `more_per_face` bytes a face beside what the sink needs, the process itself included.
 std::uint64_t whole_output_bytes(const Sink& sink, std::uint64_t faces, std::uint64_t more_per_face = 0);
+// `attributes`: the parts' per-vertex attributes, for a sink that streams them (PLY, OBJ).
 Result<std::uint64_t> write_mesh_parts(const Sink& sink, format::MeshParts& mesh, const DracoOptions& draco,
-                                       std::uint64_t memory_limit);
+                                       std::uint64_t memory_limit, const format::PartsAttributes& attributes = {});
 // A mesh delivered in parts, held whole.
 Result<Mesh> gather(format::MeshParts& parts);
 

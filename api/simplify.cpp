@@ -6,6 +6,7 @@
 #include "stream/analysis/mesh_distance.h"
 #include "stream/attributes/attribute_transfer.h"
 #include "stream/core/fan_split.h"
+#include "stream/core/process_memory.h"
 #include "stream/core/stopwatch.h"
 #include "stream/finish/quadric_finish.h"
 #include "stream/partition/spatial_order.h"
@@ -96,9 +97,56 @@ void finish_report(Json& report, const stream::FinishOptions& o, const std::opti
 // (18 bytes a face) and its vertices, about half as many as faces, with their attributes and
 // the search's state.
 constexpr std::uint64_t kAttributedBytesPerFace = 18 + 60;
+// What a streamed output (PLY, OBJ) holds a vertex to take its attributes: its position, its
+// values (format::VertexAttributes, 36 B) and the search's state (the best distance, the grid and
+// its list of open vertices); its faces stream.
+constexpr std::uint64_t kStreamedAttributeBytesPerVertex = 12 + 36 + 8 + 16;
 
 Json output_attributes_json(const Mesh& mesh) {
   return {{"normals", !mesh.normals.empty()}, {"colors", !mesh.colors.empty()}, {"texcoords", !mesh.texcoords.empty()}};
+}
+Json output_attributes_json(const format::AttributeKinds& kinds) {
+  return {{"normals", kinds.normals}, {"colors", kinds.colors}, {"texcoords", kinds.texcoords}};
+}
+
+// The attributes of a chunked finish's output that streams to PLY or OBJ: its vertex positions
+// held (its faces streamed twice, for the search grid's size and for computed normals), each
+// vertex given the nearest input vertex's values as transfer_nearest_vertex does.
+Status streamed_attributes(format::MeshParts& parts, const stream::VertexAttributeSpill* spill, stream::NormalsMode normals,
+                           format::PartsAttributes& out, std::vector<format::VertexAttributes>& values) {
+  std::vector<format::Vec3f> positions;
+  positions.reserve(parts.vertex_count());
+  GM_RETURN_IF_ERROR(parts.vertices([&](std::span<const format::Vec3f> b) {
+    positions.insert(positions.end(), b.begin(), b.end());
+    return Status();
+  }));
+  double area = 0;
+  GM_RETURN_IF_ERROR(parts.faces([&](std::span<const Triangle> b) {
+    area += stream::surface_area(positions, b);
+    return Status();
+  }));
+  const format::AttributeKinds input = spill ? spill->kinds() : format::AttributeKinds{};
+  if (input.any()) {
+    auto found = stream::nearest_vertex_values([spill](const stream::VertexBatchFn& batch) { return spill->each(batch); },
+                                               positions, area);
+    if (!found) return found.status();
+    values = std::move(*found);
+  } else {
+    values.assign(positions.size(), {});
+  }
+  if (normals == stream::NormalsMode::kCompute) {
+    for (format::VertexAttributes& a : values) a.normal = {0, 0, 0};
+    GM_RETURN_IF_ERROR(parts.faces([&](std::span<const Triangle> b) {
+      stream::add_face_normals(positions, b, values);
+      return Status();
+    }));
+    stream::normalise_normals(values);
+  }
+  out.kinds = {normals == stream::NormalsMode::kCompute || (normals == stream::NormalsMode::kKeep && input.normals),
+               input.colors, input.texcoords};
+  out.values = values;
+  if (!out.kinds.any()) values.clear(), out.values = {};
+  return Status();
 }
 
 // The reader's own warnings (what it skipped), one for the input's per-vertex values it did not
@@ -117,7 +165,7 @@ std::vector<std::string> input_warnings(const std::vector<std::string>& skipped,
     if (dropped.colors) kinds = "colours";
     if (dropped.normals) kinds += std::string(kinds.empty() ? "" : ", ") + "normals";
     if (dropped.texcoords) kinds += std::string(kinds.empty() ? "" : ", ") + "texture coordinates";
-    warnings.push_back(kinds + " not kept: the output is too large to hold within --memory with them (PLY and OBJ stream it without)");
+    warnings.push_back(kinds + " not kept: the output is too large to hold within --memory with them");
   }
   return warnings;
 }
@@ -168,16 +216,26 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   const std::uint64_t output_faces = result->parts ? result->parts->face_count() : result->mesh.triangles.size();
   const std::uint64_t output_vertices = result->parts ? result->parts->vertex_count() : result->mesh.positions.size();
   if (output_faces == 0) return empty_approximation(source);
-  // The input's attributes from its vertex spill, when the output is held whole (the chunked
-  // finish's streams from its files: it goes without them, and says so).
+  // The input's attributes from its vertex spill. A chunked finish's output that streams (PLY,
+  // OBJ) holds its vertices for them; one that does not (Draco, memory) is gathered whole. When
+  // that would pass an explicit budget, the output goes without them, and says so.
   auto t = Clock::now();
   format::AttributeKinds dropped;
+  format::PartsAttributes parts_attributes;
+  std::vector<format::VertexAttributes> parts_values;
   const stream::NormalsMode normals = normals_mode(o.normals);
   if (result->parts && (result->attribute_spill || normals == stream::NormalsMode::kCompute)) {
-    // The chunked finish's output, gathered to take its attributes when that fits the budget.
-    const std::uint64_t need = api::whole_output_bytes(sink, result->parts->face_count(), kAttributedBytesPerFace);
+    // A streamed output adds its vertices' share to what the process holds now (its resident set
+    // once the allocator's free pages are handed back).
+    const bool streams = api::whole_output_bytes_per_face(sink) == 0;
+    if (streams) stream::release_free_memory();
+    const std::uint64_t need =
+        streams ? stream::current_rss() + result->parts->vertex_count() * kStreamedAttributeBytesPerVertex
+                : api::whole_output_bytes(sink, result->parts->face_count(), kAttributedBytesPerFace);
     if (options.memory_explicit && need > options.memory.bytes()) {
       dropped = result->input_attributes;
+    } else if (streams) {
+      GM_RETURN_IF_ERROR(streamed_attributes(*result->parts, result->attribute_spill.get(), normals, parts_attributes, parts_values));
     } else {
       auto whole = api::gather(*result->parts);
       if (!whole) return whole.status();
@@ -195,7 +253,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   const double seconds_attributes = seconds_since(t);
   t = Clock::now();
   auto bytes = result->parts ? api::write_mesh_parts(sink, *result->parts, o.draco,
-                                                     options.memory_explicit ? options.memory.bytes() : 0)
+                                                     options.memory_explicit ? options.memory.bytes() : 0, parts_attributes)
                              : api::write_mesh(sink, result->mesh.view(), o.draco);
   if (!bytes) return bytes.status();
   const double seconds_write = seconds_since(t);
@@ -222,7 +280,8 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   result->seconds_cleanup += seconds_since(t);
   finish_report(report, result->finish_options, result->finish, stats);
   if (result->finish) report["approximation"] = result->collapsed_input ? "input" : "gauss";
-  report["output_attributes"] = output_attributes_json(result->mesh);
+  report["output_attributes"] = parts_attributes.kinds.any() ? output_attributes_json(parts_attributes.kinds)
+                                                             : output_attributes_json(result->mesh);
   report["warnings"] = stats.warnings;
   report["merged_patches"] = result->merged_patches;
   report["merge_rounds"] = result->merge_rounds;

@@ -227,14 +227,14 @@ std::uint64_t whole_output_bytes(const Sink& sink, std::uint64_t faces, std::uin
 }
 
 Result<std::uint64_t> write_mesh_parts(const Sink& sink, format::MeshParts& mesh, const DracoOptions& draco,
-                                       std::uint64_t memory_limit) {
+                                       std::uint64_t memory_limit, const format::PartsAttributes& attributes) {
   const OutputFormat kind = sink.kind == Sink::Kind::kMemory ? OutputFormat::kAuto : sink.resolved_format();
   if (sink.kind != Sink::Kind::kMemory && kind != OutputFormat::kAuto && kind != OutputFormat::kDraco) {
     auto out = format::OutputFile::create(sink.kind == Sink::Kind::kFile ? sink.path : "-", kind != OutputFormat::kObj && kind != OutputFormat::kPlyAscii);
     if (!out) return out.status();
     Status status = kind == OutputFormat::kObj
-                        ? format::write_obj_parts(**out, mesh)
-                        : format::write_ply_parts(**out, mesh, kind == OutputFormat::kPlyBinary, {"written by gaussmesh"});
+                        ? format::write_obj_parts(**out, mesh, attributes)
+                        : format::write_ply_parts(**out, mesh, kind == OutputFormat::kPlyBinary, {"written by gaussmesh"}, attributes);
     GM_RETURN_IF_ERROR(status);
     GM_RETURN_IF_ERROR((*out)->commit());
     return (*out)->bytes_written();

@@ -1,6 +1,8 @@
 // PLY and OBJ output of a mesh delivered in parts (MeshParts): the header from the declared
 // counts, then each batch as it comes, through one fixed buffer. See mesh_writer.h.
+#include <algorithm>
 #include <charconv>
+#include <initializer_list>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -12,7 +14,10 @@ namespace gaussmesh::format {
 namespace {
 
 constexpr std::size_t kBufferBytes = std::size_t{256} << 10;
-constexpr std::size_t kMaxRecordBytes = 96;  // one ascii vertex or face line, or one binary record
+// One ascii vertex line (eight floats of at most 15 characters and four bytes, with separators)
+// or face line, or one binary record.
+constexpr std::size_t kMaxRecordBytes = 160;
+constexpr const char* kColorNames[4] = {"red", "green", "blue", "alpha"};
 
 class Buffer {
  public:
@@ -56,6 +61,12 @@ Status index_past(const OutputFile& out, std::uint64_t face, VertexIndex v, std:
                            std::to_string(vertices));
 }
 
+// Attributes, when there are any, hold one value per vertex.
+Status check_counts(const OutputFile& out, const PartsAttributes& a, std::uint64_t nv) {
+  if (a.kinds.any() && a.values.size() != nv) return miscount(out, "vertex attributes", a.values.size(), nv);
+  return Status();
+}
+
 // Checks one more face against the declared counts, and counts it.
 Status count_face(const OutputFile& out, const Triangle& t, std::uint64_t& faces, std::uint64_t nv, std::uint64_t nf) {
   for (VertexIndex v : t.v)
@@ -66,9 +77,15 @@ Status count_face(const OutputFile& out, const Triangle& t, std::uint64_t& faces
 
 }  // namespace
 
-Status write_ply_parts(OutputFile& out, MeshParts& mesh, bool binary, const std::vector<std::string>& comments) {
+Status write_ply_parts(OutputFile& out, MeshParts& mesh, bool binary, const std::vector<std::string>& comments,
+                       const PartsAttributes& attributes) {
   const std::uint64_t nv = mesh.vertex_count(), nf = mesh.face_count();
   if (nv > kMaxVertices) return Status::error(Code::kProcessing, out.name(), "more than 2^32 - 1 vertices cannot be indexed");
+  GM_RETURN_IF_ERROR(check_counts(out, attributes, nv));
+  const bool normals = attributes.kinds.normals, texcoords = attributes.kinds.texcoords;
+  const bool alpha = attributes.kinds.colors && std::any_of(attributes.values.begin(), attributes.values.end(),
+                                                            [](const VertexAttributes& a) { return a.color.a != 1; });
+  const int channels = !attributes.kinds.colors ? 0 : alpha ? 4 : 3;
   std::string header = "ply\n";
   header += binary ? "format binary_little_endian 1.0\n" : "format ascii 1.0\n";
   for (const std::string& comment : comments) {
@@ -77,6 +94,10 @@ Status write_ply_parts(OutputFile& out, MeshParts& mesh, bool binary, const std:
     header += "comment " + comment + "\n";
   }
   header += "element vertex " + std::to_string(nv) + "\nproperty float x\nproperty float y\nproperty float z\n";
+  // The same properties, in the same order, as write_ply.
+  if (normals) header += "property float nx\nproperty float ny\nproperty float nz\n";
+  for (int k = 0; k < channels; ++k) header += std::string("property uchar ") + kColorNames[k] + "\n";
+  if (texcoords) header += "property float s\nproperty float t\n";
   header += "element face " + std::to_string(nf) + "\n";
   header += nv > 0x7FFFFFFFu ? "property list uchar uint vertex_indices\n" : "property list uchar int vertex_indices\n";
   header += "end_header\n";
@@ -86,12 +107,26 @@ Status write_ply_parts(OutputFile& out, MeshParts& mesh, bool binary, const std:
   GM_RETURN_IF_ERROR(mesh.vertices([&](std::span<const Vec3f> batch) -> Status {
     vertices += batch.size();
     if (vertices > nv) return miscount(out, "vertices", vertices, nv);
-    for (const Vec3f& p : batch) {
+    for (std::size_t i = 0; i < batch.size(); ++i) {
+      const Vec3f& p = batch[i];
+      const std::uint64_t v = vertices - batch.size() + i;
       GM_RETURN_IF_ERROR(buffer.room());
+      float values[3 + 3 + 2];
+      std::size_t n = 0;
+      values[n++] = p.x, values[n++] = p.y, values[n++] = p.z;
+      const VertexAttributes& a = channels > 0 || normals || texcoords ? attributes.values[v] : VertexAttributes{};
+      if (normals) values[n++] = a.normal.x, values[n++] = a.normal.y, values[n++] = a.normal.z;
+      std::uint8_t bytes[4];
+      for (int k = 0; k < channels; ++k) bytes[k] = color_byte((&a.color.r)[k]);
       if (binary) {
-        buffer.put(p.x), buffer.put(p.y), buffer.put(p.z);
+        for (std::size_t k = 0; k < n; ++k) buffer.put(values[k]);
+        for (int k = 0; k < channels; ++k) buffer.put(bytes[k]);
+        if (texcoords) buffer.put(a.texcoord.u), buffer.put(a.texcoord.v);
       } else {
-        buffer.text(p.x, ' '), buffer.text(p.y, ' '), buffer.text(p.z, '\n');
+        const bool more = channels > 0 || texcoords;
+        for (std::size_t k = 0; k < n; ++k) buffer.text(values[k], k + 1 < n || more ? ' ' : '\n');
+        for (int k = 0; k < channels; ++k) buffer.text(unsigned{bytes[k]}, k + 1 < channels || texcoords ? ' ' : '\n');
+        if (texcoords) buffer.text(a.texcoord.u, ' '), buffer.text(a.texcoord.v, '\n');
       }
     }
     return Status();
@@ -114,8 +149,18 @@ Status write_ply_parts(OutputFile& out, MeshParts& mesh, bool binary, const std:
   return buffer.flush();
 }
 
-Status write_obj_parts(OutputFile& out, MeshParts& mesh) {
+Status write_obj_parts(OutputFile& out, MeshParts& mesh, const PartsAttributes& attributes) {
   const std::uint64_t nv = mesh.vertex_count(), nf = mesh.face_count();
+  GM_RETURN_IF_ERROR(check_counts(out, attributes, nv));
+  const bool colors = attributes.kinds.colors, normals = attributes.kinds.normals, texcoords = attributes.kinds.texcoords;
+  // One line of a keyword and floats, as write_obj writes it.
+  auto line = [](Buffer& buffer, const char* keyword, std::initializer_list<float> values) {
+    char* c = buffer.at();
+    for (const char* k = keyword; *k != '\0'; ++k) *c++ = *k;
+    for (float value : values) *c++ = ' ', c = std::to_chars(c, buffer.limit(), value).ptr;
+    *c++ = '\n';
+    buffer.advance(c);
+  };
   GM_RETURN_IF_ERROR(out.write("# gaussmesh: " + std::to_string(nv) + " vertices, " + std::to_string(nf) + " triangles\n"));
   Buffer buffer(out);
   std::uint64_t vertices = 0, faces = 0;
@@ -126,22 +171,46 @@ Status write_obj_parts(OutputFile& out, MeshParts& mesh) {
                              "vertex " + std::to_string(vertices) + " is not finite; cannot write OBJ");
       if (++vertices > nv) return miscount(out, "vertices", vertices, nv);
       GM_RETURN_IF_ERROR(buffer.room());
-      char* c = buffer.at();
-      *c++ = 'v';
-      for (float value : {p.x, p.y, p.z}) *c++ = ' ', c = std::to_chars(c, buffer.limit(), value).ptr;
-      *c++ = '\n';
-      buffer.advance(c);
+      if (colors) {
+        const Color& k = attributes.values[vertices - 1].color;
+        line(buffer, "v", {p.x, p.y, p.z, std::clamp(k.r, 0.0f, 1.0f), std::clamp(k.g, 0.0f, 1.0f), std::clamp(k.b, 0.0f, 1.0f)});
+      } else {
+        line(buffer, "v", {p.x, p.y, p.z});
+      }
     }
     return Status();
   }));
   if (vertices != nv) return miscount(out, "vertices", vertices, nv);
+  for (std::size_t v = 0; texcoords && v < attributes.values.size(); ++v) {
+    GM_RETURN_IF_ERROR(buffer.room());
+    line(buffer, "vt", {attributes.values[v].texcoord.u, attributes.values[v].texcoord.v});
+  }
+  for (std::size_t v = 0; normals && v < attributes.values.size(); ++v) {
+    GM_RETURN_IF_ERROR(buffer.room());
+    const Vec3f& n = attributes.values[v].normal;
+    line(buffer, "vn", {n.x, n.y, n.z});
+  }
   GM_RETURN_IF_ERROR(mesh.faces([&](std::span<const Triangle> batch) -> Status {
     for (const Triangle& t : batch) {
       GM_RETURN_IF_ERROR(count_face(out, t, faces, nv, nf));
       GM_RETURN_IF_ERROR(buffer.room());
       char* c = buffer.at();
       *c++ = 'f';
-      for (VertexIndex v : t.v) *c++ = ' ', c = std::to_chars(c, buffer.limit(), std::uint64_t{v} + 1).ptr;
+      for (VertexIndex v : t.v) {
+        *c++ = ' ';
+        char* index = c;
+        c = std::to_chars(c, buffer.limit(), std::uint64_t{v} + 1).ptr;
+        const std::size_t digits = static_cast<std::size_t>(c - index);
+        // a/a/a, a/a or a//a, as write_obj names a vertex's attributes.
+        if (texcoords || normals) {
+          *c++ = '/';
+          if (texcoords) c = std::copy(index, index + digits, c);
+        }
+        if (normals) {
+          *c++ = '/';
+          c = std::copy(index, index + digits, c);
+        }
+      }
       *c++ = '\n';
       buffer.advance(c);
     }

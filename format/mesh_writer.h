@@ -9,6 +9,7 @@
 #include <variant>
 #include <vector>
 
+#include "format/mesh_sink.h"
 #include "format/mesh_types.h"
 #include "format/output_file.h"
 #include "format/status.h"
@@ -67,11 +68,20 @@ class MeshParts {
   virtual Status faces(const std::function<Status(std::span<const Triangle>)>& batch) = 0;
 };
 
-// PLY (binary little-endian or ascii, positions and faces only) and OBJ from parts, in memory
-// that does not grow with the mesh. A part that delivers other counts than it declared, or an
-// index past the vertices, is kProcessing (and the caller does not commit the file). Draco
-// encodes a whole mesh: it has no such writer. (mesh_parts_writer.cpp)
-Status write_ply_parts(OutputFile& out, MeshParts& mesh, bool binary, const std::vector<std::string>& comments);
-Status write_obj_parts(OutputFile& out, MeshParts& mesh);
+// Per-vertex attributes of a mesh written from parts, held whole, in vertex order (an output's
+// vertices are few beside the input's): the fields `kinds` names, of one value per vertex.
+struct PartsAttributes {
+  AttributeKinds kinds;
+  std::span<const VertexAttributes> values;
+};
+
+// PLY (binary little-endian or ascii) and OBJ from parts, in memory that does not grow with the
+// faces: positions and faces streamed, attributes (as write_ply and write_obj write them) from
+// `attributes`. A part that delivers other counts than it declared, an index past the vertices,
+// or attributes of another count than the vertices is kProcessing (and the caller does not commit
+// the file). Draco encodes a whole mesh: it has no such writer. (mesh_parts_writer.cpp)
+Status write_ply_parts(OutputFile& out, MeshParts& mesh, bool binary, const std::vector<std::string>& comments,
+                       const PartsAttributes& attributes = {});
+Status write_obj_parts(OutputFile& out, MeshParts& mesh, const PartsAttributes& attributes = {});
 
 }  // namespace gaussmesh::format

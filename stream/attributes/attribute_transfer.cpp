@@ -123,13 +123,7 @@ Vec3f normalised(double x, double y, double z) {
 }
 
 // Output vertices' cell size: about two output vertices per occupied cell, from the output's area.
-double grid_cell(const std::vector<Vec3f>& positions, const std::vector<Triangle>& triangles) {
-  double area = 0;
-  for (const Triangle& t : triangles) {
-    const Vec3d a = to_d(positions[t.v[0]]);
-    const Vec3d e = cross(to_d(positions[t.v[1]]) - a, to_d(positions[t.v[2]]) - a);
-    area += 0.5 * std::sqrt(dot(e, e));
-  }
+double grid_cell(const std::vector<Vec3f>& positions, double area) {
   const double cell = std::sqrt(2 * area / double(std::max<std::size_t>(positions.size(), 1)));
   return cell > 0 && std::isfinite(cell) ? cell : 1;
 }
@@ -140,9 +134,8 @@ double grid_cell(const std::vector<Vec3f>& positions, const std::vector<Triangle
 // (of about the output's vertex spacing): the input's elements then mostly meet one cell, and
 // the output's distance to the input rarely passes it; each further round doubles it.
 template <class Round, class Found>
-format::Status search_rounds(const std::vector<Vec3f>& positions, const std::vector<Triangle>& triangles, Round&& round,
-                             Found&& found) {
-  const double cell = grid_cell(positions, triangles);
+format::Status search_rounds(const std::vector<Vec3f>& positions, double area, Round&& round, Found&& found) {
+  const double cell = grid_cell(positions, area);
   std::vector<std::uint32_t> open(positions.size());
   for (std::size_t v = 0; v < open.size(); ++v) open[v] = std::uint32_t(v);
   for (double radius = cell / 4; !open.empty() && std::isfinite(radius); radius *= 2) {
@@ -219,7 +212,7 @@ std::vector<std::uint64_t> nearest_triangles(format::MeshView input, const Mesh&
                       });
     return format::Status();
   };
-  (void)search_rounds(positions, output.triangles, round,
+  (void)search_rounds(positions, surface_area(output.positions, output.triangles), round,
                       [&](std::uint32_t v) { return best[v].load(std::memory_order_relaxed) != kNone; });
   std::vector<std::uint64_t> out(positions.size());
   for (std::size_t v = 0; v < out.size(); ++v) out[v] = best[v].load(std::memory_order_relaxed);
@@ -244,29 +237,62 @@ std::vector<Vec3f> vertex_normals(format::MeshView mesh) {
   return normals;
 }
 
+double surface_area(const std::vector<Vec3f>& positions, std::span<const Triangle> triangles) {
+  double area = 0;
+  for (const Triangle& t : triangles) {
+    const Vec3d a = to_d(positions[t.v[0]]);
+    const Vec3d e = cross(to_d(positions[t.v[1]]) - a, to_d(positions[t.v[2]]) - a);
+    area += 0.5 * std::sqrt(dot(e, e));
+  }
+  return area;
+}
+
+void add_face_normals(const std::vector<Vec3f>& positions, std::span<const Triangle> faces,
+                      std::vector<format::VertexAttributes>& values) {
+  for (const Triangle& t : faces) {
+    const Vec3d n = cross(to_d(positions[t.v[1]]) - to_d(positions[t.v[0]]), to_d(positions[t.v[2]]) - to_d(positions[t.v[0]]));
+    for (format::VertexIndex v : t.v) {
+      Vec3f& sum = values[v].normal;
+      sum = {sum.x + float(n.x), sum.y + float(n.y), sum.z + float(n.z)};
+    }
+  }
+}
+
+void normalise_normals(std::vector<format::VertexAttributes>& values) {
+  for (format::VertexAttributes& a : values) a.normal = normalised(a.normal.x, a.normal.y, a.normal.z);
+}
+
+format::Result<std::vector<format::VertexAttributes>> nearest_vertex_values(const VertexPassFn& pass,
+                                                                            const std::vector<Vec3f>& positions, double area) {
+  std::vector<format::VertexAttributes> values(positions.size());
+  std::vector<double> best(positions.size(), std::numeric_limits<double>::infinity());
+  auto round = [&](const VertexGrid& grid, double radius) {
+    VertexGrid::Cursor cursor;
+    // Input order, strictly nearer only: the first among equally near input vertices wins.
+    return pass([&](std::span<const Vec3f> points, std::span<const format::VertexAttributes> attributes) {
+      for (std::size_t i = 0; i < points.size(); ++i) {
+        const Vec3d q = to_d(points[i]);
+        grid.near(q, q, radius, cursor, [&](std::uint32_t v) {
+          const Vec3d d = to_d(positions[v]) - q;
+          const double d2 = dot(d, d);
+          if (d2 <= radius * radius && d2 < best[v]) best[v] = d2, values[v] = attributes[i];
+        });
+      }
+      return format::Status();
+    });
+  };
+  GM_RETURN_IF_ERROR(search_rounds(positions, area, round, [&](std::uint32_t v) { return std::isfinite(best[v]); }));
+  for (format::VertexAttributes& a : values) a.normal = normalised(a.normal.x, a.normal.y, a.normal.z);
+  return values;
+}
+
 format::Status transfer_nearest_vertex(const VertexPassFn& pass, const format::AttributeKinds& kinds, Mesh& output,
                                        NormalsMode normals) {
   std::vector<format::VertexAttributes> values(output.positions.size());
   if (kinds.any()) {
-    std::vector<double> best(output.positions.size(), std::numeric_limits<double>::infinity());
-    auto round = [&](const VertexGrid& grid, double radius) {
-      VertexGrid::Cursor cursor;
-      // Input order, strictly nearer only: the first among equally near input vertices wins.
-      return pass([&](std::span<const Vec3f> points, std::span<const format::VertexAttributes> attributes) {
-        for (std::size_t i = 0; i < points.size(); ++i) {
-          const Vec3d q = to_d(points[i]);
-          grid.near(q, q, radius, cursor, [&](std::uint32_t v) {
-            const Vec3d d = to_d(output.positions[v]) - q;
-            const double d2 = dot(d, d);
-            if (d2 <= radius * radius && d2 < best[v]) best[v] = d2, values[v] = attributes[i];
-          });
-        }
-        return format::Status();
-      });
-    };
-    GM_RETURN_IF_ERROR(search_rounds(output.positions, output.triangles, round,
-                                     [&](std::uint32_t v) { return std::isfinite(best[v]); }));
-    for (format::VertexAttributes& a : values) a.normal = normalised(a.normal.x, a.normal.y, a.normal.z);
+    auto found = nearest_vertex_values(pass, output.positions, surface_area(output.positions, output.triangles));
+    if (!found) return found.status();
+    values = std::move(*found);
   }
   assign(values, kinds, normals, output);
   return {};

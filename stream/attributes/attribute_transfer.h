@@ -41,6 +41,19 @@ using VertexPassFn = std::function<format::Status(const VertexBatchFn& batch)>;
 format::Status transfer_nearest_vertex(const VertexPassFn& pass, const format::AttributeKinds& kinds, Mesh& output,
                                        NormalsMode normals);
 
+// The search of transfer_nearest_vertex for an output held as positions only (its faces stream,
+// out of core): each vertex's values from the nearest input vertex, normals unit length. `area`,
+// the output's surface area (surface_area), sizes the search grid.
+format::Result<std::vector<format::VertexAttributes>> nearest_vertex_values(const VertexPassFn& pass,
+                                                                            const std::vector<format::Vec3f>& positions,
+                                                                            double area);
+double surface_area(const std::vector<format::Vec3f>& positions, std::span<const format::Triangle> triangles);
+// vertex_normals for faces that stream: each face's area-weighted normal added to its corners'
+// `normal` (in float, in face order); normalise_normals once every face has been added.
+void add_face_normals(const std::vector<format::Vec3f>& positions, std::span<const format::Triangle> faces,
+                      std::vector<format::VertexAttributes>& values);
+void normalise_normals(std::vector<format::VertexAttributes>& values);
+
 // Area-weighted vertex normals of a mesh, normalised ((0, 0, 1) for a vertex without area).
 std::vector<format::Vec3f> vertex_normals(format::MeshView mesh);
 
