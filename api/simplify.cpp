@@ -6,6 +6,7 @@
 #include "stream/analysis/mesh_distance.h"
 #include "stream/attributes/attribute_transfer.h"
 #include "stream/core/fan_split.h"
+#include "stream/core/mesh_topology.h"
 #include "stream/core/process_memory.h"
 #include "stream/core/stopwatch.h"
 #include "stream/finish/quadric_finish.h"
@@ -405,7 +406,8 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   options.mesher = o.mesher == Mesher::kVoronoi ? stream::MesherKind::kVoronoi : stream::MesherKind::kPatch;
   // One run on `faces`: the finish on the input itself where the target asks for it
   // (stream::finish_collapses_input), else on the Gauss approximation; also when the input is not
-  // a manifold OpenMesh can hold. `non_manifold`: a stage found it not a manifold.
+  // a manifold OpenMesh can hold. `non_manifold`: a stage found it not a manifold, or the output
+  // is not one.
   struct Attempt {
     std::optional<stream::FinishResult> finished;
     bool collapsed_input = false;
@@ -427,6 +429,12 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
       if (!simplified) return simplified.status();
       a.result = std::move(simplified).value();
       a.non_manifold = a.non_manifold || a.result.mesher_fallback;
+    }
+    // A vertex with two fans can also pass through the meshers and the finish into the output:
+    // the output, which is small, says so (the Voronoi mesher makes no topology promise).
+    if (!a.non_manifold && options.mesher == stream::MesherKind::kPatch) {
+      auto topology = stream::compute_topology(a.collapsed_input ? a.finished->mesh.view() : a.result.mesh.view());
+      a.non_manifold = topology && !topology->is_manifold();
     }
     return a;
   };

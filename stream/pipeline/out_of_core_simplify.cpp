@@ -23,6 +23,7 @@
 
 #include "format/file_io.h"
 #include "format/record_file.h"
+#include "stream/core/mesh_topology.h"
 #include "stream/core/process_memory.h"
 #include "stream/core/stopwatch.h"
 #include "stream/finish/quadric_finish.h"
@@ -766,15 +767,25 @@ format::Result<OutOfCoreSimplify> run_simplify(const std::string& input_path, co
 format::Result<OutOfCoreSimplify> simplify_out_of_core(const std::string& input_path, const format::ReadOptions& read,
                                                        const OutOfCoreSimplifyOptions& options) {
   auto run = run_simplify(input_path, read, options);
-  // The records' polygon mesher refuses a patch layout whose output would not be a manifold. On
-  // a manifold input that does not happen (docs/meshing.md); on a non-manifold one it does, and
-  // out of core there is no whole-input collapse mesher to fall back to (docs/cli.md,
-  // "Non-manifold input"): the error names the input and says so.
+  // The records' polygon mesher refuses a patch layout whose output would not be a manifold, and
+  // a vertex with two fans can pass through it into the output. On a manifold input neither
+  // happens (docs/meshing.md); on a non-manifold one out of core there is no whole input to split
+  // (docs/cli.md, "Non-manifold input"): the error names the input and says so. The output held
+  // whole is checked; a chunked finish's collapses keep the input's topology.
+  std::string problem;
   if (!run && run.status().code() == format::Code::kProcessing && run.status().where() == "polygon mesher") {
+    problem = run.status().message();
+  } else if (run && !run->parts && !run->mesh.triangles.empty() && !options.samples_only) {
+    auto topology = compute_topology(run->mesh.view());
+    if (!topology) return topology.status();
+    if (topology->non_manifold_edges > 0) problem = "the output would have an edge with more than two faces";
+    else if (topology->non_manifold_vertices > 0) problem = "the output would have a vertex joining separate fans";
+  }
+  if (!problem.empty()) {
     return format::Status::error(format::Code::kProcessing, input_path == "-" ? "<stdin>" : input_path,
-                                 "not a manifold where the out-of-core mesher needs one (" + run.status().message() +
+                                 "not a manifold where the out-of-core mesher needs one (" + problem +
                                      "): an edge with more than two faces or a vertex joining separate fans, which "
-                                     "`gaussmesh info` counts; the in-core engine (--engine in-core) leaves such faces out");
+                                     "`gaussmesh info` counts; the in-core engine (--engine in-core) splits them");
   }
   return run;
 }
