@@ -9,7 +9,7 @@
 //           and coplanar vertices often); bit 1 indices as raw bytes, possibly out of range
 //           (else modulo the vertex count); bits 2-3 the target kind (faces, ratio, max error,
 //           relative max error); bit 4 the Voronoi mesher; bits 5-6 the frequency (auto, 1, 2,
-//           3); bit 7 weld on (else auto)
+//           3; auto is 4 in the run with a target); bit 7 weld on (else auto)
 //   byte 2: the target's size
 //   then the positions, then the triangles, three index bytes each, up to kMaxFuzzFaces.
 #pragma once
