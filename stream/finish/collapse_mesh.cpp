@@ -160,6 +160,13 @@ bool CollapseMesh::link_ok(std::uint32_t from, std::uint32_t to, std::vector<std
     const std::uint32_t w = entry.first;
     if (stamp[w] == epoch && w != to && w != ac.vertex[0] && w != ac.vertex[1]) return false;
   }
+  // Nor do their links share an edge: with faces from-c-d and to-c-d (c, d the corners across),
+  // the collapse would leave c-d-to twice, back to back. On a manifold that is a tetrahedron.
+  if (ac.count == 2) {
+    const Across cd = across(ac.vertex[0], ac.vertex[1]);
+    const auto has = [&](std::uint32_t v) { return cd.vertex[0] == v || cd.vertex[1] == v; };
+    if (has(from) && has(to)) return false;
+  }
   // An edge inside the surface between two boundary vertices would pinch it.
   return !(edge_faces == 2 && from_boundary && to_boundary);
 }

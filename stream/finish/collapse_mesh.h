@@ -94,7 +94,8 @@ class CollapseMesh {
   Across across(std::uint32_t a, std::uint32_t b);
 
   // The link condition for collapsing `from` onto `to` (Dey et al.; OpenMesh's is_collapse_ok):
-  // their one-rings meet only across the edge, no face on the edge has its two other edges on the
+  // their one-rings meet only across the edge and their links share no edge (no faces from-c-d
+  // and to-c-d for the corners c, d across), no face on the edge has its two other edges on the
   // boundary, and an edge between two boundary vertices is a boundary edge. On an oriented
   // manifold, a collapse that passes keeps the genus, the closedness and the boundary loops.
   // `stamp` holds one entry per vertex for the one-ring test; `across` receives the edge's
