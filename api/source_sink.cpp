@@ -134,17 +134,42 @@ std::uint64_t whole_input_limit(const ResourceOptions& resources) {
 
 std::string stream_path(const Source& source) { return source.kind == Source::Kind::kFile ? source.path : "-"; }
 
+// A mesh in memory gets the checks a reader makes on a file: every index in range, every
+// position and attribute value a finite number (a mesh built on a NaN or an infinity is garbage,
+// and the engine would carry it to the output), and each attribute empty or one per position
+// (MeshView's contract, which the engine reads by vertex id).
+static Status check_memory_mesh(const MeshView& mesh) {
+  const std::size_t n = mesh.positions.size();
+  for (const Triangle& t : mesh.triangles) {
+    for (VertexIndex v : t.v) {
+      if (v >= n) {
+        return Status::error(Code::kBadInput, "<memory>", "a triangle references vertex " + std::to_string(v) + " of " + std::to_string(n));
+      }
+    }
+  }
+  const auto sized = [n](std::size_t size, const char* what) {
+    if (size == 0 || size == n) return Status();
+    return Status::error(Code::kBadInput, "<memory>", std::to_string(size) + " " + what + " for " + std::to_string(n) + " positions");
+  };
+  GM_RETURN_IF_ERROR(sized(mesh.normals.size(), "normals"));
+  GM_RETURN_IF_ERROR(sized(mesh.colors.size(), "colours"));
+  GM_RETURN_IF_ERROR(sized(mesh.texcoords.size(), "texture coordinates"));
+  for (std::size_t v = 0; v < n; ++v) {
+    format::VertexAttributes a;
+    if (!mesh.normals.empty()) a.normal = mesh.normals[v];
+    if (!mesh.colors.empty()) a.color = mesh.colors[v];
+    if (!mesh.texcoords.empty()) a.texcoord = mesh.texcoords[v];
+    if (!format::is_finite(mesh.positions[v]) || !format::is_finite(a)) {
+      return Status::error(Code::kBadInput, "<memory>", "vertex " + std::to_string(v) + " has a value that is not a finite number");
+    }
+  }
+  return {};
+}
+
 Result<LoadedMesh> load(const Source& source, bool weld_stl, std::uint64_t memory_limit) {
   LoadedMesh loaded;
   if (source.kind == Source::Kind::kMemory) {
-    for (const Triangle& t : source.mesh.triangles) {
-      for (VertexIndex v : t.v) {
-        if (v >= source.mesh.positions.size()) {
-          return Status::error(Code::kBadInput, "<memory>", "a triangle references vertex " + std::to_string(v) +
-                                                                " of " + std::to_string(source.mesh.positions.size()));
-        }
-      }
-    }
+    GM_RETURN_IF_ERROR(check_memory_mesh(source.mesh));
     loaded.view = source.mesh;
     return loaded;
   }

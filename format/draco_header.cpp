@@ -120,12 +120,14 @@ Status skip_metadata(Cursor& in, int depth) {
 }
 
 // Geometry metadata: per-attribute metadata (varint attribute id, metadata), then the mesh's own.
+// An id that does not decode ends the header, as in Draco: every entry then takes at least a
+// byte, so a count of a billion in a short file stops at its end instead of looping on nothing.
 Status skip_geometry_metadata(Cursor& in) {
   std::uint32_t attributes = 0;
   if (!in.varint(attributes)) attributes = 0;
   for (std::uint32_t i = 0; i < attributes; ++i) {
     std::uint32_t id = 0;
-    if (!in.varint(id)) id = 0;
+    if (!in.varint(id)) return in.ended();
     GM_RETURN_IF_ERROR(skip_metadata(in, 1));
   }
   return skip_metadata(in, 1);

@@ -553,12 +553,16 @@ Result<RecordReader::FrameHeader> RecordReader::frame_header() {
   return FrameHeader{at, bytes, compressed, plain};
 }
 
+// After the last frame, decoded or passed over: the frames must have held the records the
+// seek table claims, or a caller counting them would trust a damaged file.
+Status RecordReader::check_end() const {
+  if (records_read_ == records_) return {};
+  return fail(data_end_, "seek table claims " + std::to_string(records_) + " records, frames hold " + std::to_string(records_read_));
+}
+
 Result<std::span<const std::byte>> RecordReader::next() {
   if (next_frame_ >= frame_offsets_.size()) {
-    if (records_read_ != records_) {
-      return fail(data_end_, "seek table claims " + std::to_string(records_) + " records, frames hold " +
-                                 std::to_string(records_read_));
-    }
+    GM_RETURN_IF_ERROR(check_end());
     return std::span<const std::byte>();
   }
   auto header = frame_header();
@@ -578,7 +582,10 @@ Result<std::span<const std::byte>> RecordReader::next() {
 }
 
 Result<std::uint64_t> RecordReader::skip() {
-  if (next_frame_ >= frame_offsets_.size()) return std::uint64_t{0};
+  if (next_frame_ >= frame_offsets_.size()) {
+    GM_RETURN_IF_ERROR(check_end());
+    return std::uint64_t{0};
+  }
   auto header = frame_header();
   if (!header) return header.status();
   ++next_frame_;

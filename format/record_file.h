@@ -210,10 +210,12 @@ class RecordReader {
   std::size_t frame_count() const { return frame_offsets_.size(); }
   std::uint64_t records() const { return records_; }
   // Decompresses the next frame's records into a reused buffer; an empty span at the end.
-  // The span is valid until the next call.
+  // The span is valid until the next call. At the end, frames that held other than the records
+  // the seek table claims are kBadInput.
   Result<std::span<const std::byte>> next();
   // Passes over the next frame without decompressing it (its header and the seek table are
-  // checked, its checksum is not): how many records it holds, 0 at the end.
+  // checked, its checksum is not): how many records it holds, 0 at the end, with the same check
+  // of the record count as next().
   Result<std::uint64_t> skip();
 
  private:
@@ -228,6 +230,7 @@ class RecordReader {
   static Result<std::unique_ptr<RecordReader>> open_at(const std::string& path, std::uint32_t kind, std::uint32_t record_size,
                                                        const RecordSegment* segment);
   Status fail(std::uint64_t offset, const std::string& message) const;
+  Status check_end() const;
   const std::byte* fetch(std::uint64_t at, std::uint64_t size);
 
   int fd_ = -1;

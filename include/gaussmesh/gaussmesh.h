@@ -39,6 +39,8 @@ struct Source {
 
   static Source file(std::string path, MeshFormat format = MeshFormat::kUnknown);  // "-": standard input
   static Source standard_input(MeshFormat format = MeshFormat::kUnknown);
+  // Checked as a file is (kBadInput): indices in range, finite values, attributes empty or one
+  // per position.
   static Source memory(MeshView mesh);
   // A mesh file's bytes already in memory (received over a network, unpacked from an archive):
   // read by the same readers as a file, in core.
