@@ -95,10 +95,8 @@ void FaceQuadrics::nearest(const Vec3dq* points, int count, const Vec3dq& normal
     best_facing[p] = best_any[p] = std::numeric_limits<double>::infinity();
     facing[p] = any[p] = UINT32_MAX;
   }
-  auto visit = [&](std::int64_t i, std::int64_t j, std::int64_t k) {
-    auto it = cells_.find(cell_key(i, j, k));
-    if (it == cells_.end()) return;
-    for (std::uint32_t s = it->second.first; s < it->second.second; ++s) {
+  auto visit_cell = [&](const std::pair<std::uint32_t, std::uint32_t>& range) {
+    for (std::uint32_t s = range.first; s < range.second; ++s) {
       const std::uint32_t v = cell_vertices_[s];
       const bool faces_side = dot(normals_[v], normal) > 0;
       for (int p = 0; p < count; ++p) {
@@ -111,6 +109,26 @@ void FaceQuadrics::nearest(const Vec3dq* points, int count, const Vec3dq& normal
       }
     }
   };
+  auto visit = [&](std::int64_t i, std::int64_t j, std::int64_t k) {
+    auto it = cells_.find(cell_key(i, j, k));
+    if (it != cells_.end()) visit_cell(it->second);
+  };
+  // Where a shell has more cells than the grid has occupied ones (a few vertices far apart in a
+  // grid of tiny cells: a degenerate approximation), the occupied cells are taken by their
+  // distance from the centre cell instead, and the empty shells between are passed over: the same
+  // cells are visited, and the answers are by (distance, id), so they are the same as the shell
+  // walk's, at a cost bounded by the occupied cells rather than by the shells' volume.
+  std::vector<std::pair<std::int64_t, const std::pair<std::uint32_t, std::uint32_t>*>> by_shell;
+  auto occupied_by_shell = [&] {
+    by_shell.reserve(cells_.size());
+    const std::uint64_t mask = (std::uint64_t{1} << 21) - 1;
+    for (const auto& [key, range] : cells_) {
+      const std::int64_t i = std::int64_t(key >> 42 & mask) - kCellBias, j = std::int64_t(key >> 21 & mask) - kCellBias,
+                         k = std::int64_t(key & mask) - kCellBias;
+      by_shell.emplace_back(std::max({std::abs(i - ci), std::abs(j - cj), std::abs(k - ck)}), &range);
+    }
+    std::sort(by_shell.begin(), by_shell.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  };
   constexpr std::int64_t kFacingShells = 6;
   // Every vertex lies within the frame's unit box and every point within a cell of it (add_face
   // clamps them), so shells beyond 2 / cell_ + 3 find nothing new.
@@ -118,16 +136,26 @@ void FaceQuadrics::nearest(const Vec3dq* points, int count, const Vec3dq& normal
   int left = count;
   for (std::int64_t r = 0; r <= max_shell && left > 0; ++r) {
     // Shell r: the cells at Chebyshev distance r from the centre cell.
-    for (std::int64_t i = ci - r; i <= ci + r; ++i)
-      for (std::int64_t j = cj - r; j <= cj + r; ++j) {
-        const bool edge = i == ci - r || i == ci + r || j == cj - r || j == cj + r;
-        if (edge) {
-          for (std::int64_t k = ck - r; k <= ck + r; ++k) visit(i, j, k);
-        } else {
-          visit(i, j, ck - r);
-          if (r > 0) visit(i, j, ck + r);
+    const std::int64_t side = 2 * r + 1, inner = std::max<std::int64_t>(side - 2, 0);
+    const bool sparse = side * side * side - inner * inner * inner > std::int64_t(cells_.size());
+    std::int64_t next_occupied = max_shell;  // in sparse mode: the next shell with an occupied cell
+    if (sparse) {
+      if (by_shell.empty()) occupied_by_shell();
+      auto at = std::lower_bound(by_shell.begin(), by_shell.end(), r, [](const auto& e, std::int64_t d) { return e.first < d; });
+      for (; at != by_shell.end() && at->first == r; ++at) visit_cell(*at->second);
+      if (at != by_shell.end()) next_occupied = std::min(at->first, max_shell);
+    } else {
+      for (std::int64_t i = ci - r; i <= ci + r; ++i)
+        for (std::int64_t j = cj - r; j <= cj + r; ++j) {
+          const bool edge = i == ci - r || i == ci + r || j == cj - r || j == cj + r;
+          if (edge) {
+            for (std::int64_t k = ck - r; k <= ck + r; ++k) visit(i, j, k);
+          } else {
+            visit(i, j, ck - r);
+            if (r > 0) visit(i, j, ck + r);
+          }
         }
-      }
+    }
     // A vertex not yet visited lies outside the searched box: at least `reach` from the point.
     const double lo_x = double(ci - r) * cell_, hi_x = double(ci + r + 1) * cell_;
     const double lo_y = double(cj - r) * cell_, hi_y = double(cj + r + 1) * cell_;
@@ -146,6 +174,9 @@ void FaceQuadrics::nearest(const Vec3dq* points, int count, const Vec3dq& normal
       done[p] = true;
       --left;
     }
+    // Past empty shells, nothing changes but the reach, which only grows: the stopping test at
+    // the last of them (the shell before the next occupied one) decides as any of them would.
+    if (sparse && next_occupied - 1 > r + 1) r = next_occupied - 2;
   }
   for (int p = 0; p < count; ++p)
     if (!done[p]) out[p] = facing[p] != UINT32_MAX ? facing[p] : any[p];
