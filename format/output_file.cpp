@@ -43,8 +43,9 @@ Result<std::unique_ptr<OutputFile>> OutputFile::create(const std::string& path, 
     base = path.substr(slash + 1);
   }
   if (base.empty()) return Status::error(Code::kUsage, path, "output path names a directory");
-  // A run killed while writing this output left its temporary file: it goes now.
-  const std::string temp_prefix = "." + base + ".gaussmesh-";
+  // A run killed while writing this output left its temporary file: it goes now. (Locked names say
+  // "gaussmesh-run"; an unlocked one of a version that took no lock is left alone.)
+  const std::string temp_prefix = "." + base + ".gaussmesh-run-";
   remove_dead_runs_temps(dir, temp_prefix);
   std::random_device rd;
   for (int attempt = 0; attempt < 16; ++attempt) {

@@ -17,7 +17,7 @@ namespace gaussmesh::stream {
 
 // How a spill's file name starts (then the pid and a counter), so that a later run finds the
 // file of a killed one (format::remove_dead_runs_temps).
-inline constexpr char kAttributeSpillPrefix[] = "gaussmesh-attributes-";
+inline constexpr char kAttributeSpillPrefix[] = "gaussmesh-run-attributes-";
 
 class VertexAttributeSpill {
  public:

@@ -24,8 +24,10 @@
 namespace gaussmesh::stream {
 
 // How a run's temporary directory in --tmp is named (then six random characters); a later run
-// removes those whose run has died (format::remove_dead_runs_temps).
-inline constexpr char kPartitionDirPrefix[] = "gaussmesh-partition-";
+// removes those whose run has died (format::remove_dead_runs_temps). Every name a run locks starts
+// "gaussmesh-run-": the names of versions that held no lock are never matched, so a run of such a
+// version sharing the --tmp is not taken for a dead one.
+inline constexpr char kPartitionDirPrefix[] = "gaussmesh-run-";
 
 // Record kind of chunk face files (format/record_file.h): "GMCG" read as a little-endian u32.
 inline constexpr std::uint32_t kChunkFaceRecordKind = 0x47434D47u;

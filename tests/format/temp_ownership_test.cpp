@@ -73,19 +73,22 @@ TEST(TempOwnership, AnOutputFileClearsWhatAKilledRunLeftBesideIt) {
   const std::string out = dir.file("mesh.drc");
   // A killed run's temporary file of this output (nobody holds it), and a live run's, held here
   // through a descriptor of its own as another process would hold it.
-  const std::string dead = dir.file(".mesh.drc.gaussmesh-4242-0badf00d.tmp");
+  const std::string dead = dir.file(".mesh.drc.gaussmesh-run-4242-0badf00d.tmp");
   testing::write_file(dead, "half an output");
   bool exists = false;
-  auto live = create_owned_file(dir.file(".mesh.drc.gaussmesh-4343-12345678.tmp"), exists);
+  auto live = create_owned_file(dir.file(".mesh.drc.gaussmesh-run-4343-12345678.tmp"), exists);
   ASSERT_TRUE(live.is_ok());
-  const std::string other = dir.file(".other.drc.gaussmesh-4242-0badf00d.tmp");
+  const std::string other = dir.file(".other.drc.gaussmesh-run-4242-0badf00d.tmp");
   testing::write_file(other, "another output's");
+  const std::string unlocked_kind = dir.file(".mesh.drc.gaussmesh-4242-0badf00d.tmp");
+  testing::write_file(unlocked_kind, "an older version's, maybe alive");
 
   auto file = OutputFile::create(out, true);
   ASSERT_TRUE(file.is_ok()) << file.status().to_string();
   EXPECT_FALSE(fs::exists(dead));
-  EXPECT_TRUE(fs::exists(dir.file(".mesh.drc.gaussmesh-4343-12345678.tmp")));
+  EXPECT_TRUE(fs::exists(dir.file(".mesh.drc.gaussmesh-run-4343-12345678.tmp")));
   EXPECT_TRUE(fs::exists(other));
+  EXPECT_TRUE(fs::exists(unlocked_kind));
   ASSERT_TRUE((*file)->write("bytes", 5).is_ok());
   ASSERT_TRUE((*file)->commit().is_ok());
   EXPECT_EQ(testing::read_file(out), "bytes");
