@@ -25,15 +25,17 @@ using format::Triangle;
 bool is_collapsed(const Triangle& t) { return t.v[0] == t.v[1] || t.v[1] == t.v[2] || t.v[0] == t.v[2]; }
 
 // Per-thread scratch for one star: the corners' other two vertices. Arrays only grow (sized
-// by fit()), and are used through raw pointers: no per-star size bookkeeping.
+// by fit()), and are used through raw pointers: no per-star size bookkeeping, so every array
+// has the same size, the one fit() checks.
 struct StarScratch {
   std::vector<std::uint32_t> corner, next, prev, partner, next_slot;
   std::vector<std::uint8_t> used;
   std::vector<std::uint32_t> by_next, by_prev;  // slot indices sorted by next / prev (large stars)
   void fit(std::uint32_t degree) {
     if (corner.size() >= degree) return;
-    for (auto* v : {&corner, &next, &prev, &partner, &next_slot}) v->resize(std::max<std::uint32_t>(degree, 8));
-    used.resize(degree);
+    const std::uint32_t size = std::max<std::uint32_t>(degree, 8);
+    for (auto* v : {&corner, &next, &prev, &partner, &next_slot}) v->resize(size);
+    used.resize(size);
   }
 };
 
