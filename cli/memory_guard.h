@@ -25,7 +25,8 @@ std::uint64_t guarded_budget(const ResourceOptions& resources);
 
 class MemoryGuard {
  public:
-  // Starts the thread; budget 0 (--memory auto) starts nothing.
+  // Starts the thread; budget 0 (--memory auto) starts nothing, nor does a build with
+  // AddressSanitizer, whose resident memory is mostly its own (memory_guard.cpp).
   explicit MemoryGuard(std::uint64_t budget);
   ~MemoryGuard();
   MemoryGuard(const MemoryGuard&) = delete;

@@ -104,6 +104,27 @@ TEST(MeshAdjacency, BoundaryNonManifoldAndBadIndices) {
   EXPECT_NE(bad.status().where().find("face 3"), std::string::npos);
 }
 
+// Vertex 0 holds one face and comes first, so its star sizes the per-thread scratch; vertex 1,
+// next in the same range, is the apex of an open fan of four faces, whose walk uses every
+// scratch array up to its degree: an array the first star left shorter is a heap overflow
+// (reported by the sanitized stage, scripts/bootstrap sanitize).
+TEST(MeshAdjacency, AnOpenFanAfterASmallerStarIsWalkedWhole) {
+  Mesh m;
+  m.positions = {{0, 2, 0}, {0, 0, 0}, {1, -1, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {-1, 1, 0}};
+  m.triangles = {{{1, 2, 3}}, {{1, 3, 4}}, {{1, 4, 5}}, {{1, 5, 6}}, {{0, 6, 5}}};
+  const MeshAdjacency adj = build_mesh_adjacency(m.view()).value();
+  EXPECT_EQ(adj.break_edges, 7u);  // 15 directed edges, four interior ones held twice
+  ASSERT_EQ(adj.star_end(1) - adj.star_begin(1), 4u);
+  // One open fan, counter-clockwise from the face whose outgoing edge (1, 2) is a boundary.
+  std::vector<std::uint32_t> faces;
+  for (std::uint32_t s = adj.star_begin(1); s < adj.star_end(1); ++s) {
+    faces.push_back(adj.vertex_corners[s] / 3);
+    EXPECT_EQ(adj.slot_flags[s], s == adj.star_begin(1) ? MeshAdjacency::kFanStart : 0) << "slot " << s;
+  }
+  EXPECT_EQ(faces, (std::vector<std::uint32_t>{0, 1, 2, 3}));
+  EXPECT_EQ(adj.edge_neighbor[3 * 3 + 1], 4u);  // edge (5, 6) of face 3 borders vertex 0's face
+}
+
 // The sampler counts break edges from the fans (docs/sampling.md): in an open fan exactly the
 // first slot's outgoing edge and the last slot's incoming edge are breaks; in a closed fan none.
 // Random triangles over a few vertices give boundaries, non-manifold edges and vertices,
