@@ -69,6 +69,8 @@ std::optional<OutputFormat> parse_output_format(const std::string& name) {
   if (flag == "ply") return OutputFormat::kPlyBinary;
   if (flag == "ply-ascii") return OutputFormat::kPlyAscii;
   if (flag == "obj") return OutputFormat::kObj;
+  if (flag == "glb") return OutputFormat::kGlb;
+  if (flag == "gltf") return OutputFormat::kGltf;
   return std::nullopt;
 }
 
@@ -79,6 +81,8 @@ const char* output_format_name(OutputFormat format) {
     case OutputFormat::kPlyBinary: return "ply";
     case OutputFormat::kPlyAscii: return "ply-ascii";
     case OutputFormat::kObj: return "obj";
+    case OutputFormat::kGlb: return "glb";
+    case OutputFormat::kGltf: return "gltf";
   }
   return "draco";
 }
@@ -111,6 +115,8 @@ OutputFormat Sink::resolved_format() const {
   if (kind == Kind::kFile) {
     if (api::has_extension(path, ".ply")) return OutputFormat::kPlyBinary;
     if (api::has_extension(path, ".obj")) return OutputFormat::kObj;
+    if (api::has_extension(path, ".glb")) return OutputFormat::kGlb;
+    if (api::has_extension(path, ".gltf")) return OutputFormat::kGltf;
   }
   return OutputFormat::kDraco;
 }
@@ -205,19 +211,24 @@ Result<std::uint64_t> write_mesh(const Sink& sink, MeshView mesh, const DracoOpt
     return std::uint64_t{0};
   }
   const OutputFormat kind = sink.resolved_format();
-  const bool binary = kind == OutputFormat::kDraco || kind == OutputFormat::kPlyBinary;
+  const bool binary = kind != OutputFormat::kPlyAscii && kind != OutputFormat::kObj && kind != OutputFormat::kGltf;
   auto out = format::OutputFile::create(sink.kind == Sink::Kind::kFile ? sink.path : "-", binary);
   if (!out) return out.status();
+  format::DracoWriteOptions draco_options;
+  draco_options.quantization_bits = draco.quantization_bits;
+  draco_options.compression_level = draco.compression_level;
+  draco_options.normal_bits = draco.normal_bits;
+  draco_options.texcoord_bits = draco.texcoord_bits;
   Status status;
   switch (kind) {
     case OutputFormat::kAuto:
-    case OutputFormat::kDraco: {
-      format::DracoWriteOptions options;
-      options.quantization_bits = draco.quantization_bits;
-      options.compression_level = draco.compression_level;
-      options.normal_bits = draco.normal_bits;
-      options.texcoord_bits = draco.texcoord_bits;
-      status = format::write_draco(**out, mesh, options);
+    case OutputFormat::kDraco: status = format::write_draco(**out, mesh, draco_options); break;
+    case OutputFormat::kGlb:
+    case OutputFormat::kGltf: {
+      format::GltfWriteOptions gltf;
+      gltf.binary = kind == OutputFormat::kGlb;
+      gltf.draco = draco_options;
+      status = format::write_gltf(**out, mesh, gltf);
       break;
     }
     case OutputFormat::kPlyBinary:
@@ -236,15 +247,22 @@ Result<std::uint64_t> write_mesh(const Sink& sink, MeshView mesh, const DracoOpt
 }
 
 // Gathering a mesh costs its arrays (12 B a vertex, 12 B a face, about half as many vertices as
-// faces); Draco's encoder about 80 B a face more (measured on 1M faces: docs/finish.md).
+// faces); Draco's encoder about 80 B a face more (measured on 1M faces: docs/finish.md); glTF
+// decodes the Draco bytes again to describe them, and holds the container's copy.
 constexpr std::uint64_t kGatheredBytesPerFace = 18;
 constexpr std::uint64_t kDracoBytesPerFace = 80;
+constexpr std::uint64_t kGltfBytesPerFace = 120;
 constexpr std::uint64_t kProcessBytes = std::uint64_t{20} << 20;  // the process itself
 
 std::uint64_t whole_output_bytes_per_face(const Sink& sink) {
   if (sink.kind == Sink::Kind::kMemory) return kGatheredBytesPerFace;
-  const OutputFormat kind = sink.resolved_format();
-  return kind == OutputFormat::kAuto || kind == OutputFormat::kDraco ? kGatheredBytesPerFace + kDracoBytesPerFace : 0;
+  switch (sink.resolved_format()) {
+    case OutputFormat::kAuto:
+    case OutputFormat::kDraco: return kGatheredBytesPerFace + kDracoBytesPerFace;
+    case OutputFormat::kGlb:
+    case OutputFormat::kGltf: return kGatheredBytesPerFace + kGltfBytesPerFace;
+    default: return 0;
+  }
 }
 
 std::uint64_t whole_output_bytes(const Sink& sink, std::uint64_t faces, std::uint64_t more_per_face) {
@@ -254,7 +272,7 @@ std::uint64_t whole_output_bytes(const Sink& sink, std::uint64_t faces, std::uin
 Result<std::uint64_t> write_mesh_parts(const Sink& sink, format::MeshParts& mesh, const DracoOptions& draco,
                                        std::uint64_t memory_limit, const format::PartsAttributes& attributes) {
   const OutputFormat kind = sink.kind == Sink::Kind::kMemory ? OutputFormat::kAuto : sink.resolved_format();
-  if (sink.kind != Sink::Kind::kMemory && kind != OutputFormat::kAuto && kind != OutputFormat::kDraco) {
+  if (sink.kind != Sink::Kind::kMemory && whole_output_bytes_per_face(sink) == 0) {
     auto out = format::OutputFile::create(sink.kind == Sink::Kind::kFile ? sink.path : "-", kind != OutputFormat::kObj && kind != OutputFormat::kPlyAscii);
     if (!out) return out.status();
     Status status = kind == OutputFormat::kObj

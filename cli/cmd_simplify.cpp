@@ -73,7 +73,7 @@ int run_simplify(const SimplifyArgs& args, const std::function<bool(const char*)
   auto output_format = parse_output_format(args.output_format);
   if (!output_format) {
     return report_error(Status::error(Code::kUsage, "--format",
-                                      "unknown output format '" + args.output_format + "' (draco, ply, ply-ascii, obj)"));
+                                      "unknown output format '" + args.output_format + "' (draco, ply, ply-ascii, obj, glb, gltf)"));
   }
   SimplifyOptions options;
   options.weld = args.weld ? Weld::kOn : args.no_weld ? Weld::kOff : Weld::kAuto;
@@ -150,7 +150,7 @@ void register_simplify(CLI::App& app, Runner& run) {
   CLI::App* sub = app.add_subcommand("simplify", "simplify a mesh into a Draco (or PLY/OBJ) approximation");
   sub->add_option("input", args->input, "input mesh, or - for stdin (default)");
   sub->add_option("-o,--output", args->output, "output file, or - for stdout")->required();
-  sub->add_option("--format", args->output_format, "output format: draco (default), ply, ply-ascii, obj");
+  sub->add_option("--format", args->output_format, "output format: draco (default), ply, ply-ascii, obj, glb, gltf (glTF 2.0 with Draco); else from -o's extension");
   sub->add_option("--input-format", args->input_format, "force the input format: ply, off, obj, stl");
   sub->add_option("--target-faces", args->target_faces, "at most N faces: the Gauss approximation collapsed with the input's quadrics");
   sub->add_option("--ratio", args->ratio, "at most this fraction of the input's faces, 0 < R <= 1");

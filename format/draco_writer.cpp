@@ -133,7 +133,7 @@ bool quantizable(MeshView mesh, int bits) {
 
 }  // namespace
 
-Status write_draco(OutputFile& out, MeshView mesh, const DracoWriteOptions& options) {
+Status encode_draco(const OutputFile& out, MeshView mesh, const DracoWriteOptions& options, std::vector<char>& bytes) {
   GM_RETURN_IF_ERROR(validate(out, mesh, options));
   draco::EncoderBuffer buffer;
   try {
@@ -159,7 +159,14 @@ Status write_draco(OutputFile& out, MeshView mesh, const DracoWriteOptions& opti
     return Status::error(Code::kProcessing, out.name(),
                          std::string("Draco encoder failed: ") + e.what());
   }
-  return out.write(buffer.data(), buffer.size());
+  bytes.swap(*buffer.buffer());
+  return {};
+}
+
+Status write_draco(OutputFile& out, MeshView mesh, const DracoWriteOptions& options) {
+  std::vector<char> bytes;
+  GM_RETURN_IF_ERROR(encode_draco(out, mesh, options, bytes));
+  return out.write(bytes.data(), bytes.size());
 }
 
 }  // namespace gaussmesh::format

@@ -56,6 +56,19 @@ struct DracoWriteOptions {
 };
 // Edgebreaker-encoded Draco mesh. (draco_writer.cpp)
 Status write_draco(OutputFile& out, MeshView mesh, const DracoWriteOptions& options);
+// The bytes write_draco writes, in memory (`out` names the output in messages).
+Status encode_draco(const OutputFile& out, MeshView mesh, const DracoWriteOptions& options, std::vector<char>& bytes);
+
+struct GltfWriteOptions {
+  bool binary = true;  // .glb (one binary file); else .gltf (JSON, the buffer as a base64 data URI)
+  DracoWriteOptions draco;
+};
+// glTF 2.0 with one triangle primitive compressed by KHR_draco_mesh_compression (required):
+// POSITION, and NORMAL, COLOR_0, TEXCOORD_0 when the mesh has them. Texture coordinates are
+// written with v flipped (1 - v): glTF's origin is the image's top-left corner, PLY's and OBJ's
+// its bottom-left. Accessor counts and POSITION's min/max are those of the Draco data as a
+// decoder gives it back. (gltf_writer.cpp)
+Status write_gltf(OutputFile& out, MeshView mesh, const GltfWriteOptions& options);
 
 // A mesh too large to hold, delivered in parts: its counts first, then its vertices in order,
 // then its faces, each through a callback in batches (a batch is valid only during the call).

@@ -50,10 +50,12 @@ struct Source {
   std::string name() const;
 };
 
-// Output file formats. kAuto: from the path's extension (.drc .ply .obj), Draco otherwise.
-enum class OutputFormat { kAuto, kDraco, kPlyBinary, kPlyAscii, kObj };
+// Output file formats. kAuto: from the path's extension (.drc .ply .obj .glb .gltf), Draco
+// otherwise. kGlb and kGltf: glTF 2.0 holding the Draco-compressed mesh (KHR_draco_mesh_compression).
+enum class OutputFormat { kAuto, kDraco, kPlyBinary, kPlyAscii, kObj, kGlb, kGltf };
 
-// "draco"/"drc", "ply", "ply-ascii", "obj" (kAuto for an empty name); nullopt for anything else.
+// "draco"/"drc", "ply", "ply-ascii", "obj", "glb", "gltf" (kAuto for an empty name); nullopt for
+// anything else.
 std::optional<OutputFormat> parse_output_format(const std::string& name);
 const char* output_format_name(OutputFormat format);
 
