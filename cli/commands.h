@@ -17,6 +17,7 @@ void register_sample(CLI::App& app, Runner& run);
 void register_simplify(CLI::App& app, Runner& run);
 void register_compare(CLI::App& app, Runner& run);
 void register_segment(CLI::App& app, Runner& run);
+void register_view(CLI::App& app, Runner& run);
 
 // Prints "gaussmesh: <where>: <message>" on stderr and returns the exit code for status.
 int report_error(const Status& status);

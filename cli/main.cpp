@@ -80,6 +80,7 @@ int main(int argc, char** argv) {
   cli::register_simplify(app, run);
   cli::register_compare(app, run);
   cli::register_segment(app, run);
+  cli::register_view(app, run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

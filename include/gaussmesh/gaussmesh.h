@@ -340,6 +340,20 @@ struct Distance {
 // Symmetric Hausdorff and RMS distance between two meshes by dense, seeded surface sampling.
 Result<Distance> compare(const Source& a, const Source& b, const CompareOptions& options = {});
 
+// ---- viewer -------------------------------------------------------------------------------------
+
+// The viewer page (viewer/, built by `scripts/bootstrap viewer` into build/viewer): a folder with
+// index.html, viewer.js and draco/. Looked for in $GAUSSMESH_VIEWER_DIR, then beside the
+// executable in `executable_dir`/../viewer (the build tree) and
+// `executable_dir`/../share/gaussmesh/viewer (an installed tree); kUsage when none holds it.
+Result<std::string> find_viewer(const std::string& executable_dir);
+// Writes `output` ("-": standard output): one HTML file that shows the mesh file `model` (.glb,
+// .gltf, .drc, .ply or .obj) with no server and no network, the viewer's script, Draco's
+// decoder and the file's bytes inlined. kBadInput for a model that cannot be read, kUsage for
+// one larger than kMaxEmbeddedModelBytes.
+inline constexpr std::uint64_t kMaxEmbeddedModelBytes = std::uint64_t{256} << 20;
+Status write_viewer_page(const std::string& viewer_dir, const std::string& model, const std::string& output);
+
 // ---- process ------------------------------------------------------------------------------------
 
 // Removes the temporary files of running jobs on SIGINT, SIGTERM and SIGHUP, then exits with the
