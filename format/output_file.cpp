@@ -43,6 +43,17 @@ Result<std::unique_ptr<OutputFile>> OutputFile::create(const std::string& path, 
     base = path.substr(slash + 1);
   }
   if (base.empty()) return Status::error(Code::kUsage, path, "output path names a directory");
+  // A device or a pipe (-o /dev/null, a named FIFO) is written in place: renaming a file onto it
+  // would replace it.
+  struct stat target {};
+  if (::stat(path.c_str(), &target) == 0 && !S_ISREG(target.st_mode)) {
+    if (S_ISDIR(target.st_mode)) return Status::error(Code::kUsage, path, "output path names a directory");
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+    if (fd < 0) return Status::error(Code::kOutput, path, "cannot open output: " + errno_text(errno));
+    out->fd_ = fd;
+    out->in_place_ = true;
+    return out;
+  }
   // A run killed while writing this output left its temporary file: it goes now. (Locked names say
   // "gaussmesh-run"; an unlocked one of a version that took no lock is left alone.)
   const std::string temp_prefix = "." + base + ".gaussmesh-run-";
@@ -70,6 +81,7 @@ Result<std::unique_ptr<OutputFile>> OutputFile::create(const std::string& path, 
 }
 
 OutputFile::~OutputFile() {
+  if (in_place_ && fd_ >= 0) ::close(fd_);
   if (!temp_.empty()) {
     if (fd_ >= 0) ::close(fd_);
     if (!committed_) ::unlink(temp_.c_str());

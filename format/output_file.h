@@ -14,7 +14,8 @@ namespace gaussmesh::format {
 
 class OutputFile {
  public:
-  // path "-" is standard output; binary output to a terminal is refused (kUsage).
+  // path "-" is standard output; binary output to a terminal is refused (kUsage). An existing
+  // path that is not a regular file (/dev/null, a FIFO) is written in place, without a rename.
   static Result<std::unique_ptr<OutputFile>> create(const std::string& path, bool binary);
   ~OutputFile();  // removes the temporary file unless commit() succeeded
   OutputFile(const OutputFile&) = delete;
@@ -38,6 +39,7 @@ class OutputFile {
   size_t used_ = 0;
   std::uint64_t total_ = 0;
   bool committed_ = false;
+  bool in_place_ = false;  // a device or a pipe, written directly and closed by the destructor
   bool failed_ = false;
 };
 

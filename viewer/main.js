@@ -148,28 +148,29 @@ async function open(name, buffer) {
   state.status = 'loading';
   document.getElementById('message').textContent = `loading ${name}`;
   const bytes = new Uint8Array(buffer);
+  const size = bytes.length;  // the Draco decoder's worker takes the buffer itself
   const format = detect(bytes);
   try {
     if (format === 'glb' || format === 'gltf') {
       const loader = new GLTFLoader(manager);
       loader.setDRACOLoader(draco);
       const gltf = await loader.parseAsync(buffer, '');
-      show(gltf.scene, { name, format, bytes: bytes.length, ...counts(gltf.scene) });
+      show(gltf.scene, { name, format, bytes: size, ...counts(gltf.scene) });
     } else if (format === 'drc') {
       const geometry = await new Promise((resolve, reject) => {
         draco.parse(buffer, resolve, reject);
       });
       const mesh = new THREE.Mesh(geometry, material);
-      show(mesh, { name, format, bytes: bytes.length, ...counts(mesh) });
+      show(mesh, { name, format, bytes: size, ...counts(mesh) });
     } else if (format === 'ply') {
       const ply = parsePly(buffer);
-      show(new THREE.Mesh(ply.geometry, material), { name, format, bytes: bytes.length, faces: ply.faces, vertices: ply.vertices, colours: ply.colours });
+      show(new THREE.Mesh(ply.geometry, material), { name, format, bytes: size, faces: ply.faces, vertices: ply.vertices, colours: ply.colours });
     } else {
       const text = new TextDecoder().decode(bytes);
       const object = new OBJLoader(manager).parse(text);
       // OBJLoader gives every face corner its own vertex: the file's vertices are its v lines.
       const vertices = (text.match(/^v\s/gm) ?? []).length;
-      show(object, { name, format, bytes: bytes.length, faces: counts(object).faces, vertices });
+      show(object, { name, format, bytes: size, faces: counts(object).faces, vertices });
     }
   } catch (error) {
     fail(name, error);

@@ -4,6 +4,8 @@
 // no output and no temporary file behind.
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+
 #include <sys/mount.h>
 #include <unistd.h>
 
@@ -104,6 +106,30 @@ TEST(SimplifyCli, FormatsFollowTheExtensionOrTheFlag) {
   auto info = run_command(binary() + " info " + q(dir.file("x.ply")));
   EXPECT_EQ(info.exit_code, 0) << info.err;
   EXPECT_NE(info.out.find("closed manifold        yes"), std::string::npos) << info.out;
+}
+
+TEST(SimplifyCli, GlbAndGltfFollowTheExtensionOrTheFlag) {
+  ScratchDir dir;
+  std::string input = q(fixture("real/cow.off"));
+  ASSERT_EQ(run_command(binary() + " simplify " + input + " -o " + q(dir.file("x.glb")) + " -q").exit_code, 0);
+  ASSERT_EQ(run_command(binary() + " simplify " + input + " -o " + q(dir.file("x.gltf")) + " -q").exit_code, 0);
+  ASSERT_EQ(run_command(binary() + " simplify " + input + " --format glb -o " + q(dir.file("x.out")) + " -q").exit_code, 0);
+  auto piped = run_command(binary() + " simplify " + input + " --format glb -o - -q > " + q(dir.file("piped.glb")));
+  ASSERT_EQ(piped.exit_code, 0) << piped.err;
+  EXPECT_EQ(read_file(dir.file("x.glb")).rfind("glTF", 0), 0u);
+  EXPECT_EQ(read_file(dir.file("x.out")), read_file(dir.file("x.glb")));
+  EXPECT_EQ(read_file(dir.file("piped.glb")), read_file(dir.file("x.glb")));
+  EXPECT_NE(read_file(dir.file("x.gltf")).find("\"KHR_draco_mesh_compression\""), std::string::npos);
+  EXPECT_EQ(run_command(binary() + " simplify " + input + " --format gltf2 -o " + q(dir.file("y")) + " -q").exit_code, 1);
+}
+
+// An output that is a device (or a pipe) is written in place: a rename onto it would replace it.
+TEST(SimplifyCli, OutputToDevNullLeavesItADevice) {
+  auto run = run_command(binary() + " simplify " + q(fixture("real/cow.off")) + " -o /dev/null -q");
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  struct stat node {};
+  ASSERT_EQ(::stat("/dev/null", &node), 0);
+  EXPECT_TRUE(S_ISCHR(node.st_mode));
 }
 
 // Decision (docs/cli.md): a face that names a vertex twice (or three times) has no surface; it
