@@ -100,11 +100,11 @@ int run_view(const ViewOptions& o) {
   if (error || !fs::is_regular_file(o.input, error)) {
     return report_error(Status::error(Code::kBadInput, o.input, "cannot read: not a regular file"));
   }
-  auto viewer = find_viewer(executable_dir());
-  if (!viewer) return report_error(viewer.status());
   if (o.port < 0 || o.port > 65535) {
     return report_error(Status::error(Code::kUsage, "--port", "a port is 0..65535, got " + std::to_string(o.port)));
   }
+  auto viewer = find_viewer(executable_dir());
+  if (!viewer) return report_error(viewer.status());
   if (!o.html.empty()) {
     if (Status s = write_viewer_page(*viewer, o.input, o.html); !s) return report_error(s);
     if (verbosity() >= 1 && o.html != "-") std::fprintf(stderr, "gaussmesh: %s -> %s (viewer page)\n", o.input.c_str(), o.html.c_str());
