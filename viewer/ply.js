@@ -1,7 +1,8 @@
-// PLY for the viewer: binary little-endian and ASCII, positions and the colours gaussmesh writes —
+// PLY and OFF for the viewer. PLY: binary little-endian and ASCII, positions and the colours gaussmesh writes —
 // per vertex, or per face (segment and patch colours, which three.js's PLYLoader does not read).
 // Polygons are split into fans. A mesh with face colours becomes one vertex per face corner, so
-// each face can carry its own colour; the counts returned are the file's.
+// each face can carry its own colour; the counts returned are the file's. Vertices with a
+// nonzero `sample` property come back as points.
 import * as THREE from 'three';
 
 const kTypes = {
@@ -140,5 +141,40 @@ export function parsePly(buffer) {
     }
     geometry.setIndex(vertexCount > 65535 ? new THREE.Uint32BufferAttribute(triangles, 1) : new THREE.Uint16BufferAttribute(triangles, 1));
   }
-  return { geometry, vertices: vertexCount, faces: triangles.length / 3, colours: faceColours ? 'face' : vertexColours ? 'vertex' : '' };
+  // Vertices flagged by a `sample` property (gaussmesh sample --patches): the samples.
+  const samples = [];
+  if (vertex.sample !== undefined) {
+    for (let v = 0; v < vertexCount; v += 1) if (vertex.sample[v]) samples.push(vertex.x[v], vertex.y[v], vertex.z[v]);
+  }
+  return { geometry, vertices: vertexCount, faces: triangles.length / 3, colours: faceColours ? 'face' : vertexColours ? 'vertex' : '',
+    samples: new Float32Array(samples) };
+}
+
+// OFF (ASCII, as the fixtures are): positions and polygons, split into fans; colours ignored.
+export function parseOff(buffer) {
+  const text = new TextDecoder('latin1').decode(new Uint8Array(buffer));
+  const words = text.replace(/#[^\n]*/g, ' ').split(/\s+/).filter((w) => w.length > 0);
+  const header = words[0];
+  if (!/^[A-Z]*OFF$/.test(header)) throw new Error('not an OFF file');
+  let at = 1;
+  const vertexCount = Number(words[at]);
+  const faceCount = Number(words[at + 1]);
+  at += 3;
+  const perVertex = 3 + (header.includes('C') ? 3 : 0) + (header.includes('N') ? 3 : 0) + (header.includes('ST') ? 2 : 0);
+  const positions = new Float32Array(vertexCount * 3);
+  for (let v = 0; v < vertexCount; v += 1, at += perVertex) {
+    positions.set([Number(words[at]), Number(words[at + 1]), Number(words[at + 2])], 3 * v);
+  }
+  const triangles = [];
+  for (let f = 0; f < faceCount; f += 1) {
+    const n = Number(words[at]);
+    const polygon = words.slice(at + 1, at + 1 + n).map(Number);
+    for (let k = 1; k + 1 < n; k += 1) triangles.push(polygon[0], polygon[k], polygon[k + 1]);
+    at += 1 + n;
+    while (at < words.length && !/^\d+$/.test(words[at])) at += 1;  // a face's colour
+  }
+  const geometry = new THREE.BufferGeometry();
+  geometry.setAttribute('position', new THREE.BufferAttribute(positions, 3));
+  geometry.setIndex(vertexCount > 65535 ? new THREE.Uint32BufferAttribute(triangles, 1) : new THREE.Uint16BufferAttribute(triangles, 1));
+  return { geometry, vertices: vertexCount, faces: triangles.length / 3, colours: '', samples: new Float32Array(0) };
 }
