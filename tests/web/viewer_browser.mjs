@@ -1,13 +1,14 @@
 // The viewer in a real browser (Debian's Chromium, headless, driven by playwright-core): every
-// fixture simplified to .glb and to .drc, a segmentation's face-coloured .ply and an .obj, each
-// opened in the self-contained page `gaussmesh view FILE --html` writes; the page must report the
+// fixture simplified to .glb and to .drc, a segmentation's face-coloured .ply, an .obj and a
+// coloured .gltf, each opened in the self-contained page `gaussmesh view FILE --html` writes;
+// the page must report the
 // face and vertex counts gaussmesh reported and the file's bytes, and draw the mesh: the canvas
 // may not be blank. One model is also opened through the server `gaussmesh view FILE` starts,
 // which must stop with exit 0 on SIGINT. Screenshots go to --screenshots DIR.
 import { execFileSync, spawn } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
-import { check, finish, kSkipped, options, requireModules, scratch, simplify } from './support.mjs';
+import { check, finish, kSkipped, options, requireModules, scratch, simplify, writeAttributedTorus } from './support.mjs';
 
 const { gaussmesh, modules, root } = options();
 const args = process.argv.slice(2);
@@ -109,7 +110,18 @@ const objReport = simplify(gaussmesh, path.join(root, 'fixtures/real/fandisk.off
 const objHtml = path.join(dir, 'fandisk-obj.html');
 execFileSync(gaussmesh, ['view', obj, '--html', objHtml, '-q']);
 expect('fandisk .obj', await look(`file://${objHtml}`, 'fandisk-obj.png'), { faces: objReport.output_faces, vertices: objReport.output_vertices }, obj);
-pages += 2;
+// A .gltf (JSON, the buffer a data URI) of a mesh with colours, normals and texture coordinates:
+// the page must find the vertex colours.
+const torus = path.join(dir, 'torus.ply');
+writeAttributedTorus(torus, 120, 60);
+const gltf = path.join(dir, 'torus.gltf');
+const gltfReport = simplify(gaussmesh, torus, gltf, ['--ratio', '0.05']);
+const gltfHtml = path.join(dir, 'torus-gltf.html');
+execFileSync(gaussmesh, ['view', gltf, '--html', gltfHtml, '-q']);
+const gltfSeen = await look(`file://${gltfHtml}`, 'torus-gltf.png');
+expect('attributed torus .gltf', gltfSeen, { faces: gltfReport.output_faces, vertices: gltfReport.output_vertices }, gltf);
+check(gltfSeen.state.colours === 'vertex', `attributed torus .gltf: colours ${gltfSeen.state.colours}, expected per vertex`);
+pages += 3;
 
 // Served: the URL comes on the first line of standard output; SIGINT stops the server.
 const served = path.join(dir, 'cow.glb');
