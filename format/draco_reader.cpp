@@ -3,10 +3,15 @@
 // plus the decode, which follows the mesh, not the file: a few MB of Draco can decode to a GB.
 // So the counts are read from the header first (format/draco_header.h), and a decode whose
 // estimated peak passes ReadOptions::memory_limit is refused before it starts (docs/formats.md).
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <exception>
+#include <limits>
 #include <new>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include <draco/compression/decode.h>
@@ -68,6 +73,41 @@ Result<std::unique_ptr<draco::Mesh>> decode(const std::vector<char>& bytes, cons
   return std::move(decoded).value();
 }
 
+// Components of a point's attribute value as floats: float types as they are, integer types as
+// their value, or as value / the type's maximum when `unit` (colours, which Draco and glTF hold
+// as 0..max of their type). Missing components stay as they were. Draco's own ConvertValue is
+// not used: it reads the attribute's `normalized` flag, a bool that a file can set to a byte
+// that is neither 0 nor 1, and loading that is undefined behaviour (fuzz_draco_reader's
+// normalized-flag-128.drc).
+bool read_components(const draco::PointAttribute& attribute, draco::PointIndex point, int count, bool unit, float* out) {
+  const std::uint8_t* address = attribute.GetAddress(attribute.mapped_index(point));
+  if (address == nullptr) return false;
+  const int components = std::min<int>(count, attribute.num_components());
+  for (int k = 0; k < components; ++k) {
+    double value = 0, max = 1;
+    auto take = [&](auto sample) {
+      std::memcpy(&sample, address + k * sizeof(sample), sizeof(sample));
+      value = static_cast<double>(sample);
+      if constexpr (std::is_integral_v<decltype(sample)>) max = static_cast<double>(std::numeric_limits<decltype(sample)>::max());
+    };
+    switch (attribute.data_type()) {
+      case draco::DT_INT8: take(std::int8_t{}); break;
+      case draco::DT_UINT8: take(std::uint8_t{}); break;
+      case draco::DT_INT16: take(std::int16_t{}); break;
+      case draco::DT_UINT16: take(std::uint16_t{}); break;
+      case draco::DT_INT32: take(std::int32_t{}); break;
+      case draco::DT_UINT32: take(std::uint32_t{}); break;
+      case draco::DT_INT64: take(std::int64_t{}); break;
+      case draco::DT_UINT64: take(std::uint64_t{}); break;
+      case draco::DT_FLOAT32: take(float{}); break;
+      case draco::DT_FLOAT64: take(double{}); break;
+      default: return false;  // DT_BOOL and unknown types carry no geometry
+    }
+    out[k] = static_cast<float>(unit ? value / max : value);
+  }
+  return true;
+}
+
 Status deliver(const draco::Mesh& mesh, const ByteSource& source, const ReadOptions& options, MeshSink& sink) {
   const draco::PointAttribute* position = mesh.GetNamedAttribute(draco::GeometryAttribute::POSITION);
   if (position == nullptr || position->num_components() < 3) {
@@ -95,17 +135,11 @@ Status deliver(const draco::Mesh& mesh, const ByteSource& source, const ReadOpti
       GM_RETURN_IF_ERROR(sink.on_ignored(draco::GeometryAttribute::TypeToString(attribute->attribute_type())));
     }
   }
-  // An integer colour that Draco does not mark normalized holds 0..max of its type.
-  const double color_divisor = color == nullptr || color->normalized() || color->data_type() == draco::DT_FLOAT32 ||
-                                       color->data_type() == draco::DT_FLOAT64
-                                   ? 1.0
-                               : color->data_type() == draco::DT_UINT16 ? 65535.0
-                                                                        : 255.0;
   MeshBatcher batcher(sink, options.batch_size, header.attributes.any());
   for (draco::PointIndex::ValueType i = 0; i < points; ++i) {
     const draco::PointIndex point(i);
     float xyz[3] = {0, 0, 0};
-    if (!position->ConvertValue<float, 3>(position->mapped_index(point), xyz)) {
+    if (!read_components(*position, point, 3, false, xyz)) {
       return Status::error(Code::kBadInput, source.name(), "Draco: point " + std::to_string(i) + " has no position");
     }
     if (!is_finite(Vec3f{xyz[0], xyz[1], xyz[2]})) {
@@ -113,14 +147,13 @@ Status deliver(const draco::Mesh& mesh, const ByteSource& source, const ReadOpti
     }
     VertexAttributes attributes;
     bool converted = true;
-    if (normal != nullptr) converted &= normal->ConvertValue<float, 3>(normal->mapped_index(point), &attributes.normal.x);
+    if (normal != nullptr) converted &= read_components(*normal, point, 3, false, &attributes.normal.x);
     if (color != nullptr) {
       float rgba[4] = {0, 0, 0, 1};
-      converted &= color->ConvertValue<float>(color->mapped_index(point), color->num_components(), rgba);
-      attributes.color = {float(rgba[0] / color_divisor), float(rgba[1] / color_divisor), float(rgba[2] / color_divisor),
-                          color->num_components() == 4 ? float(rgba[3] / color_divisor) : 1.0f};
+      converted &= read_components(*color, point, 4, true, rgba);
+      attributes.color = {rgba[0], rgba[1], rgba[2], rgba[3]};
     }
-    if (texcoord != nullptr) converted &= texcoord->ConvertValue<float, 2>(texcoord->mapped_index(point), &attributes.texcoord.u);
+    if (texcoord != nullptr) converted &= read_components(*texcoord, point, 2, false, &attributes.texcoord.u);
     if (!converted || !is_finite(attributes)) {
       return Status::error(Code::kBadInput, source.name(),
                            "Draco: point " + std::to_string(i) + " has a normal, colour or texture coordinate it cannot convert to finite numbers");
