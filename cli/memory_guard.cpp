@@ -65,6 +65,9 @@ void MemoryGuard::watch() {
     const std::uint64_t resident = peak_rss_bytes();
     if (resident <= limit_) continue;
     const char* pass = pass_[0] != '\0' ? pass_ : nullptr;
+    // Standard error stays locked until the exit: a pass that fails on the files removed below
+    // would otherwise print a second line.
+    ::flockfile(stderr);
     std::fprintf(stderr,
                  "gaussmesh: --memory: %llu MiB resident%s%s%s, past the budget of %llu MiB (a run may pass it by a quarter "
                  "and 32 MiB): this input needs more memory than the passes can keep within it; raise --memory\n",

@@ -27,8 +27,11 @@ class ChunkFileMaker {
   ChunkFileMaker(const std::string& dir, std::uint32_t chunks, bool background) {
     if (!background) return;
     thread_ = std::thread([this, dir, chunks] {
+      char path[4096];
       for (std::uint32_t c = 0; c < chunks && !stop_.load(std::memory_order_relaxed); ++c) {
-        const int fd = ::open(chunk_file_path(dir, c).c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0600);
+        // No allocation on this thread (an exception here would end the process).
+        if (std::snprintf(path, sizeof path, "%s/chunk-%06u.gmr", dir.c_str(), c) >= int(sizeof path)) return;
+        const int fd = ::open(path, O_WRONLY | O_CREAT | O_CLOEXEC, 0600);
         if (fd >= 0) ::close(fd);
       }
     });

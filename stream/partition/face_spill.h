@@ -17,6 +17,7 @@
 #include "format/mesh_types.h"
 #include "format/record_file.h"
 #include "format/status.h"
+#include "stream/core/thread_status.h"
 
 namespace gaussmesh::stream::detail {
 
@@ -126,7 +127,7 @@ class FrameReadAhead {
     std::vector<std::uint32_t> tags;
     for (bool more = true; more;) {
       std::uint64_t skipped = 0;
-      Status status = read(frame, tags, skipped);
+      Status status = status_of_work("face spill", [&] { return read(frame, tags, skipped); });
       more = status.is_ok() && (!frame.empty() || skipped > 0);
       std::unique_lock lock(mutex_);
       changed_.wait(lock, [&] { return !full_ || stopping_; });

@@ -12,6 +12,7 @@
 
 #include "format/mesh_types.h"
 #include "format/status.h"
+#include "stream/core/thread_status.h"
 #include "stream/partition/face_spill.h"
 #include "stream/partition/spill_writer.h"
 
@@ -29,7 +30,10 @@ using format::Vec3f;
 class SpillThread {
  public:
   SpillThread(SpillWriter& positions, FaceSpill& faces, bool background) : positions_(positions), faces_(faces) {
-    if (background) thread_ = std::thread([this] { run(); });
+    if (background) {
+      free_.reserve(kInFlight);  // run() hands buffers back without allocating
+      thread_ = std::thread([this] { run(); });
+    }
   }
   ~SpillThread() { stop(); }
   SpillThread(const SpillThread&) = delete;
@@ -81,7 +85,7 @@ class SpillThread {
       pending_.pop_front();
       const bool write_it = status_.is_ok();
       lock.unlock();
-      Status status = write_it ? write(item.faces, item.bytes) : Status{};
+      Status status = write_it ? status_of_work("ingest", [&] { return write(item.faces, item.bytes); }) : Status{};
       lock.lock();
       if (!status.is_ok() && status_.is_ok()) status_ = status;
       free_.push_back(std::move(item.bytes));
