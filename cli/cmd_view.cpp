@@ -10,7 +10,6 @@
 #include <thread>
 
 #include <pthread.h>
-#include <unistd.h>
 
 #include <httplib.h>
 
