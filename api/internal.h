@@ -48,9 +48,11 @@ struct LoadedMesh {
   std::vector<std::string> ignored_vertex_values;  // what the reader did not deliver (MeshSink::on_ignored)
   std::vector<std::string> input_warnings;         // what the reader skipped (MeshSink::on_warning)
 };
-// weld_stl, memory_limit: format::ReadOptions's (0: no limit; an in-core run passes an explicit
-// --memory, so that a Draco input whose decode cannot fit is refused before it is decoded).
-Result<LoadedMesh> load(const Source& source, bool weld_stl = true, std::uint64_t memory_limit = 0);
+// weld_stl, memory_limit, corner_values: format::ReadOptions's (0: no limit; an in-core run
+// passes an explicit --memory, so that a Draco input whose decode cannot fit is refused before it
+// is decoded; simplify asks for corner values, and keeps the seams they make).
+Result<LoadedMesh> load(const Source& source, bool weld_stl = true, std::uint64_t memory_limit = 0,
+                        bool corner_values = false);
 
 // The out-of-core engines read a path ("-": standard input).
 std::string stream_path(const Source& source);

@@ -5,6 +5,7 @@
 #include "api/internal.h"
 #include "stream/analysis/mesh_distance.h"
 #include "stream/attributes/attribute_transfer.h"
+#include "stream/attributes/seams.h"
 #include "stream/core/fan_split.h"
 #include "stream/core/mesh_topology.h"
 #include "stream/core/process_memory.h"
@@ -353,9 +354,27 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
                                        const std::vector<stream::GaussSphereOptions>& spheres,
                                        const stream::SamplerOptions& sampler, Clock::time_point started) {
   auto t = Clock::now();
-  auto mesh = api::load(source, o.weld == Weld::kOff, o.resources.memory_bytes);
+  auto mesh = api::load(source, o.weld == Weld::kOff, o.resources.memory_bytes, /*corner_values=*/true);
   if (!mesh) return mesh.status();
   const double seconds_read = seconds_since(t);
+  // An input split where its values differ (texture seams, hard normals: stream/attributes/seams.h)
+  // is simplified as its surface welded by position; a target then keeps the seams. The split
+  // input stays for the values.
+  std::optional<stream::Seams> seams;
+  stream::Mesh seamed_input;
+  if (o.mesher == Mesher::kPatch) seams = stream::find_seams(mesh->view);
+  if (seams) {
+    if (!mesh->owned.positions.empty() || !mesh->owned.triangles.empty()) {
+      seamed_input = std::move(mesh->owned);
+    } else {
+      const MeshView& v = mesh->view;
+      seamed_input = {{v.positions.begin(), v.positions.end()}, {v.triangles.begin(), v.triangles.end()},
+                     {v.normals.begin(), v.normals.end()}, {v.colors.begin(), v.colors.end()},
+                     {v.texcoords.begin(), v.texcoords.end()}};
+    }
+    mesh->owned = stream::Mesh{seams->welded.positions, seams->welded.triangles, {}, {}, {}};
+    mesh->view = mesh->owned.view();
+  }
   // A scattered input is renumbered in spatial order, and a soup welded, as the out-of-core
   // engine does, so that both reach the same output (stream/partition/spatial_order.h).
   t = Clock::now();
@@ -363,7 +382,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   probe.add(mesh->view.triangles);
   const bool weld = stream::should_weld(stream_weld(o.weld), mesh->view.positions.size(), mesh->view.triangles.size());
   const bool reordered = weld || probe.scattered(mesh->view.positions.size());
-  const bool has_attributes = !mesh->view.normals.empty() || !mesh->view.colors.empty() || !mesh->view.texcoords.empty();
+  const bool has_attributes = seams || !mesh->view.normals.empty() || !mesh->view.colors.empty() || !mesh->view.texcoords.empty();
   // The attributes are taken from the input as read (a copy of its positions and faces when the
   // renumbering below rewrites them, beside its attributes, which the renumbered mesh does not
   // keep): the transfer needs its surface, not its numbering.
@@ -390,7 +409,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
     mesh->owned.texcoords.clear();
     mesh->view = mesh->owned.view();
   }
-  const MeshView attribute_input = reordered ? as_read.view() : mesh->view;
+  const MeshView attribute_input = seams ? seamed_input.view() : reordered ? as_read.view() : mesh->view;
   const double seconds_reorder = seconds_since(t);
   const MeshView input = mesh->view;
   if (input.triangles.empty()) return no_faces(source, input.positions.size());
@@ -414,8 +433,23 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
     stream::SimplifyResult result;
     bool non_manifold = false;
   };
+  // With seams, any target collapses the welded input with its seams (the Gauss approximation does
+  // not keep them); only the first attempt: a split of fans does not know them.
+  bool seams_kept = false;
   auto attempt = [&](MeshView faces) -> Result<Attempt> {
     Attempt a;
+    if (seams && !seams_kept && o.target.any() && o.sampling.frequency == kAutoFrequency) {
+      auto f = stream::finish_input(seams->welded.view(), finish, seams->corner_wedges);
+      if (!f && f.status().code() != Code::kProcessing) return f.status();
+      if (f) {
+        a.finished = std::move(f).value(), a.collapsed_input = true, seams_kept = true;
+        a.finished->mesh = stream::split_at_seams(attribute_input, *seams, a.finished->mesh, a.finished->corner_wedges,
+                                                  a.finished->source, a.finished->region, normals_mode(o.normals));
+        return a;
+      }
+      a.non_manifold = true;
+      return a;
+    }
     if (o.target.any() && o.sampling.frequency == kAutoFrequency &&
         stream::finish_collapses_input(finish, faces.triangles.size())) {
       const stream::Mesh compact = stream::compact_input(faces.positions, faces.triangles);
@@ -472,7 +506,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
     finished = std::move(f).value();
   }
   t = Clock::now();
-  if (has_attributes || o.normals == Normals::kCompute) {
+  if (!seams_kept && (has_attributes || o.normals == Normals::kCompute)) {
     stream::transfer_attributes(attribute_input, result->mesh, normals_mode(o.normals));
   }
   const double seconds_attributes = seconds_since(t);
@@ -498,6 +532,11 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   stats.samples = result->samples;
   stats.chunks = 1;
   stats.warnings = input_warnings(mesh->input_warnings, mesh->ignored_vertex_values, {});
+  if (seams && !seams_kept) {
+    stats.warnings.push_back("the input's values differ at " + std::to_string(seams->seam_vertices) +
+                             " positions (texture seams, hard normals or colour edges); only a target (--ratio, "
+                             "--target-faces, --max-error) keeps them: this output's faces may cross them");
+  }
   if (result->mesher_fallback) {
     // The collapse mesher leaves out the faces it cannot add without an edge or a vertex that is
     // not a manifold (docs/cli.md, "Non-manifold input"); faces with a repeated corner are left out
@@ -542,6 +581,8 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   report["kept_interior_vertices"] = result->kept_interior_vertices;
   report["skipped_input_faces"] = result->skipped_input_faces;
   report["split_vertices"] = split.added_vertices;
+  report["seam_vertices"] = seams ? seams->seam_vertices : 0;
+  report["seams_kept"] = seams_kept;
   report["planar_patches"] = result->planar_patches;
   report["collapse_patches"] = result->collapse_patches;
   report["mean_plane_patches"] = result->polygon.mean_plane_patches;

@@ -172,7 +172,7 @@ static Status check_memory_mesh(const MeshView& mesh) {
   return {};
 }
 
-Result<LoadedMesh> load(const Source& source, bool weld_stl, std::uint64_t memory_limit) {
+Result<LoadedMesh> load(const Source& source, bool weld_stl, std::uint64_t memory_limit, bool corner_values) {
   LoadedMesh loaded;
   if (source.kind == Source::Kind::kMemory) {
     GM_RETURN_IF_ERROR(check_memory_mesh(source.mesh));
@@ -185,11 +185,13 @@ Result<LoadedMesh> load(const Source& source, bool weld_stl, std::uint64_t memor
     format::ReadOptions read = read_options(source);
     read.weld_stl = weld_stl;
     read.memory_limit = memory_limit;
+    read.corner_values = corner_values;
     GM_RETURN_IF_ERROR(format::read_mesh(*bytes, read, builder));
   } else {
     format::ReadOptions read = read_options(source);
     read.weld_stl = weld_stl;
     read.memory_limit = memory_limit;
+    read.corner_values = corner_values;
     GM_RETURN_IF_ERROR(format::read_mesh_file(stream_path(source), read, builder));
   }
   loaded.format = builder.header().format;

@@ -22,6 +22,13 @@ struct ReadOptions {
   // input use it: Draco (decoded whole) refuses an input that would pass it before holding it,
   // and the STL weld's table stops at half of it (kResources either way).
   std::uint64_t memory_limit = 0;
+  // OBJ: read texture coordinates and normals given per face corner (f v/vt/vn). The reader then
+  // holds the file's v, vt and vn lists and its faces, and at the end delivers one vertex per
+  // distinct (v, vt, vn) triple its faces use: a position with several values (a seam) becomes
+  // several vertices at the same place. Memory grows with the input (memory_limit applies), so
+  // only a caller that holds the mesh anyway asks for it; without it vt and vn are named as not
+  // kept and the file streams.
+  bool corner_values = false;
 };
 
 // Looks at the first bytes (without consuming them) and names the format, or kUnknown.

@@ -1,10 +1,14 @@
 // Streaming Wavefront OBJ reader: "v" positions, with colours when the first one has them
 // ("v x y z r g b", as MeshLab and Blender write them), and "f" polygons (v, v/vt, v//vn,
-// v/vt/vn, negative relative indices), fan-triangulated; vt and vn are named as not kept, every
-// other statement is ignored. Vertices and faces may interleave: pending vertices are delivered
-// before a triangle that uses them. docs/formats.md.
+// v/vt/vn, negative relative indices), fan-triangulated; every other statement is ignored.
+// Vertices and faces may interleave: pending vertices are delivered before a triangle that uses
+// them. vt and vn are named as not kept, unless the caller asks for corner values
+// (ReadOptions::corner_values): the file is then held, and each distinct (v, vt, vn) triple its
+// faces use becomes a vertex. docs/formats.md.
 #include <string>
 #include <string_view>
+#include <unordered_map>
+#include <vector>
 
 #include "format/mesh_batcher.h"
 #include "format/mesh_reader.h"
@@ -19,13 +23,16 @@ using text::NumberError;
 class ObjReader {
  public:
   ObjReader(ByteSource& source, const ReadOptions& options, MeshSink& sink, bool colors)
-      : source_(source), batcher_(sink, options.batch_size, colors), sink_(sink), colors_(colors) {}
+      : source_(source), batcher_(sink, options.batch_size, colors), sink_(sink), colors_(colors),
+        held_(options.corner_values), memory_limit_(options.memory_limit), batch_size_(options.batch_size) {}
 
   Status run() {
-    MeshHeader header;
-    header.format = MeshFormat::kObj;
-    header.attributes.colors = colors_;
-    GM_RETURN_IF_ERROR(sink_.on_header(header));
+    if (!held_) {
+      MeshHeader header;
+      header.format = MeshFormat::kObj;
+      header.attributes.colors = colors_;
+      GM_RETURN_IF_ERROR(sink_.on_header(header));
+    }
     for (;;) {
       Result<std::optional<std::string_view>> line = source_.next_line();
       GM_RETURN_IF_ERROR(line.status());
@@ -39,12 +46,13 @@ class ObjReader {
       }
       GM_RETURN_IF_ERROR(parse_statement(statement));
     }
-    if (batcher_.vertex_count() == 0) {
+    if (vertex_count() == 0) {
       if (source_.line_number() == 0) {
         return Status::error(Code::kBadInput, source_.name(), "input is empty: no OBJ data");
       }
       return Status::error(Code::kBadInput, source_.name(), "no vertices ('v' statements) found");
     }
+    if (held_) return deliver_held();
     GM_RETURN_IF_ERROR(batcher_.finish());
     return sink_.on_end();
   }
@@ -84,7 +92,11 @@ class ObjReader {
     char c = scan.peek();
     if (c != 'v' && c != 'f') return {};  // comments, blank lines, o, g, s, usemtl, l, p, ...
     std::string_view keyword = scan.token();
-    if (keyword == "vt" || keyword == "vn") return name_ignored(keyword == "vt" ? named_vt_ : named_vn_, keyword);
+    if (keyword == "vt" || keyword == "vn") {
+      if (!held_) return name_ignored(keyword == "vt" ? named_vt_ : named_vn_, keyword);
+      LineScanner data(text::strip_comment(scan.rest()));
+      return keyword == "vt" ? parse_texcoord(data) : parse_normal(data);
+    }
     if (keyword != "v" && keyword != "f") return {};  // vp, and anything else
     LineScanner data(text::strip_comment(scan.rest()));
     return keyword == "v" ? parse_vertex(data) : parse_face(data);
@@ -93,7 +105,14 @@ class ObjReader {
   Status name_ignored(bool& named, std::string_view keyword) {
     if (named) return {};
     named = true;
-    return sink_.on_ignored(keyword == "vt" ? "texture coordinates (vt)" : "normals (vn)");
+    return ignored(keyword == "vt" ? "texture coordinates (vt)" : "normals (vn)");
+  }
+
+  // MeshSink::on_ignored, kept until the header when the file is held.
+  Status ignored(std::string what) {
+    if (!held_) return sink_.on_ignored(what);
+    pending_ignored_.push_back(std::move(what));
+    return {};
   }
 
   Status parse_vertex(LineScanner& scan) {
@@ -111,7 +130,7 @@ class ObjReader {
         return bad(text::number_problem(e, std::string("vertex ") + kValue[k], scan.last_token()));
       }
     }
-    if (batcher_.vertex_count() >= kMaxVertices) {
+    if (vertex_count() >= kMaxVertices) {
       return bad("more than " + std::to_string(kMaxVertices) + " vertices are not supported");
     }
     if (!colors_) {
@@ -119,60 +138,141 @@ class ObjReader {
       if (!named_colors_ && scan.read_float(more[0]) == NumberError::kOk && scan.read_float(more[1]) == NumberError::kOk &&
           scan.read_float(more[2]) == NumberError::kOk) {
         named_colors_ = true;
-        GM_RETURN_IF_ERROR(sink_.on_ignored("vertex colours that start after the first vertex (v x y z r g b)"));
+        GM_RETURN_IF_ERROR(ignored("vertex colours that start after the first vertex (v x y z r g b)"));
       }
-      return batcher_.add_vertex(Vec3f{c[0], c[1], c[2]});
+      return add_vertex(Vec3f{c[0], c[1], c[2]}, nullptr);
     }
     VertexAttributes attributes;
     attributes.color = {c[3], c[4], c[5], 1};
-    return batcher_.add_vertex(Vec3f{c[0], c[1], c[2]}, attributes);
+    return add_vertex(Vec3f{c[0], c[1], c[2]}, &attributes);
   }
 
-  // Resolves one face corner "i", "i/t", "i//n" or "i/t/n" to a 0-based vertex index.
-  Status parse_corner(LineScanner& scan, VertexIndex& out) {
+  uint64_t vertex_count() const { return held_ ? positions_.size() : batcher_.vertex_count(); }
+
+  Status add_vertex(const Vec3f& p, const VertexAttributes* attributes) {
+    if (!held_) return attributes ? batcher_.add_vertex(p, *attributes) : batcher_.add_vertex(p);
+    positions_.push_back(p);
+    if (attributes) colors_held_.push_back(attributes->color);
+    return check_held();
+  }
+
+  // "vt u [v [w]]": v defaults to 0, w is ignored.
+  Status parse_texcoord(LineScanner& scan) {
+    float u = 0, v = 0;
+    NumberError e = scan.read_float(u);
+    if (e != NumberError::kOk) return bad(text::number_problem(e, "texture coordinate u", scan.last_token()));
+    e = scan.read_float(v);
+    if (e != NumberError::kOk && e != NumberError::kMissing) {
+      return bad(text::number_problem(e, "texture coordinate v", scan.last_token()));
+    }
+    texcoords_.push_back({u, v});
+    return check_held();
+  }
+
+  Status parse_normal(LineScanner& scan) {
+    float n[3];
+    for (int k = 0; k < 3; ++k) {
+      NumberError e = scan.read_float(n[k]);
+      if (e != NumberError::kOk) {
+        static constexpr const char* kValue[3] = {"normal x", "normal y", "normal z"};
+        return bad(text::number_problem(e, kValue[k], scan.last_token()));
+      }
+    }
+    normals_.push_back({n[0], n[1], n[2]});
+    return check_held();
+  }
+
+  // What the held lists take; over memory_limit the read stops (kResources, one line).
+  Status check_held() const {
+    if (memory_limit_ == 0) return {};
+    const uint64_t bytes = positions_.capacity() * sizeof(Vec3f) + colors_held_.capacity() * sizeof(Color) +
+                           texcoords_.capacity() * sizeof(Vec2f) + normals_.capacity() * sizeof(Vec3f) +
+                           corners_.capacity() * sizeof(Corner);
+    if (bytes <= memory_limit_) return {};
+    return Status::error(Code::kResources, source_.name() + ":" + std::to_string(statement_line_),
+                         "holding this OBJ's vertices, texture coordinates, normals and faces needs more than the --memory "
+                         "budget of " + std::to_string(memory_limit_ >> 20) + " MiB");
+  }
+
+  static constexpr uint32_t kNoValue = UINT32_MAX;
+
+  // A face corner: its v, and its vt and vn (kNoValue when the corner has none), 0-based.
+  struct Corner {
+    VertexIndex v = 0;
+    uint32_t t = kNoValue, n = kNoValue;
+  };
+
+  // Resolves a 1-based or negative (relative) OBJ index into a list of `count` entries.
+  Status resolve(int64_t index, uint64_t count, const char* what, uint32_t& out) const {
+    if (index > 0) {
+      if (static_cast<uint64_t>(index) > count) {
+        return bad(std::string("face refers to ") + what + " " + std::to_string(index) + " but only " +
+                   std::to_string(count) + " are defined so far");
+      }
+      out = static_cast<uint32_t>(index - 1);
+      return {};
+    }
+    if (index == 0) return bad(std::string("face ") + what + " index 0 is invalid (OBJ indices start at 1)");
+    uint64_t back = static_cast<uint64_t>(-(index + 1)) + 1;  // |index| without overflow
+    if (back > count) {
+      return bad(std::string("face refers to relative ") + what + " " + std::to_string(index) + " but only " +
+                 std::to_string(count) + " are defined so far");
+    }
+    out = static_cast<uint32_t>(count - back);
+    return {};
+  }
+
+  // One face corner "i", "i/t", "i//n" or "i/t/n". The texture and normal indices are read only
+  // when the file is held (corner values); otherwise they are skipped.
+  Status parse_corner(LineScanner& scan, Corner& out) {
     int64_t index = 0;
     NumberError e = scan.read_int_prefix(index);
     if (e != NumberError::kOk) return bad(text::number_problem(e, "face vertex index", scan.last_token()));
-    if (!scan.at_token_end()) {
-      if (scan.peek() != '/') {
-        return bad("face vertex index: " + text::quote(scan.last_token()) +
-                   " is followed by an unexpected character");
-      }
-      scan.skip_token();  // texture and normal indices are not used
+    GM_RETURN_IF_ERROR(resolve(index, vertex_count(), "vertex", out.v));
+    if (scan.at_token_end()) return {};
+    if (scan.peek() != '/') {
+      return bad("face vertex index: " + text::quote(scan.last_token()) + " is followed by an unexpected character");
     }
-    uint64_t count = batcher_.vertex_count();
-    if (index > 0) {
-      if (static_cast<uint64_t>(index) > count) {
-        return bad("face refers to vertex " + std::to_string(index) + " but only " +
-                   std::to_string(count) + " vertices are defined so far");
-      }
-      out = static_cast<VertexIndex>(index - 1);
+    if (!held_) {
+      scan.skip_token();
       return {};
     }
-    if (index == 0) return bad("face vertex index 0 is invalid (OBJ indices start at 1)");
-    uint64_t back = static_cast<uint64_t>(-(index + 1)) + 1;  // |index| without overflow
-    if (back > count) {
-      return bad("face refers to relative vertex " + std::to_string(index) + " but only " +
-                 std::to_string(count) + " vertices are defined so far");
+    scan.advance();
+    if (scan.peek() != '/' && !scan.at_token_end()) {
+      e = scan.read_int_prefix(index);
+      if (e != NumberError::kOk) return bad(text::number_problem(e, "face texture coordinate index", scan.last_token()));
+      GM_RETURN_IF_ERROR(resolve(index, texcoords_.size(), "texture coordinate", out.t));
     }
-    out = static_cast<VertexIndex>(count - back);
+    if (scan.at_token_end()) return {};
+    if (scan.peek() != '/') return bad("face corner: a texture coordinate index is followed by an unexpected character");
+    scan.advance();
+    if (scan.at_token_end()) return {};
+    e = scan.read_int_prefix(index);
+    if (e != NumberError::kOk) return bad(text::number_problem(e, "face normal index", scan.last_token()));
+    GM_RETURN_IF_ERROR(resolve(index, normals_.size(), "normal", out.n));
+    if (!scan.at_token_end()) return bad("face corner: a normal index is followed by an unexpected character");
     return {};
   }
 
   Status parse_face(LineScanner& scan) {
-    VertexIndex first = 0, previous = 0;
+    Corner first, previous;
     size_t corners = 0;
     for (;;) {
       scan.skip_space();
       if (scan.at_end()) break;
-      VertexIndex v = 0;
-      GM_RETURN_IF_ERROR(parse_corner(scan, v));
+      Corner c;
+      GM_RETURN_IF_ERROR(parse_corner(scan, c));
       if (corners == 0) {
-        first = v;
+        first = c;
       } else if (corners >= 2) {
-        GM_RETURN_IF_ERROR(batcher_.add_triangle(first, previous, v));
+        if (held_) {
+          corners_.insert(corners_.end(), {first, previous, c});
+          GM_RETURN_IF_ERROR(check_held());
+        } else {
+          GM_RETURN_IF_ERROR(batcher_.add_triangle(first.v, previous.v, c.v));
+        }
       }
-      previous = v;
+      previous = c;
       ++corners;
     }
     if (corners < 3) {
@@ -181,10 +281,74 @@ class ObjReader {
     return {};
   }
 
+  // The held file's delivery: one vertex per distinct (v, vt, vn) triple, in the order the faces
+  // first use them, then the faces over them. Without any vt or vn in a face, the vertices as the
+  // file lists them (the streamed reading's result). A corner without a vt or vn in a file whose
+  // other corners have them takes (0, 0) or (0, 0, 0).
+  Status deliver_held() {
+    bool with_t = false, with_n = false;
+    for (const Corner& c : corners_) with_t |= c.t != kNoValue, with_n |= c.n != kNoValue;
+    if (!texcoords_.empty() && !with_t) pending_ignored_.push_back("texture coordinates (vt) no face uses");
+    if (!normals_.empty() && !with_n) pending_ignored_.push_back("normals (vn) no face uses");
+    MeshHeader header;
+    header.format = MeshFormat::kObj;
+    header.attributes = {with_n, colors_, with_t};
+    GM_RETURN_IF_ERROR(sink_.on_header(header));
+    for (const std::string& what : pending_ignored_) GM_RETURN_IF_ERROR(sink_.on_ignored(what));
+    MeshBatcher batcher(sink_, batch_size_, header.attributes.any());
+    auto attributes_of = [&](const Corner& c) {
+      VertexAttributes a;
+      if (colors_) a.color = colors_held_[c.v];
+      if (c.t != kNoValue) a.texcoord = texcoords_[c.t];
+      if (c.n != kNoValue) a.normal = normals_[c.n];
+      return a;
+    };
+    if (!with_t && !with_n) {
+      for (std::size_t v = 0; v < positions_.size(); ++v)
+        GM_RETURN_IF_ERROR(batcher.add_vertex(positions_[v], attributes_of(Corner{VertexIndex(v)})));
+      for (std::size_t i = 0; i < corners_.size(); i += 3)
+        GM_RETURN_IF_ERROR(batcher.add_triangle(corners_[i].v, corners_[i + 1].v, corners_[i + 2].v));
+    } else {
+      struct Hash {
+        std::size_t operator()(const Corner& c) const {
+          return std::hash<uint64_t>()((uint64_t(c.v) << 32 | c.t) * 0x9E3779B97F4A7C15ull ^ c.n);
+        }
+      };
+      struct Equal {
+        bool operator()(const Corner& a, const Corner& b) const { return a.v == b.v && a.t == b.t && a.n == b.n; }
+      };
+      std::unordered_map<Corner, VertexIndex, Hash, Equal> ids;
+      VertexIndex t[3];
+      for (std::size_t i = 0; i < corners_.size(); ++i) {
+        auto [at, added] = ids.try_emplace(corners_[i], VertexIndex(ids.size()));
+        if (added) {
+          if (ids.size() > kMaxVertices) {
+            return Status::error(Code::kBadInput, source_.name(),
+                                 "more than " + std::to_string(kMaxVertices) + " distinct face corners are not supported");
+          }
+          GM_RETURN_IF_ERROR(batcher.add_vertex(positions_[corners_[i].v], attributes_of(corners_[i])));
+        }
+        t[i % 3] = at->second;
+        if (i % 3 == 2) GM_RETURN_IF_ERROR(batcher.add_triangle(t[0], t[1], t[2]));
+      }
+    }
+    GM_RETURN_IF_ERROR(batcher.finish());
+    return sink_.on_end();
+  }
+
   ByteSource& source_;
   MeshBatcher batcher_;
   MeshSink& sink_;
   const bool colors_;
+  const bool held_;  // ReadOptions::corner_values: the file is held, then delivered
+  const uint64_t memory_limit_;
+  const size_t batch_size_;
+  std::vector<Vec3f> positions_;
+  std::vector<Color> colors_held_;
+  std::vector<Vec2f> texcoords_;
+  std::vector<Vec3f> normals_;
+  std::vector<Corner> corners_;  // three per triangle
+  std::vector<std::string> pending_ignored_;
   bool named_vt_ = false, named_vn_ = false, named_colors_ = false;
   uint64_t statement_line_ = 0;
   std::string joined_;

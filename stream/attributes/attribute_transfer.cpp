@@ -298,6 +298,35 @@ format::Status transfer_nearest_vertex(const VertexPassFn& pass, const format::A
   return {};
 }
 
+format::VertexAttributes values_at(format::MeshView input, const Triangle& t, const Vec3f& p,
+                                   const format::AttributeKinds& kinds) {
+  const Vec3d a = to_d(input.positions[t.v[0]]), b = to_d(input.positions[t.v[1]]), c = to_d(input.positions[t.v[2]]);
+  Vec3d q;
+  point_triangle_distance_squared(to_d(p), a, b, c, &q);
+  const std::array<double, 3> w = barycentric(q, a, b, c);
+  // The corners' values weighted in double, rounded once.
+  double sum[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  for (int k = 0; k < 3; ++k) {
+    const std::uint32_t corner = t.v[k];
+    if (kinds.normals) {
+      const Vec3f& m = input.normals[corner];
+      sum[0] += w[k] * m.x, sum[1] += w[k] * m.y, sum[2] += w[k] * m.z;
+    }
+    if (kinds.colors) {
+      const Color& m = input.colors[corner];
+      sum[3] += w[k] * m.r, sum[4] += w[k] * m.g, sum[5] += w[k] * m.b, sum[6] += w[k] * m.a;
+    }
+    if (kinds.texcoords) sum[7] += w[k] * input.texcoords[corner].u, sum[8] += w[k] * input.texcoords[corner].v;
+  }
+  return {normalised(sum[0], sum[1], sum[2]), {float(sum[3]), float(sum[4]), float(sum[5]), float(sum[6])},
+          {float(sum[7]), float(sum[8])}};
+}
+
+void assign_attributes(const std::vector<format::VertexAttributes>& values, const format::AttributeKinds& kinds,
+                       NormalsMode normals, Mesh& output) {
+  assign(values, kinds, normals, output);
+}
+
 void transfer_attributes(format::MeshView input, Mesh& output, NormalsMode normals) {
   const bool surface = !input.triangles.empty();
   const format::AttributeKinds kinds{surface && !input.normals.empty(), surface && !input.colors.empty(),
@@ -306,29 +335,8 @@ void transfer_attributes(format::MeshView input, Mesh& output, NormalsMode norma
   if (kinds.any()) {
     const std::vector<std::uint64_t> nearest = nearest_triangles(input, output);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, values.size(), 1024), [&](const tbb::blocked_range<std::size_t>& range) {
-      for (std::size_t v = range.begin(); v < range.end(); ++v) {
-        const Triangle& t = input.triangles[static_cast<std::uint32_t>(nearest[v])];
-        const Vec3d a = to_d(input.positions[t.v[0]]), b = to_d(input.positions[t.v[1]]), c = to_d(input.positions[t.v[2]]);
-        Vec3d q;
-        point_triangle_distance_squared(to_d(output.positions[v]), a, b, c, &q);
-        const std::array<double, 3> w = barycentric(q, a, b, c);
-        // The corners' values weighted in double, rounded once.
-        double sum[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
-        for (int k = 0; k < 3; ++k) {
-          const std::uint32_t corner = t.v[k];
-          if (kinds.normals) {
-            const Vec3f& m = input.normals[corner];
-            sum[0] += w[k] * m.x, sum[1] += w[k] * m.y, sum[2] += w[k] * m.z;
-          }
-          if (kinds.colors) {
-            const Color& m = input.colors[corner];
-            sum[3] += w[k] * m.r, sum[4] += w[k] * m.g, sum[5] += w[k] * m.b, sum[6] += w[k] * m.a;
-          }
-          if (kinds.texcoords) sum[7] += w[k] * input.texcoords[corner].u, sum[8] += w[k] * input.texcoords[corner].v;
-        }
-        values[v] = {normalised(sum[0], sum[1], sum[2]), {float(sum[3]), float(sum[4]), float(sum[5]), float(sum[6])},
-                     {float(sum[7]), float(sum[8])}};
-      }
+      for (std::size_t v = range.begin(); v < range.end(); ++v)
+        values[v] = values_at(input, input.triangles[static_cast<std::uint32_t>(nearest[v])], output.positions[v], kinds);
     });
   }
   assign(values, kinds, normals, output);

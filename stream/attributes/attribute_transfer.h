@@ -26,6 +26,15 @@ enum class NormalsMode { kKeep, kCompute, kNone };
 // whatever the order of the triangles or the threads.
 void transfer_attributes(format::MeshView input, Mesh& output, NormalsMode normals);
 
+// The values of input triangle t (corners: vertices of `input`) at its point nearest to p,
+// interpolated (barycentric) and rounded once; normals renormalised. The kinds say which to take.
+format::VertexAttributes values_at(format::MeshView input, const Triangle& t, const Vec3f& p,
+                                   const format::AttributeKinds& kinds);
+// Writes `values` (one per vertex of output) into output's arrays: the kinds given, normals by
+// `normals` (kCompute: from output's faces).
+void assign_attributes(const std::vector<format::VertexAttributes>& values, const format::AttributeKinds& kinds,
+                       NormalsMode normals, Mesh& output);
+
 // The input as batches of vertices with their attributes, in input order: a call streams it
 // once through `batch`, stopping at the first error either returns.
 using VertexBatchFn = std::function<format::Status(std::span<const format::Vec3f>, std::span<const format::VertexAttributes>)>;

@@ -106,6 +106,11 @@ class EdgeHeap {
   std::vector<std::uint32_t> pos_;
 };
 
+// A vertex's place with respect to the seams: with one wedge (its values the same in all its
+// faces, also at the end of a seam edge whose values differ only at its other end), on one seam
+// (two seam edges, two wedges), or fixed (where seams meet, or meet a boundary).
+constexpr std::uint8_t kFree = 0, kSeam = 1, kFixed = 2;
+
 class Decimator {
  public:
   Decimator(CollapseMesh& mesh, std::vector<Vec3dq> points, std::vector<Quadric> quadrics,
@@ -117,6 +122,7 @@ class Decimator {
   const std::vector<Quadric>& quadrics() const { return q_; }
   // Each vertex's output position: its input's, or where its last collapse put it.
   const std::vector<Vec3f>& positions() const { return position_; }
+  void track_regions() { parent_.assign(m_.vertex_count(), CollapseMesh::kNone); }
 
   // x moved to the nearest point the output can hold (float input coordinates), so that the
   // geometry tests see the faces as they will be written: a face thin enough to lose its area
@@ -129,12 +135,99 @@ class Decimator {
 
   bool locked(std::uint32_t v) const { return !locked_.empty() && locked_[v]; }
 
+  // Seams (DecimationOptions::corner_wedges): `wedges` per corner of the mesh's faces, `kinds`
+  // per vertex, `seam_edges` per edge (seam_kinds).
+  void set_seams(std::vector<std::uint32_t> wedges, std::vector<std::uint8_t> kinds, std::vector<std::uint8_t> seam_edges) {
+    wedge_ = std::move(wedges);
+    kind_ = std::move(kinds);
+    seam_edge_ = std::move(seam_edges);
+  }
+  bool seams() const { return !wedge_.empty(); }
+  const std::vector<std::uint32_t>& wedges() const { return wedge_; }
+  // Per vertex: the vertex it was collapsed onto (kNone while it lives).
+  const std::vector<std::uint32_t>& parents() const { return parent_; }
+
+  // Which end of edge e (v0-v1) a collapse removes and which it keeps, when seams decide it
+  // (DecimationOptions::corner_wedges); false when they forbid it. `placed`: the kept end stays
+  // where it is (it is on a seam). Without seams, or with both ends off them, placed is false and
+  // the caller decides.
+  bool seam_choice(std::uint32_t e, std::uint32_t v0, std::uint32_t v1, std::uint32_t& from, std::uint32_t& to,
+                   bool& placed) const {
+    placed = false;
+    if (!seams()) return true;
+    const std::uint8_t k0 = kind_[v0], k1 = kind_[v1];
+    if (seam_edge_[e]) {  // only a seam vertex goes along its seam
+      if (k0 != kSeam && k1 != kSeam) return false;
+      to = k0 != kSeam ? v0 : k1 != kSeam ? v1 : locked(v0) ? v0 : locked(v1) ? v1 : std::min(v0, v1);
+    } else {
+      if (k0 == kFree && k1 == kFree) return true;
+      if (k0 != kFree && k1 != kFree) return false;  // it would join two seams
+      to = k0 != kFree ? v0 : v1;
+    }
+    placed = true;
+    from = to == v0 ? v1 : v0;
+    return !locked(from);
+  }
+
+  // A seam vertex goes along its seam only when the seam's next vertex is not across the edge
+  // (then a face would hold two of its seam edges, and the seam would run along a merged edge).
+  bool seam_across_ok(std::uint32_t from, const CollapseMesh::Across& across) {
+    if (!seams() || kind_[from] != kSeam) return true;
+    bool ok = true;
+    m_.for_each_edge(from, [&](std::uint32_t e, std::uint32_t w) {
+      if (seam_edge_[e] && (w == across.vertex[0] || w == across.vertex[1])) ok = false;
+    });
+    return ok;
+  }
+
+  // m_.collapse(from, to), keeping the corners' wedges: a face that keeps its `from` corner takes
+  // for it the wedge `to` has in the face on the edge on the same side (the one whose `from`
+  // corner had the same wedge).
+  int collapse(std::uint32_t from, std::uint32_t to) {
+    if (seams()) {
+      std::uint32_t old_w[2], new_w[2];
+      int mapped = 0;
+      moved_.clear();
+      m_.for_each_face(from, [&](std::uint32_t f) {
+        const auto& t = m_.face(f);
+        int kf = 0, kt = -1;
+        for (int k = 0; k < 3; ++k) {
+          if (t.v[k] == from) kf = k;
+          if (t.v[k] == to) kt = k;
+        }
+        if (kt < 0) {
+          moved_.push_back(f * 3 + std::uint32_t(kf));
+        } else if (mapped < 2) {
+          old_w[mapped] = wedge_[f * 3 + kf];
+          new_w[mapped] = wedge_[f * 3 + std::uint32_t(kt)];
+          ++mapped;
+        }
+      });
+      for (const std::uint32_t c : moved_)
+        for (int i = 0; i < mapped; ++i)
+          if (wedge_[c] == old_w[i]) {
+            wedge_[c] = new_w[i];
+            break;
+          }
+    }
+    if (!parent_.empty()) parent_[from] = to;
+    return m_.collapse(from, to);
+  }
+
   // The placement and cost of collapsing edge e.
   bool evaluate(std::uint32_t e, Vec3dq& x, double& cost) const {
     const std::uint32_t v0 = m_.edge(e).v[0], v1 = m_.edge(e).v[1];
     Quadric q = q_[v0];
     q += q_[v1];
     const Vec3dq p0 = p_[v0], p1 = p_[v1], mid = scale(add(p0, p1), 0.5);
+    std::uint32_t from = v0, to = v1;
+    bool placed = false;
+    if (!seam_choice(e, v0, v1, from, to, placed)) return false;
+    if (placed) {  // onto the seam end, which stays
+      x = p_[to];
+      cost = collapse_cost(q, q_[v0], q_[v1], x);
+      return std::isfinite(cost);
+    }
     if (locked(v0) || locked(v1)) {  // onto the locked end, if only one is
       if (locked(v0) && locked(v1)) return false;
       x = locked(v0) ? p0 : p1;
@@ -218,8 +311,11 @@ class Decimator {
   std::uint32_t cheapest_neighbour(std::uint32_t v, double& cost) {
     std::uint32_t best = CollapseMesh::kNone;
     const Quadric& a = q_[v];
-    m_.for_each_edge(v, [&](std::uint32_t, std::uint32_t w) {
+    m_.for_each_edge(v, [&](std::uint32_t e, std::uint32_t w) {
       if (swept_[w] == sweep_) return;
+      // With seams: a vertex off them joins a neighbour across an edge that is not a seam, one on
+      // a seam goes along it (seam_choice).
+      if (seams() && (kind_[v] == kSeam) != bool(seam_edge_[e])) return;
       // collapse_cost at p_w from the two ends' own errors there, w's cached.
       const double ea = a.error(p_[w]), eb = own_error_[w];
       const double wa = a.weight, wb = q_[w].weight, wq = wa + wb;
@@ -246,7 +342,7 @@ class Decimator {
         if (m_.vertex_alive(v)) own_error_[v] = q_[v].error(p_[v]);
       for (std::uint32_t v = 0; v < m_.vertex_count(); ++v) {
         double cost;
-        if (!m_.vertex_alive(v) || locked(v)) continue;
+        if (!m_.vertex_alive(v) || locked(v) || (seams() && kind_[v] == kFixed)) continue;
         choice_[v] = cheapest_neighbour(v, cost);
         if (choice_[v] != CollapseMesh::kNone) candidates.push_back({cost, v});
       }
@@ -283,11 +379,11 @@ class Decimator {
         }
         CollapseMesh::Across across;
         if (!m_.link_ok(v, w, stamp_, epoch_, across) || (locked(w) && !locked_neighbours_ok(v, w, across)) ||
-            !geometry_ok(v, w, p_[w])) {
+            !seam_across_ok(v, across) || !geometry_ok(v, w, p_[w])) {
           ++r.refused;
           continue;
         }
-        faces -= std::uint64_t(m_.collapse(v, w));
+        faces -= std::uint64_t(collapse(v, w));
         q_[w] = q;
         own_error_[w] = q.error(p_[w]);
         swept_[w] = sweep_;
@@ -327,19 +423,23 @@ class Decimator {
         ++r.over_error;
         continue;
       }
-      // The kept vertex: the locked end if there is one, else the one that appears first in the
-      // faces.
-      const std::uint32_t to = locked(v0) ? v0 : locked(v1) ? v1 : std::min(v0, v1);
-      const std::uint32_t from = to == v0 ? v1 : v0;
+      // The kept vertex: the seam end (seam_choice), else the locked end if there is one, else the
+      // one that appears first in the faces.
+      std::uint32_t to = locked(v0) ? v0 : locked(v1) ? v1 : std::min(v0, v1);
+      std::uint32_t from = to == v0 ? v1 : v0;
+      bool placed = false;
+      seam_choice(c.edge, v0, v1, from, to, placed);
       CollapseMesh::Across across;
       if (!m_.link_ok(from, to, stamp_, epoch_, across) || (locked(to) && !locked_neighbours_ok(from, to, across)) ||
-          !geometry_ok(from, to, x)) {
+          !seam_across_ok(from, across) || !geometry_ok(from, to, x)) {
         ++r.refused;
         continue;
       }
-      faces -= std::uint64_t(m_.collapse(from, to));
-      p_[to] = x;
-      position_[to] = written;
+      faces -= std::uint64_t(collapse(from, to));
+      if (!placed) {  // a seam end keeps its input position exactly
+        p_[to] = x;
+        position_[to] = written;
+      }
       q_[to] = q;
       ++r.collapses;
       r.estimated_error = std::max(r.estimated_error, error);
@@ -364,6 +464,13 @@ class Decimator {
   std::uint32_t epoch_ = 0;
   const QuadricFrame& frame_;
   std::vector<Vec3f> position_;
+  // Seams: per corner its wedge, per vertex its kind, per edge whether it is a seam (set_seams);
+  // per vertex the vertex it was collapsed onto; collapse's scratch.
+  std::vector<std::uint32_t> wedge_;
+  std::vector<std::uint8_t> kind_;
+  std::vector<std::uint8_t> seam_edge_;
+  std::vector<std::uint32_t> parent_;
+  std::vector<std::uint32_t> moved_;
   bool relaxed_ = false;
   const double cos_strict_ = std::cos(kMaxTurnDegrees * M_PI / 180.0);
   const double cos_relaxed_ = std::cos(kRelaxedTurnDegrees * M_PI / 180.0);
@@ -406,6 +513,44 @@ std::vector<std::uint32_t> spatial_order(std::span<const Vec3f> positions) {
   return order;
 }
 
+// The seams of `mesh` (faces in its order, `wedges` per corner): an edge is a seam when its two
+// faces take different wedges at one of its ends; a vertex is kFree with one wedge, kSeam with
+// two seam edges, two wedges and no boundary, else kFixed.
+void seam_kinds(CollapseMesh& mesh, std::span<const format::Triangle> faces, std::span<const std::uint32_t> wedges,
+                std::vector<std::uint8_t>& kinds, std::vector<std::uint8_t>& seam_edges) {
+  constexpr std::uint32_t kNone = CollapseMesh::kNone;
+  const std::size_t n = mesh.vertex_count();
+  seam_edges.assign(mesh.edge_count(), 0);
+  std::vector<std::array<std::uint32_t, 2>> seen(mesh.edge_count(), {kNone, kNone});
+  std::vector<std::uint32_t> first(n, kNone), second(n, kNone);
+  std::vector<std::uint8_t> more(n, 0), degree(n, 0);
+  for (std::size_t f = 0; f < faces.size(); ++f) {
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t a = faces[f].v[k], b = faces[f].v[(k + 1) % 3];
+      const std::uint32_t wa = wedges[3 * f + k], wb = wedges[3 * f + (k + 1) % 3];
+      if (first[a] == kNone || first[a] == wa) first[a] = wa;
+      else if (second[a] == kNone || second[a] == wa) second[a] = wa;
+      else more[a] = 1;
+      const std::uint32_t e = mesh.find_edge(a, b);
+      if (e == kNone) continue;
+      const bool flipped = mesh.edge(e).v[0] != a;
+      const std::array<std::uint32_t, 2> w = flipped ? std::array{wb, wa} : std::array{wa, wb};
+      if (seen[e][0] == kNone) seen[e] = w;
+      else if (seen[e] != w) seam_edges[e] = 1;
+    }
+  }
+  for (std::uint32_t e = 0; e < seam_edges.size(); ++e)
+    if (seam_edges[e])
+      for (const std::uint32_t v : mesh.edge(e).v) degree[v] = std::uint8_t(std::min(degree[v] + 1, 3));
+  kinds.assign(n, kFree);
+  for (std::uint32_t v = 0; v < n; ++v) {
+    const int distinct = first[v] == kNone ? 0 : second[v] == kNone ? 1 : more[v] ? 3 : 2;
+    if (distinct <= 1) kinds[v] = kFree;
+    else if (degree[v] == 2 && distinct == 2 && !mesh.is_boundary_vertex(v)) kinds[v] = kSeam;
+    else kinds[v] = kFixed;
+  }
+}
+
 }  // namespace
 
 double sweep_share_of_faces(std::uint64_t faces, std::uint64_t target) {
@@ -441,7 +586,8 @@ format::Result<DecimationResult> decimate(MeshView approximation, const std::vec
 format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Quadric> quadrics,
                                           const QuadricFrame& frame, const DecimationOptions& options) {
   if (quadrics.size() != approximation.positions.size() ||
-      (!options.locked.empty() && options.locked.size() != approximation.positions.size())) {
+      (!options.locked.empty() && options.locked.size() != approximation.positions.size()) ||
+      (!options.corner_wedges.empty() && options.corner_wedges.size() != 3 * approximation.triangles.size())) {
     return format::Status::error(format::Code::kProcessing, "finish", "one quadric per vertex expected");
   }
   // The collapses work on a copy in spatial order: vertices by the Morton code of their position,
@@ -452,6 +598,7 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
   for (std::uint32_t i = 0; i < n; ++i) rank[order[i]] = i;
   const std::size_t nf = approximation.triangles.size();
   std::vector<format::Triangle> faces(nf);
+  std::vector<std::uint32_t> wedges(options.corner_wedges.empty() ? 0 : 3 * nf);
   {
     // Each face from its lowest new number on (the same orientation), sorted by its three.
     std::vector<std::pair<std::uint64_t, std::uint64_t>> keys(nf);
@@ -461,16 +608,22 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
       for (int k = 0; k < 3; ++k) r[k] = t.v[k] < n ? rank[t.v[k]] : CollapseMesh::kNone;
       const int first = r[0] <= r[1] && r[0] <= r[2] ? 0 : r[1] <= r[2] ? 1 : 2;
       faces[f] = {{r[first], r[(first + 1) % 3], r[(first + 2) % 3]}};
+      if (!wedges.empty())
+        for (int k = 0; k < 3; ++k) wedges[3 * f + k] = options.corner_wedges[3 * f + (first + k) % 3];
       keys[f] = {(std::uint64_t(faces[f].v[0]) << 32) | std::max(faces[f].v[1], faces[f].v[2]),
                  (std::uint64_t(std::min(faces[f].v[1], faces[f].v[2])) << 32) | f};
     }
     std::sort(keys.begin(), keys.end());
     std::vector<format::Triangle> sorted(nf);
+    std::vector<std::uint32_t> sorted_wedges(wedges.size());
     for (std::uint32_t i = 0; i < nf; ++i) {
       const auto f = std::uint32_t(keys[i].second);
       sorted[i] = faces[f];
+      if (!wedges.empty())
+        for (int k = 0; k < 3; ++k) sorted_wedges[3 * i + k] = wedges[3 * f + k];
     }
     faces = std::move(sorted);
+    wedges = std::move(sorted_wedges);
   }
   std::string problem;
   auto built = CollapseMesh::build(n, faces, problem);
@@ -478,8 +631,10 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
     return format::Status::error(format::Code::kProcessing, "finish",
                                  "the approximation is not an oriented manifold (" + problem + ")");
   }
-  faces = {};
   CollapseMesh& mesh = *built;
+  std::vector<std::uint8_t> kinds, seam_edges;
+  if (!wedges.empty()) seam_kinds(mesh, faces, wedges, kinds, seam_edges);
+  faces = {};
   std::vector<Vec3dq> points(n);
   std::vector<Vec3f> positions(n);
   std::vector<Quadric> ranked(n);
@@ -504,9 +659,25 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
       ranked[v0] += c;
       ranked[v1] += c;
     }
+    // Seam edges likewise, one plane for each of their two faces.
+    for (std::uint32_t e = 0; e < seam_edges.size(); ++e) {
+      if (!seam_edges[e] || !mesh.edge_alive(e)) continue;
+      const std::uint32_t v0 = mesh.edge(e).v[0], v1 = mesh.edge(e).v[1];
+      const CollapseMesh::Across across = mesh.across(v0, v1);
+      for (int i = 0; i < across.count; ++i) {
+        const Vec3dq normal = cross(sub(points[v1], points[v0]), sub(points[across.vertex[i]], points[v0]));
+        const Quadric c = boundary_constraint(points[v0], points[v1], normal);
+        ranked[v0] += c;
+        ranked[v1] += c;
+      }
+    }
   }
 
   Decimator decimator(mesh, std::move(points), std::move(ranked), locked, frame, std::move(positions));
+  if (!wedges.empty()) {
+    decimator.set_seams(std::move(wedges), std::move(kinds), std::move(seam_edges));
+    decimator.track_regions();
+  }
   DecimationResult result = decimator.run(options, approximation.triangles.size());
   // Survivors and live faces in the copy's order: the output is then the same for every
   // numbering of the same mesh.
@@ -522,6 +693,24 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
     if (!mesh.face_alive(i)) continue;
     const auto& t = mesh.face(i);
     result.mesh.triangles.push_back({{index[t.v[0]], index[t.v[1]], index[t.v[2]]}});
+    if (decimator.seams())
+      for (int k = 0; k < 3; ++k) result.corner_wedges.push_back(decimator.wedges()[3 * i + k]);
+  }
+  if (decimator.seams()) {
+    // Each input vertex's region: the survivor at the end of its chain of collapses.
+    std::vector<std::uint32_t> root(decimator.parents());
+    auto find = [&](std::uint32_t v) {
+      std::uint32_t r = v;
+      while (root[r] != CollapseMesh::kNone) r = root[r];
+      while (root[v] != CollapseMesh::kNone) {
+        const std::uint32_t next = root[v];
+        root[v] = r;
+        v = next;
+      }
+      return r;
+    };
+    result.region.resize(n);
+    for (std::uint32_t i = 0; i < n; ++i) result.region[order[i]] = index[find(i)];
   }
   return result;
 }

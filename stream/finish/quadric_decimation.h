@@ -54,6 +54,16 @@ struct DecimationOptions {
   // no queue to update, at the price of keeping input positions. For the first reductions of a
   // large input, which the queue then refines (docs/finish.md).
   std::uint64_t sweep_to_faces = 0;
+  // Seams (empty: none): per face corner (three per face), which of its vertex's values it takes
+  // (a wedge: texture coordinates, normals, colours; stream/attributes/seams.h). An edge whose
+  // two faces take different wedges at an end is a seam, and seams are kept: a vertex with two
+  // wedges on one seam (two seam edges, no boundary) stays where it is and goes only along its
+  // seam; one with more wedges, or on a seam and a boundary, is fixed; a vertex with one wedge
+  // collapses like any other, but not along a seam edge, and onto a vertex with more wedges only
+  // to its place; an edge that is not a seam and joins two vertices with several wedges is not
+  // collapsed. Seam edges carry constraint planes like boundary edges. So every output face lies
+  // on one side of every seam, and vertices with several wedges keep their input positions.
+  std::span<const std::uint32_t> corner_wedges;
 };
 
 // Where sweeps go (sweep_goal): to kSweepShare × the face target, and only when that is at most
@@ -82,6 +92,10 @@ struct DecimationResult {
   bool reached_target = false;   // the face target was met (or there was none)
   std::vector<std::uint32_t> source;  // per output vertex: its vertex in the input mesh
   std::vector<Quadric> quadrics;      // per output vertex: its summed quadric (frame units)
+  // With seams (DecimationOptions::corner_wedges): per output face corner its wedge, and per
+  // input vertex the output vertex it was collapsed into (itself when it survives).
+  std::vector<std::uint32_t> corner_wedges;
+  std::vector<std::uint32_t> region;
 };
 
 // The estimated error of a vertex with quadric q at p: the root of the mean squared distance from

@@ -60,7 +60,7 @@ std::uint64_t finish_min_samples(const FinishOptions& options, std::uint64_t inp
 
 format::Result<FinishResult> finish_from_sums(MeshView approximation, const QuadricFrame& frame,
                                               const std::vector<FixedQuadric>& sums, const FinishOptions& options,
-                                              bool sweeps) {
+                                              bool sweeps, std::span<const std::uint32_t> corner_wedges) {
   const auto start = Clock::now();
   DecimationOptions d;
   d.target_faces = options.target_faces;
@@ -69,9 +69,15 @@ format::Result<FinishResult> finish_from_sums(MeshView approximation, const Quad
     const std::uint64_t faces = approximation.triangles.size();
     d.sweep_to_faces = std::uint64_t(std::ceil(sweep_share_of_faces(faces, options.target_faces) * double(faces)));
   }
+  d.corner_wedges = corner_wedges;
   auto decimated = decimate(approximation, sums, frame, d);
   if (!decimated) return decimated.status();
   FinishResult r;
+  if (!corner_wedges.empty()) {
+    r.source = std::move(decimated->source);
+    r.corner_wedges = std::move(decimated->corner_wedges);
+    r.region = std::move(decimated->region);
+  }
   r.approximation_faces = approximation.triangles.size();
   r.mesh = std::move(decimated->mesh);
   r.collapses = decimated->collapses;
@@ -152,7 +158,8 @@ void add_own_faces(MeshView mesh, std::span<const Triangle> faces, const Quadric
   }
 }
 
-format::Result<FinishResult> finish_input(MeshView compact, const FinishOptions& options) {
+format::Result<FinishResult> finish_input(MeshView compact, const FinishOptions& options,
+                                          std::span<const std::uint32_t> corner_wedges) {
   const auto start = Clock::now();
   const QuadricFrame frame = frame_of(compact);
   // Fixed-point sums: the split over threads does not change the result.
@@ -166,7 +173,7 @@ format::Result<FinishResult> finish_input(MeshView compact, const FinishOptions&
   std::vector<FixedQuadric> sums(compact.positions.size());
   for (const auto& part : partial) add_sums(sums, part);
   const double seconds_quadrics = seconds_since(start);
-  auto r = finish_from_sums(compact, frame, sums, options, /*sweeps=*/true);
+  auto r = finish_from_sums(compact, frame, sums, options, /*sweeps=*/true, corner_wedges);
   if (r) r->seconds_quadrics = seconds_quadrics;
   return r;
 }

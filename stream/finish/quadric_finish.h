@@ -87,6 +87,9 @@ struct FinishResult {
   // approximation had no more faces than the target).
   const char* stopped_by = "target";
   double seconds_quadrics = 0, seconds_decimate = 0;
+  // With seams (finish_input's corner_wedges), as DecimationResult: per output vertex its input
+  // vertex, per output face corner its wedge, per input vertex its output vertex.
+  std::vector<std::uint32_t> source, corner_wedges, region;
 };
 
 // Targets above kFinishInputShare of the input's faces (with the oversampling, what would need
@@ -119,14 +122,16 @@ inline std::uint64_t input_finish_memory_estimate(std::uint64_t input_faces) {
 
 // The collapses on the input itself (compact_input), both halves, on every core. kProcessing
 // when the input is not an oriented manifold (the caller then takes the Gauss approximation).
-format::Result<FinishResult> finish_input(MeshView compact, const FinishOptions& options);
+// `corner_wedges` (empty: none): the seams to keep (DecimationOptions::corner_wedges).
+format::Result<FinishResult> finish_input(MeshView compact, const FinishOptions& options,
+                                          std::span<const std::uint32_t> corner_wedges = {});
 
 // The decimation half, once `sums` (in `frame`) holds every input face (FaceQuadrics::add_face);
 // with `sweeps`, the first collapses are sweeps (DecimationOptions::sweep_to_faces) where
 // sweep_share_of_faces allows them.
 format::Result<FinishResult> finish_from_sums(MeshView approximation, const QuadricFrame& frame,
                                               const std::vector<FixedQuadric>& sums, const FinishOptions& options,
-                                              bool sweeps = false);
+                                              bool sweeps = false, std::span<const std::uint32_t> corner_wedges = {});
 
 // Both halves in core: the input's faces are added on every core.
 format::Result<FinishResult> finish_in_core(MeshView input, MeshView approximation, const FinishOptions& options);
