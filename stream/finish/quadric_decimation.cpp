@@ -425,10 +425,13 @@ class Decimator {
       }
       // The kept vertex: the seam end (seam_choice), else the locked end if there is one, else the
       // one that appears first in the faces.
+      // An entry whose edge a collapse nearby made one it may not collapse (two locked ends, or
+      // what the seams forbid) stays in the queue, as push() leaves it: it is dropped here.
+      if (locked(v0) && locked(v1)) continue;
       std::uint32_t to = locked(v0) ? v0 : locked(v1) ? v1 : std::min(v0, v1);
       std::uint32_t from = to == v0 ? v1 : v0;
       bool placed = false;
-      seam_choice(c.edge, v0, v1, from, to, placed);
+      if (!seam_choice(c.edge, v0, v1, from, to, placed)) continue;
       CollapseMesh::Across across;
       if (!m_.link_ok(from, to, stamp_, epoch_, across) || (locked(to) && !locked_neighbours_ok(from, to, across)) ||
           !seam_across_ok(from, across) || !geometry_ok(from, to, x)) {

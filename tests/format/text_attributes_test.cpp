@@ -1,6 +1,7 @@
 // Vertex attributes in the text formats: OFF's [ST][C][N] vertex values (colours as bytes or as
 // 0–1 numbers, three or four channels) and OBJ's vertex colours ("v x y z r g b"); OBJ's vt and
-// vn, and colours that start late, are named as not kept.
+// vn, and colours that start late, are named as not kept when the file streams, and read per face
+// corner, a vertex per distinct (v, vt, vn), when the caller asks for corner values.
 #include <gtest/gtest.h>
 
 #include <string>
@@ -20,11 +21,14 @@ struct Outcome {
   Collect sink;
 };
 
-Outcome read(const std::string& text, const std::string& name) {
+Outcome read(const std::string& text, const std::string& name, bool corner_values = false,
+             std::uint64_t memory_limit = 0) {
   Outcome o;
   auto source = ByteSource::from_memory(text, name);
   ReadOptions options;
   options.batch_size = 2;  // attributes and positions across several batches
+  options.corner_values = corner_values;
+  options.memory_limit = memory_limit;
   o.status = read_mesh(*source, options, o.sink);
   return o;
 }
@@ -90,6 +94,63 @@ TEST(ObjAttributes, ColoursWhenTheFirstVertexHasThem) {
   EXPECT_FALSE(late.sink.header.attributes.any());
   EXPECT_TRUE(late.sink.attributes.empty());
   EXPECT_EQ(late.sink.ignored, (std::vector<std::string>{"vertex colours that start after the first vertex (v x y z r g b)"}));
+}
+
+// Two triangles sharing edge 1-3; the shared edge is a texture seam (vertex 3 has two vt) and
+// vertex 1 has one normal in both.
+const std::string kSeamed =
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
+    "vt 0 0\nvt 1 0\nvt 0 1\nvt 0.5 0.5\nvt 0.25 0.75\nvn 0 0 1\n"
+    "f 1/1/1 2/2/1 3/3/1\nf 2/2/1 4/4/1 3/5/1\n";
+
+TEST(ObjAttributes, CornerValuesSplitAVertexWhereItsValuesDiffer) {
+  Outcome o = read(kSeamed, "s.obj", /*corner_values=*/true);
+  ASSERT_TRUE(o.status.is_ok()) << o.status.to_string();
+  EXPECT_EQ(o.sink.header.attributes, (AttributeKinds{true, false, true}));
+  // 1/1/1 2/2/1 3/3/1 4/4/1 3/5/1: vertex 3 twice, at the same place.
+  ASSERT_EQ(o.sink.positions.size(), 5u);
+  EXPECT_EQ(o.sink.positions[2], o.sink.positions[4]);
+  EXPECT_EQ(o.sink.attributes[2].texcoord, (Vec2f{0, 1}));
+  EXPECT_EQ(o.sink.attributes[4].texcoord, (Vec2f{0.25f, 0.75f}));
+  EXPECT_EQ(o.sink.attributes[3].normal, (Vec3f{0, 0, 1}));
+  EXPECT_EQ(o.sink.triangles, (std::vector<Triangle>{{{0, 1, 2}}, {{1, 3, 4}}}));
+  EXPECT_TRUE(o.sink.ignored.empty());
+  // Streamed, the same file gives its four vertices and names what it does not keep.
+  Outcome streamed = read(kSeamed, "s.obj");
+  ASSERT_TRUE(streamed.status.is_ok()) << streamed.status.to_string();
+  EXPECT_EQ(streamed.sink.positions.size(), 4u);
+  EXPECT_EQ(streamed.sink.triangles, (std::vector<Triangle>{{{0, 1, 2}}, {{1, 3, 2}}}));
+  EXPECT_EQ(streamed.sink.ignored, (std::vector<std::string>{"texture coordinates (vt)", "normals (vn)"}));
+}
+
+TEST(ObjAttributes, CornerValuesWithRelativeIndicesAndNoFaceUsingThem) {
+  Outcome rel = read("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf -3/-3 -2/-2 -1/-1\n", "r.obj", true);
+  ASSERT_TRUE(rel.status.is_ok()) << rel.status.to_string();
+  EXPECT_EQ(rel.sink.header.attributes, (AttributeKinds{false, false, true}));
+  ASSERT_EQ(rel.sink.attributes.size(), 3u);
+  EXPECT_EQ(rel.sink.attributes[1].texcoord, (Vec2f{1, 0}));
+  Outcome unused = read("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1 2 3\n", "u.obj", true);
+  ASSERT_TRUE(unused.status.is_ok()) << unused.status.to_string();
+  EXPECT_FALSE(unused.sink.header.attributes.any());
+  EXPECT_EQ(unused.sink.positions.size(), 3u);
+  EXPECT_EQ(unused.sink.ignored, (std::vector<std::string>{"texture coordinates (vt) no face uses"}));
+}
+
+TEST(ObjAttributes, CornerValuesRefuseABadIndexAndAFileOverTheBudget) {
+  Outcome bad = read("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n", "b.obj", true);
+  ASSERT_FALSE(bad.status.is_ok());
+  EXPECT_EQ(bad.status.code(), Code::kBadInput);
+  EXPECT_EQ(bad.status.where(), "b.obj:5");
+  EXPECT_NE(bad.status.message().find("texture coordinate 2 but only 1"), std::string::npos) << bad.status.to_string();
+  Outcome junk = read("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1x 2//1 3//1\n", "j.obj", true);
+  ASSERT_FALSE(junk.status.is_ok());
+  EXPECT_EQ(junk.status.code(), Code::kBadInput);
+  std::string big;
+  for (int i = 0; i < 4000; ++i) big += "v 0 0 0\nvt 0 0\n";
+  Outcome over = read(big + "f 1/1 2/2 3/3\n", "o.obj", true, /*memory_limit=*/16384);
+  ASSERT_FALSE(over.status.is_ok());
+  EXPECT_EQ(over.status.code(), Code::kResources);
+  EXPECT_NE(over.status.message().find("--memory"), std::string::npos) << over.status.to_string();
 }
 
 }  // namespace

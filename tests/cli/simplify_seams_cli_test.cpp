@@ -1,0 +1,210 @@
+// `gaussmesh simplify` on textured OBJ files whose texture coordinates are given per face corner:
+// a UV sphere (one seam from pole to pole, and a value per face at each pole) and a cube whose six
+// sides are six tiles of an atlas (every cube edge a seam). With a target no output face crosses a
+// seam (no texture stretched across one), every corner's texture coordinate is the function the
+// input's follow at its position, and the surface welded by position is still closed and of genus
+// 0. Without a target the run says the seams are not kept.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "stream/attributes/seams.h"
+#include "stream/core/mesh.h"
+#include "stream/core/mesh_topology.h"
+#include "tests/support/test_util.h"
+
+namespace gaussmesh::testing {
+namespace {
+
+std::string q(const std::string& text) { return "'" + text + "'"; }
+
+constexpr double kPi = 3.14159265358979323846;
+
+// A UV sphere of `rings` × `segments` quads (triangles at the poles): u is the longitude / 2π,
+// v is 1 - latitude / π; the column of texture coordinates at u = 1 repeats the one at u = 0.
+std::string uv_sphere_obj(int rings, int segments) {
+  std::string obj;
+  auto vertex = [&](int i, int j) {
+    if (i == 0) return 1;
+    if (i == rings) return 2 + (rings - 1) * segments;
+    return 2 + (i - 1) * segments + j % segments;
+  };
+  obj += "v 0 0 1\n";
+  for (int i = 1; i < rings; ++i)
+    for (int j = 0; j < segments; ++j) {
+      const double th = kPi * i / rings, ph = 2 * kPi * j / segments;
+      obj += "v " + std::to_string(std::sin(th) * std::cos(ph)) + " " + std::to_string(std::sin(th) * std::sin(ph)) +
+             " " + std::to_string(std::cos(th)) + "\n";
+    }
+  obj += "v 0 0 -1\n";
+  for (int i = 0; i <= rings; ++i)
+    for (int j = 0; j <= segments; ++j)
+      obj += "vt " + std::to_string(double(j) / segments) + " " + std::to_string(1 - double(i) / rings) + "\n";
+  auto corner = [&](int i, int j) {
+    return std::to_string(vertex(i, j)) + "/" + std::to_string(1 + i * (segments + 1) + j);
+  };
+  for (int i = 0; i < rings; ++i)
+    for (int j = 0; j < segments; ++j) {
+      // A quad (i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1); one triangle at each pole.
+      if (i < rings - 1) obj += "f " + corner(i, j) + " " + corner(i + 1, j) + " " + corner(i + 1, j + 1) + "\n";
+      if (i > 0 && i < rings - 1) obj += "f " + corner(i, j) + " " + corner(i + 1, j + 1) + " " + corner(i, j + 1) + "\n";
+      if (i == rings - 1) obj += "f " + corner(i, j) + " " + corner(i + 1, j) + " " + corner(i, j + 1) + "\n";
+    }
+  return obj;
+}
+
+// A cube [-1, 1]^3, each side an n × n grid, each side its own tile of a 3 × 2 atlas: side s
+// maps its two in-plane coordinates to ((s % 3 + (a + 1) / 2) / 3, (s / 3 + (b + 1) / 2) / 2).
+std::string atlas_cube_obj(int n) {
+  std::string obj;
+  int vertices = 0, texcoords = 0;
+  for (int s = 0; s < 6; ++s) {
+    const int axis = s % 3;
+    const double sign = s < 3 ? 1 : -1;
+    const int base_v = vertices, base_t = texcoords;
+    for (int i = 0; i <= n; ++i)
+      for (int j = 0; j <= n; ++j) {
+        const double a = -1 + 2.0 * i / n, b = -1 + 2.0 * j / n;
+        double p[3];
+        p[axis] = sign, p[(axis + 1) % 3] = a, p[(axis + 2) % 3] = b;
+        obj += "v " + std::to_string(p[0]) + " " + std::to_string(p[1]) + " " + std::to_string(p[2]) + "\n";
+        obj += "vt " + std::to_string((s % 3 + (a + 1) / 2) / 3) + " " + std::to_string((s / 3 + (b + 1) / 2) / 2) + "\n";
+        ++vertices, ++texcoords;
+      }
+    auto c = [&](int i, int j) {
+      const int k = i * (n + 1) + j;
+      return std::to_string(base_v + k + 1) + "/" + std::to_string(base_t + k + 1);
+    };
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        // Outward: a × b points along the axis; reversed on the negative sides.
+        if (sign > 0) {
+          obj += "f " + c(i, j) + " " + c(i + 1, j) + " " + c(i + 1, j + 1) + "\n";
+          obj += "f " + c(i, j) + " " + c(i + 1, j + 1) + " " + c(i, j + 1) + "\n";
+        } else {
+          obj += "f " + c(i, j) + " " + c(i + 1, j + 1) + " " + c(i + 1, j) + "\n";
+          obj += "f " + c(i, j) + " " + c(i, j + 1) + " " + c(i + 1, j + 1) + "\n";
+        }
+      }
+  }
+  return obj;
+}
+
+stream::Mesh read_with_corners(const std::string& path) {
+  format::ReadOptions options;
+  options.corner_values = true;
+  auto m = stream::load_mesh(path, options);
+  EXPECT_TRUE(m) << m.status().to_string();
+  return m ? std::move(*m) : stream::Mesh{};
+}
+
+// The output welded by position (its seams found again) is a closed manifold of genus 0.
+void expect_closed_sphere(const stream::Mesh& out) {
+  auto seams = stream::find_seams(out.view());
+  ASSERT_TRUE(seams.has_value()) << "the output keeps no seam";
+  EXPECT_EQ(seams->welded.triangles.size(), out.triangles.size()) << "a face lost to the weld";
+  auto topology = stream::compute_topology(seams->welded.view());
+  ASSERT_TRUE(topology) << topology.status().to_string();
+  EXPECT_TRUE(topology->is_manifold());
+  EXPECT_TRUE(topology->is_closed());
+  ASSERT_TRUE(topology->genus.has_value());
+  EXPECT_EQ(*topology->genus, 0);
+}
+
+std::size_t faces_of(const std::string& obj) {
+  std::size_t faces = 0;
+  for (std::size_t at = 0; (at = obj.find("\nf ", at)) != std::string::npos; ++at) ++faces;
+  return faces;
+}
+
+TEST(SimplifySeamsCli, NoFaceOfASphereCrossesItsSeam) {
+  ScratchDir dir;
+  const std::string in = dir.file("sphere.obj"), text = uv_sphere_obj(40, 80);
+  write_file(in, text);
+  const std::size_t input_faces = faces_of(text);
+  for (const double ratio : {0.5, 0.1, 0.01}) {
+    SCOPED_TRACE(ratio);
+    const std::string out_path = dir.file("out.obj");
+    auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(out_path) + " -q --ratio " +
+                           std::to_string(ratio));
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const stream::Mesh out = read_with_corners(out_path);
+    ASSERT_EQ(out.texcoords.size(), out.positions.size());
+    const double target = std::round(ratio * double(input_faces));
+    EXPECT_LE(double(out.triangles.size()), target);
+    EXPECT_GE(double(out.triangles.size()), 0.99 * target - 1);
+    double worst_u = 0, worst_v = 0;
+    for (const auto& t : out.triangles) {
+      float lo = 2, hi = -1;
+      for (const auto v : t.v) {
+        const auto& p = out.positions[v];
+        const auto& uv = out.texcoords[v];
+        lo = std::min(lo, uv.u), hi = std::max(hi, uv.u);
+        if (std::hypot(p.x, p.y) > 1e-3) {  // away from the poles, u is the longitude
+          const double want = std::atan2(p.y, p.x) / (2 * kPi);
+          double d = 1;
+          for (const double shift : {-1.0, 0.0, 1.0}) d = std::min(d, std::abs(uv.u - (want + shift)));
+          worst_u = std::max(worst_u, d);
+        }
+        const double r = std::sqrt(double(p.x) * p.x + double(p.y) * p.y + double(p.z) * p.z);
+        worst_v = std::max(worst_v, std::abs(uv.v - (1 - std::acos(std::clamp(p.z / r, -1.0, 1.0)) / kPi)));
+      }
+      EXPECT_LT(hi - lo, 0.5) << "a face across the seam: u from " << lo << " to " << hi;
+    }
+    // Moved vertices take the nearest point of the input faces around what they absorbed, a little
+    // off the point under them on the coarsest outputs.
+    std::printf("  ratio %.2f: %zu faces, worst texture coordinate error u %.4f v %.4f\n", ratio, out.triangles.size(),
+                worst_u, worst_v);
+    EXPECT_LT(worst_u, 0.02);
+    EXPECT_LT(worst_v, 0.02);
+    expect_closed_sphere(out);
+  }
+}
+
+TEST(SimplifySeamsCli, EveryFaceOfAnAtlasCubeStaysInOneTile) {
+  ScratchDir dir;
+  const std::string in = dir.file("cube.obj"), text = atlas_cube_obj(24);
+  write_file(in, text);
+  const std::size_t input_faces = faces_of(text);
+  for (const double ratio : {0.1, 0.01}) {
+    SCOPED_TRACE(ratio);
+    const std::string out_path = dir.file("out.obj");
+    auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(out_path) + " -q --ratio " +
+                           std::to_string(ratio));
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const stream::Mesh out = read_with_corners(out_path);
+    ASSERT_EQ(out.texcoords.size(), out.positions.size());
+    EXPECT_LE(double(out.triangles.size()), std::round(ratio * double(input_faces)));
+    for (const auto& t : out.triangles) {
+      // The tile of the face: the side whose plane holds all three corners.
+      int side = -1;
+      for (int s = 0; s < 6 && side < 0; ++s) {
+        bool all = true;
+        for (const auto v : t.v) all = all && std::abs((&out.positions[v].x)[s % 3] - (s < 3 ? 1 : -1)) < 1e-5;
+        if (all) side = s;
+      }
+      ASSERT_GE(side, 0) << "a face off the cube's sides";
+      for (const auto v : t.v) {
+        const auto& p = out.positions[v];
+        const double a = (&p.x)[(side % 3 + 1) % 3], b = (&p.x)[(side % 3 + 2) % 3];
+        EXPECT_NEAR(out.texcoords[v].u, (side % 3 + (a + 1) / 2) / 3, 1e-5) << "side " << side;
+        EXPECT_NEAR(out.texcoords[v].v, (side / 3 + (b + 1) / 2) / 2, 1e-5) << "side " << side;
+      }
+    }
+    expect_closed_sphere(out);
+  }
+}
+
+TEST(SimplifySeamsCli, WithoutATargetTheRunSaysTheSeamsAreNotKept) {
+  ScratchDir dir;
+  const std::string in = dir.file("sphere.obj");
+  write_file(in, uv_sphere_obj(20, 40));
+  auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(dir.file("out.obj")));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("warning: the input's values differ at 21 positions"), std::string::npos) << run.err;
+}
+
+}  // namespace
+}  // namespace gaussmesh::testing
