@@ -435,10 +435,11 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   };
   // With seams, any target collapses the welded input with its seams (the Gauss approximation does
   // not keep them); only the first attempt: a split of fans does not know them.
-  bool seams_kept = false;
+  bool seams_kept = false, seams_tried = false;
   auto attempt = [&](MeshView faces) -> Result<Attempt> {
     Attempt a;
-    if (seams && !seams_kept && o.target.any() && o.sampling.frequency == kAutoFrequency) {
+    if (seams && !seams_tried && o.target.any() && o.sampling.frequency == kAutoFrequency) {
+      seams_tried = true;
       auto f = stream::finish_input(seams->welded.view(), finish, seams->corner_wedges);
       if (!f && f.status().code() != Code::kProcessing) return f.status();
       if (f) {
@@ -534,8 +535,11 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   stats.warnings = input_warnings(mesh->input_warnings, mesh->ignored_vertex_values, {});
   if (seams && !seams_kept) {
     stats.warnings.push_back("the input's values differ at " + std::to_string(seams->seam_vertices) +
-                             " positions (texture seams, hard normals or colour edges); only a target (--ratio, "
-                             "--target-faces, --max-error) keeps them: this output's faces may cross them");
+                             " positions (texture seams, hard normals or colour edges); " +
+                             (seams_tried ? std::string("its surface welded by position is not an oriented manifold, so they "
+                                                        "are not kept: this output's faces may cross them")
+                                          : std::string("only a target (--ratio, --target-faces, --max-error) keeps them: "
+                                                        "this output's faces may cross them")));
   }
   if (result->mesher_fallback) {
     // The collapse mesher leaves out the faces it cannot add without an edge or a vertex that is

@@ -203,11 +203,11 @@ class ObjReader {
   };
 
   // Resolves a 1-based or negative (relative) OBJ index into a list of `count` entries.
-  Status resolve(int64_t index, uint64_t count, const char* what, uint32_t& out) const {
+  Status resolve(int64_t index, uint64_t count, const char* what, const char* whats, uint32_t& out) const {
     if (index > 0) {
       if (static_cast<uint64_t>(index) > count) {
         return bad(std::string("face refers to ") + what + " " + std::to_string(index) + " but only " +
-                   std::to_string(count) + " are defined so far");
+                   std::to_string(count) + " " + whats + " are defined so far");
       }
       out = static_cast<uint32_t>(index - 1);
       return {};
@@ -216,7 +216,7 @@ class ObjReader {
     uint64_t back = static_cast<uint64_t>(-(index + 1)) + 1;  // |index| without overflow
     if (back > count) {
       return bad(std::string("face refers to relative ") + what + " " + std::to_string(index) + " but only " +
-                 std::to_string(count) + " are defined so far");
+                 std::to_string(count) + " " + whats + " are defined so far");
     }
     out = static_cast<uint32_t>(count - back);
     return {};
@@ -228,7 +228,7 @@ class ObjReader {
     int64_t index = 0;
     NumberError e = scan.read_int_prefix(index);
     if (e != NumberError::kOk) return bad(text::number_problem(e, "face vertex index", scan.last_token()));
-    GM_RETURN_IF_ERROR(resolve(index, vertex_count(), "vertex", out.v));
+    GM_RETURN_IF_ERROR(resolve(index, vertex_count(), "vertex", "vertices", out.v));
     if (scan.at_token_end()) return {};
     if (scan.peek() != '/') {
       return bad("face vertex index: " + text::quote(scan.last_token()) + " is followed by an unexpected character");
@@ -241,7 +241,7 @@ class ObjReader {
     if (scan.peek() != '/' && !scan.at_token_end()) {
       e = scan.read_int_prefix(index);
       if (e != NumberError::kOk) return bad(text::number_problem(e, "face texture coordinate index", scan.last_token()));
-      GM_RETURN_IF_ERROR(resolve(index, texcoords_.size(), "texture coordinate", out.t));
+      GM_RETURN_IF_ERROR(resolve(index, texcoords_.size(), "texture coordinate", "texture coordinates", out.t));
     }
     if (scan.at_token_end()) return {};
     if (scan.peek() != '/') return bad("face corner: a texture coordinate index is followed by an unexpected character");
@@ -249,7 +249,7 @@ class ObjReader {
     if (scan.at_token_end()) return {};
     e = scan.read_int_prefix(index);
     if (e != NumberError::kOk) return bad(text::number_problem(e, "face normal index", scan.last_token()));
-    GM_RETURN_IF_ERROR(resolve(index, normals_.size(), "normal", out.n));
+    GM_RETURN_IF_ERROR(resolve(index, normals_.size(), "normal", "normals", out.n));
     if (!scan.at_token_end()) return bad("face corner: a normal index is followed by an unexpected character");
     return {};
   }
