@@ -436,12 +436,24 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   // With seams, any target collapses the welded input with its seams (the Gauss approximation does
   // not keep them); only the first attempt: a split of fans does not know them.
   bool seams_kept = false, seams_tried = false;
+  std::size_t seam_split_vertices = 0;  // copies the fan split of the welded surface made
   auto attempt = [&](MeshView faces) -> Result<Attempt> {
     Attempt a;
     if (seams && !seams_tried && o.target.any() && o.sampling.frequency == kAutoFrequency) {
       seams_tried = true;
       auto f = stream::finish_input(seams->welded.view(), finish, seams->corner_wedges);
       if (!f && f.status().code() != Code::kProcessing) return f.status();
+      if (!f) {
+        // Not an oriented manifold once welded: a vertex per fan of faces, as for any input
+        // (stream/core/fan_split.h); the faces keep their order, so their corners' wedges hold.
+        auto s = stream::split_vertex_fans(seams->welded);
+        if (!s) return s.status();
+        seam_split_vertices = s->added_vertices;
+        if (s->added_vertices > 0) {
+          f = stream::finish_input(seams->welded.view(), finish, seams->corner_wedges);
+          if (!f && f.status().code() != Code::kProcessing) return f.status();
+        }
+      }
       if (f) {
         a.finished = std::move(f).value(), a.collapsed_input = true, seams_kept = true;
         a.finished->mesh = stream::split_at_seams(attribute_input, *seams, a.finished->mesh, a.finished->corner_wedges,
@@ -584,7 +596,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   report["kept_chain_vertices"] = result->kept_chain_vertices;
   report["kept_interior_vertices"] = result->kept_interior_vertices;
   report["skipped_input_faces"] = result->skipped_input_faces;
-  report["split_vertices"] = split.added_vertices;
+  report["split_vertices"] = split.added_vertices + (seams_kept ? seam_split_vertices : 0);
   report["seam_vertices"] = seams ? seams->seam_vertices : 0;
   report["seams_kept"] = seams_kept;
   report["planar_patches"] = result->planar_patches;

@@ -10,6 +10,7 @@
 #include <unordered_map>
 
 #include "stream/analysis/mesh_distance.h"
+#include "stream/core/fan_split.h"
 
 namespace gaussmesh::stream {
 namespace {
@@ -163,6 +164,9 @@ Mesh split_at_seams(MeshView input, const Seams& seams, const Mesh& welded_outpu
     out.triangles.push_back(t);
   }
   assign_attributes(values, kinds, normals, out);
+  // A wedge can meet a vertex in two fans apart (the same values on both sides of another
+  // chart): each fan gets its own copy, so that the output is a manifold as indexed too.
+  (void)split_vertex_fans(out);
   return out;
 }
 
