@@ -58,6 +58,14 @@ std::optional<Seams> find_seams(MeshView input) {
   const bool values = !input.normals.empty() || !input.colors.empty() || !input.texcoords.empty();
   if (!values || input.triangles.empty()) return std::nullopt;
   const std::size_t n = input.positions.size();
+  // Most inputs have no two vertices at one place: a sort of position hashes says so without the
+  // tables below.
+  {
+    std::vector<std::uint64_t> hashes(n);
+    for (std::size_t v = 0; v < n; ++v) hashes[v] = KeyHash()(position_key(input.positions[v]));
+    std::sort(hashes.begin(), hashes.end());
+    if (std::adjacent_find(hashes.begin(), hashes.end()) == hashes.end()) return std::nullopt;
+  }
   // Each input vertex's position and wedge, for the vertices the faces use.
   std::vector<std::uint32_t> by_position(n, kNone), wedge(n, kNone);
   std::unordered_map<Key, std::uint32_t, KeyHash> positions, wedges;
