@@ -10,6 +10,7 @@
 #include "stream/core/mesh_topology.h"
 #include "stream/core/process_memory.h"
 #include "stream/core/stopwatch.h"
+#include "stream/finish/colour_quadrics.h"
 #include "stream/finish/quadric_finish.h"
 #include "stream/partition/spatial_order.h"
 #include "stream/pipeline/in_core_simplify.h"
@@ -435,13 +436,20 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   };
   // With seams, any target collapses the welded input with its seams (the Gauss approximation does
   // not keep them); only the first attempt: a split of fans does not know them.
+  // --color-weight: the input's colour ramps as quadrics of the mesh the finish collapses.
+  auto colour_terms = [&](MeshView collapsed) {
+    return o.color_weight > 0 && !attribute_input.colors.empty()
+               ? stream::colour_quadrics(attribute_input, collapsed, stream::frame_of(collapsed), o.color_weight)
+               : stream::ColourTerms{};
+  };
   bool seams_kept = false, seams_tried = false;
   std::size_t seam_split_vertices = 0;  // copies the fan split of the welded surface made
   auto attempt = [&](MeshView faces) -> Result<Attempt> {
     Attempt a;
     if (seams && !seams_tried && o.target.any() && o.sampling.frequency == kAutoFrequency) {
       seams_tried = true;
-      auto f = stream::finish_input(seams->welded.view(), finish, seams->corner_wedges);
+      stream::ColourTerms colour = colour_terms(seams->welded.view());
+      auto f = stream::finish_input(seams->welded.view(), finish, seams->corner_wedges, colour.quadrics, colour.sums);
       if (!f && f.status().code() != Code::kProcessing) return f.status();
       if (!f) {
         // Not an oriented manifold once welded: a vertex per fan of faces, as for any input
@@ -450,7 +458,8 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
         if (!s) return s.status();
         seam_split_vertices = s->added_vertices;
         if (s->added_vertices > 0) {
-          f = stream::finish_input(seams->welded.view(), finish, seams->corner_wedges);
+          colour = colour_terms(seams->welded.view());
+          f = stream::finish_input(seams->welded.view(), finish, seams->corner_wedges, colour.quadrics, colour.sums);
           if (!f && f.status().code() != Code::kProcessing) return f.status();
         }
       }
@@ -466,7 +475,8 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
     if (o.target.any() && o.sampling.frequency == kAutoFrequency &&
         stream::finish_collapses_input(finish, faces.triangles.size())) {
       const stream::Mesh compact = stream::compact_input(faces.positions, faces.triangles);
-      auto f = stream::finish_input(compact.view(), finish);
+      const stream::ColourTerms colour = colour_terms(compact.view());
+      auto f = stream::finish_input(compact.view(), finish, {}, colour.quadrics, colour.sums);
       if (!f && f.status().code() != Code::kProcessing) return f.status();
       if (f) a.finished = std::move(f).value(), a.collapsed_input = true;
       a.non_manifold = !f;
@@ -597,6 +607,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   report["kept_interior_vertices"] = result->kept_interior_vertices;
   report["skipped_input_faces"] = result->skipped_input_faces;
   report["split_vertices"] = split.added_vertices + (seams_kept ? seam_split_vertices : 0);
+  report["color_weight"] = o.color_weight;
   report["seam_vertices"] = seams ? seams->seam_vertices : 0;
   report["seams_kept"] = seams_kept;
   report["planar_patches"] = result->planar_patches;
@@ -662,6 +673,10 @@ Result<SimplifyStats> simplify_job(const Source& source, const Sink& sink, const
     if (options.target.measure) {
       return Status::error(Code::kUsage, "--measure",
                            "measures in core only: this input streams (run `gaussmesh compare` on the output)");
+    }
+    if (options.color_weight > 0) {
+      return Status::error(Code::kUsage, "--color-weight",
+                           "weighs colours in core only: this input streams (--engine in-core holds it)");
     }
     return simplify_out_of_core(source, sink, options, *spheres, sampler, engine->memory_bytes, started);
   }

@@ -30,6 +30,7 @@ struct SimplifyArgs {
   int qn = 10;
   int qt = 12;
   std::string normals = "keep";
+  double color_weight = 0;
   CommonFlags common;
   SamplingFlags sampling;
   ResourceFlags resources;
@@ -94,6 +95,10 @@ int run_simplify(const SimplifyArgs& args, const std::function<bool(const char*)
   else if (args.normals == "compute") options.normals = Normals::kCompute;
   else if (args.normals == "none") options.normals = Normals::kNone;
   else return report_error(Status::error(Code::kUsage, "--normals", "expected keep, compute or none, got '" + args.normals + "'"));
+  if (!(args.color_weight >= 0) || !std::isfinite(args.color_weight)) {
+    return report_error(Status::error(Code::kUsage, "--color-weight", "must be 0 or more, got " + std::to_string(args.color_weight)));
+  }
+  options.color_weight = args.color_weight;
   auto target = target_options(args, sub_given);
   if (!target) return report_error(target.status());
   options.target = *target;
@@ -166,6 +171,10 @@ void register_simplify(CLI::App& app, Runner& run) {
   sub->add_option("--qt", args->qt, "Draco texture coordinate quantization bits 1-30 (default 12)")->check(CLI::Range(1, 30));
   sub->add_option("--normals", args->normals,
                   "output normals: keep (the input's, interpolated; default), compute (from the output's faces) or none");
+  sub->add_option("--color-weight", args->color_weight,
+                  "with a target, in core: how much moving a vertex across the input's colour ramps costs (0: colours "
+                  "do not count, the default; 1: a full colour step across a face costs like moving that face's width "
+                  "off the surface)");
   add_common_flags(*sub, args->common, "print timings on stderr");
   add_sampling_options(*sub, args->sampling);
   add_resource_options(*sub, args->resources);

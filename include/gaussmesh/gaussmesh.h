@@ -181,6 +181,11 @@ struct SimplifyOptions {
   TargetOptions target;
   Weld weld = Weld::kAuto;
   Normals normals = Normals::kKeep;
+  // --color-weight: with a target, in core, how much a collapse that moves a vertex across the
+  // input's colour ramps costs beside its distance to the surface (0: colours do not count;
+  // 1: a full step of colour across a face costs like moving that face's width off the surface).
+  // docs/attributes.md, "Colour edges".
+  double color_weight = 0;
   SamplingOptions sampling;
   Mesher mesher = Mesher::kPatch;  // kVoronoi runs in core only
   ResourceOptions resources;

@@ -115,6 +115,38 @@ inline float to_float(double d) {
 }
 
 // Maps positions into the unit-diagonal frame the quadrics live in: (p - origin) / scale.
+// Colour as a quadric (Hoppe 1999's attribute quadrics, colour_quadrics.h): faces whose colour
+// ramps are c(x) = g·x + d, each of weight s, ask a vertex at x for the colour that suits them
+// best, their weighted mean, and leave Σ s (g·x + d)² - (Σ s (g·x + d))² / Σ s of squared
+// colour error. The first sum goes into the vertex's Quadric; the second needs these sums, per
+// channel, and is taken off by effective(). A colour that is one linear ramp across all its faces
+// then costs nothing, wherever the vertex goes.
+struct ColourSum {
+  double s = 0;
+  std::array<std::array<double, 3>, 3> g{};  // per channel: Σ s g
+  std::array<double, 3> d{};                 // per channel: Σ s d
+  ColourSum& operator+=(const ColourSum& o) {
+    s += o.s;
+    for (int c = 0; c < 3; ++c) {
+      for (int i = 0; i < 3; ++i) g[c][i] += o.g[c][i];
+      d[c] += o.d[c];
+    }
+    return *this;
+  }
+  // q less what the faces' best common colour takes off.
+  Quadric effective(Quadric q) const {
+    if (!(s > 0)) return q;
+    for (int c = 0; c < 3; ++c) {
+      const auto& a = g[c];
+      const double k = 1 / s, e = d[c];
+      q.q[0] -= k * a[0] * a[0], q.q[1] -= k * a[0] * a[1], q.q[2] -= k * a[0] * a[2];
+      q.q[3] -= k * a[1] * a[1], q.q[4] -= k * a[1] * a[2], q.q[5] -= k * a[2] * a[2];
+      q.q[6] -= k * e * a[0], q.q[7] -= k * e * a[1], q.q[8] -= k * e * a[2], q.q[9] -= k * e * e;
+    }
+    return q;
+  }
+};
+
 struct QuadricFrame {
   Vec3dq origin;
   double scale = 1;

@@ -135,6 +135,21 @@ class Decimator {
 
   bool locked(std::uint32_t v) const { return !locked_.empty() && locked_[v]; }
 
+  void set_colours(std::vector<ColourSum> colours) { c_ = std::move(colours); }
+  // Vertex v's quadric as the collapses weigh it (with its colour error, ColourSum::effective).
+  Quadric weighed(std::uint32_t v) const { return c_.empty() ? q_[v] : c_[v].effective(q_[v]); }
+  // The same for the region of v0 and v1 together (q: their summed quadric).
+  Quadric weighed(const Quadric& q, std::uint32_t v0, std::uint32_t v1) const {
+    if (c_.empty()) return q;  // a copy the caller makes anyway
+    ColourSum c = c_[v0];
+    c += c_[v1];
+    return c.effective(q);
+  }
+  // Records v0 and v1's merged colour sums at `to` after their collapse.
+  void merge_colours(std::uint32_t from, std::uint32_t to) {
+    if (!c_.empty()) c_[to] += c_[from];
+  }
+
   // Seams (DecimationOptions::corner_wedges): `wedges` per corner of the mesh's faces, `kinds`
   // per vertex, `seam_edges` per edge (seam_kinds).
   void set_seams(std::vector<std::uint32_t> wedges, std::vector<std::uint8_t> kinds, std::vector<std::uint8_t> seam_edges) {
@@ -217,21 +232,26 @@ class Decimator {
   // The placement and cost of collapsing edge e.
   bool evaluate(std::uint32_t e, Vec3dq& x, double& cost) const {
     const std::uint32_t v0 = m_.edge(e).v[0], v1 = m_.edge(e).v[1];
-    Quadric q = q_[v0];
-    q += q_[v1];
+    Quadric sum = q_[v0];
+    sum += q_[v1];
+    // Without colours the ends' own quadrics, not copies: this runs for every edge, many times.
+    Quadric e0, e1;
+    const Quadric q = weighed(sum, v0, v1);
+    const Quadric& q0 = c_.empty() ? q_[v0] : (e0 = weighed(v0));
+    const Quadric& q1 = c_.empty() ? q_[v1] : (e1 = weighed(v1));
     const Vec3dq p0 = p_[v0], p1 = p_[v1], mid = scale(add(p0, p1), 0.5);
     std::uint32_t from = v0, to = v1;
     bool placed = false;
     if (!seam_choice(e, v0, v1, from, to, placed)) return false;
     if (placed) {  // onto the seam end, which stays
       x = p_[to];
-      cost = collapse_cost(q, q_[v0], q_[v1], x);
+      cost = collapse_cost(q, q0, q1, x);
       return std::isfinite(cost);
     }
     if (locked(v0) || locked(v1)) {  // onto the locked end, if only one is
       if (locked(v0) && locked(v1)) return false;
       x = locked(v0) ? p0 : p1;
-      cost = collapse_cost(q, q_[v0], q_[v1], x);
+      cost = collapse_cost(q, q0, q1, x);
       return std::isfinite(cost);
     }
     Vec3dq best;
@@ -247,7 +267,7 @@ class Decimator {
       }
     }
     x = best;
-    cost = collapse_cost(q, q_[v0], q_[v1], best);
+    cost = collapse_cost(q, q0, q1, best);
     return std::isfinite(cost);
   }
 
@@ -310,7 +330,8 @@ class Decimator {
   // it), leaving out those that took a collapse in this sweep; kNone when there is none.
   std::uint32_t cheapest_neighbour(std::uint32_t v, double& cost) {
     std::uint32_t best = CollapseMesh::kNone;
-    const Quadric& a = q_[v];
+    Quadric own;
+    const Quadric& a = c_.empty() ? q_[v] : (own = weighed(v));
     m_.for_each_edge(v, [&](std::uint32_t e, std::uint32_t w) {
       if (swept_[w] == sweep_) return;
       // With seams: a vertex off them joins a neighbour across an edge that is not a seam, one on
@@ -319,7 +340,15 @@ class Decimator {
       // collapse_cost at p_w from the two ends' own errors there, w's cached.
       const double ea = a.error(p_[w]), eb = own_error_[w];
       const double wa = a.weight, wb = q_[w].weight, wq = wa + wb;
-      const double merged = wq > 0 ? (ea + eb) / wq : ea + eb;
+      // With colours the merged region's error is not the sum of its parts' (the best colour
+      // for both is another): it is weighed whole.
+      double em = ea + eb;
+      if (!c_.empty()) {
+        Quadric sum = q_[v];
+        sum += q_[w];
+        em = weighed(sum, v, w).error(p_[w]);
+      }
+      const double merged = wq > 0 ? em / wq : em;
       const double worse = std::max(wa > 0 ? ea / wa : ea, wb > 0 ? eb / wb : eb);
       const double c = std::sqrt(merged * worse);
       if (std::isfinite(c) && (best == CollapseMesh::kNone || c < cost || (c == cost && w < best))) best = w, cost = c;
@@ -339,7 +368,7 @@ class Decimator {
       ++sweep_;
       candidates.clear();
       for (std::uint32_t v = 0; v < m_.vertex_count(); ++v)
-        if (m_.vertex_alive(v)) own_error_[v] = q_[v].error(p_[v]);
+        if (m_.vertex_alive(v)) own_error_[v] = weighed(v).error(p_[v]);
       for (std::uint32_t v = 0; v < m_.vertex_count(); ++v) {
         double cost;
         if (!m_.vertex_alive(v) || locked(v) || (seams() && kind_[v] == kFixed)) continue;
@@ -372,7 +401,7 @@ class Decimator {
         }
         Quadric q = q_[v];
         q += q_[w];
-        const double error = decimation_error(q, p_[w]);
+        const double error = decimation_error(weighed(q, v, w), p_[w]);
         if (error > options.max_error) {
           ++r.over_error;
           continue;
@@ -385,7 +414,8 @@ class Decimator {
         }
         faces -= std::uint64_t(collapse(v, w));
         q_[w] = q;
-        own_error_[w] = q.error(p_[w]);
+        merge_colours(v, w);
+        own_error_[w] = weighed(w).error(p_[w]);
         swept_[w] = sweep_;
         ++made;
         ++r.collapses;
@@ -418,7 +448,7 @@ class Decimator {
       const std::uint32_t v0 = m_.edge(c.edge).v[0], v1 = m_.edge(c.edge).v[1];
       Quadric q = q_[v0];
       q += q_[v1];
-      const double error = decimation_error(q, x);
+      const double error = decimation_error(weighed(q, v0, v1), x);
       if (error > options.max_error) {  // it stays until a neighbour's collapse re-queues it
         ++r.over_error;
         continue;
@@ -439,6 +469,7 @@ class Decimator {
         continue;
       }
       faces -= std::uint64_t(collapse(from, to));
+      merge_colours(from, to);
       if (!placed) {  // a seam end keeps its input position exactly
         p_[to] = x;
         position_[to] = written;
@@ -456,6 +487,7 @@ class Decimator {
   CollapseMesh& m_;
   std::vector<Vec3dq> p_;  // positions in the frame
   std::vector<Quadric> q_;
+  std::vector<ColourSum> c_;  // per vertex, with colours (DecimationOptions::colours)
   std::vector<Vec3dq> target_;
   EdgeHeap heap_;
   std::span<const std::uint8_t> locked_;
@@ -590,7 +622,8 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
                                           const QuadricFrame& frame, const DecimationOptions& options) {
   if (quadrics.size() != approximation.positions.size() ||
       (!options.locked.empty() && options.locked.size() != approximation.positions.size()) ||
-      (!options.corner_wedges.empty() && options.corner_wedges.size() != 3 * approximation.triangles.size())) {
+      (!options.corner_wedges.empty() && options.corner_wedges.size() != 3 * approximation.triangles.size()) ||
+      (!options.colours.empty() && options.colours.size() != approximation.positions.size())) {
     return format::Status::error(format::Code::kProcessing, "finish", "one quadric per vertex expected");
   }
   // The collapses work on a copy in spatial order: vertices by the Morton code of their position,
@@ -642,7 +675,9 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
   std::vector<Vec3f> positions(n);
   std::vector<Quadric> ranked(n);
   std::vector<std::uint8_t> locked(options.locked.empty() ? 0 : n);
+  std::vector<ColourSum> colours(options.colours.empty() ? 0 : n);
   for (std::uint32_t i = 0; i < n; ++i) {
+    if (!colours.empty()) colours[i] = options.colours[order[i]];
     const Vec3f& p = approximation.positions[order[i]];
     positions[i] = p;
     points[i] = frame.to_frame(p.x, p.y, p.z);
@@ -677,6 +712,7 @@ format::Result<DecimationResult> decimate(MeshView approximation, std::vector<Qu
   }
 
   Decimator decimator(mesh, std::move(points), std::move(ranked), locked, frame, std::move(positions));
+  if (!colours.empty()) decimator.set_colours(std::move(colours));
   if (!wedges.empty()) {
     decimator.set_seams(std::move(wedges), std::move(kinds), std::move(seam_edges));
     decimator.track_regions();

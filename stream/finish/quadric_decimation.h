@@ -64,6 +64,10 @@ struct DecimationOptions {
   // collapsed. Seam edges carry constraint planes like boundary edges. So every output face lies
   // on one side of every seam, and vertices with several wedges keep their input positions.
   std::span<const std::uint32_t> corner_wedges;
+  // Colour terms (empty: none), one per vertex (colour_quadrics.h): a collapse's quadric is then
+  // ColourSum::effective of the ends' sums, so that the colour error of the merged region counts
+  // beside its distance.
+  std::span<const ColourSum> colours;
 };
 
 // Where sweeps go (sweep_goal): to kSweepShare × the face target, and only when that is at most

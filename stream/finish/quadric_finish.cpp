@@ -60,7 +60,8 @@ std::uint64_t finish_min_samples(const FinishOptions& options, std::uint64_t inp
 
 format::Result<FinishResult> finish_from_sums(MeshView approximation, const QuadricFrame& frame,
                                               const std::vector<FixedQuadric>& sums, const FinishOptions& options,
-                                              bool sweeps, std::span<const std::uint32_t> corner_wedges) {
+                                              bool sweeps, std::span<const std::uint32_t> corner_wedges,
+                                              std::span<const ColourSum> colours) {
   const auto start = Clock::now();
   DecimationOptions d;
   d.target_faces = options.target_faces;
@@ -70,6 +71,7 @@ format::Result<FinishResult> finish_from_sums(MeshView approximation, const Quad
     d.sweep_to_faces = std::uint64_t(std::ceil(sweep_share_of_faces(faces, options.target_faces) * double(faces)));
   }
   d.corner_wedges = corner_wedges;
+  d.colours = colours;
   auto decimated = decimate(approximation, sums, frame, d);
   if (!decimated) return decimated.status();
   FinishResult r;
@@ -159,7 +161,9 @@ void add_own_faces(MeshView mesh, std::span<const Triangle> faces, const Quadric
 }
 
 format::Result<FinishResult> finish_input(MeshView compact, const FinishOptions& options,
-                                          std::span<const std::uint32_t> corner_wedges) {
+                                          std::span<const std::uint32_t> corner_wedges,
+                                          std::span<const FixedQuadric> colour_quadrics,
+                                          std::span<const ColourSum> colours) {
   const auto start = Clock::now();
   const QuadricFrame frame = frame_of(compact);
   // Fixed-point sums: the split over threads does not change the result.
@@ -172,8 +176,11 @@ format::Result<FinishResult> finish_input(MeshView compact, const FinishOptions&
                     });
   std::vector<FixedQuadric> sums(compact.positions.size());
   for (const auto& part : partial) add_sums(sums, part);
+  if (colour_quadrics.size() == sums.size())
+    for (std::size_t v = 0; v < sums.size(); ++v) sums[v] += colour_quadrics[v];
   const double seconds_quadrics = seconds_since(start);
-  auto r = finish_from_sums(compact, frame, sums, options, /*sweeps=*/true, corner_wedges);
+  auto r = finish_from_sums(compact, frame, sums, options, /*sweeps=*/true, corner_wedges,
+                            colours.size() == sums.size() ? colours : std::span<const ColourSum>{});
   if (r) r->seconds_quadrics = seconds_quadrics;
   return r;
 }

@@ -123,15 +123,20 @@ inline std::uint64_t input_finish_memory_estimate(std::uint64_t input_faces) {
 // The collapses on the input itself (compact_input), both halves, on every core. kProcessing
 // when the input is not an oriented manifold (the caller then takes the Gauss approximation).
 // `corner_wedges` (empty: none): the seams to keep (DecimationOptions::corner_wedges).
+// `colour_quadrics`, `colours` (empty: none): the colour terms, one per vertex, in
+// frame_of(compact) units (colour_quadrics.h).
 format::Result<FinishResult> finish_input(MeshView compact, const FinishOptions& options,
-                                          std::span<const std::uint32_t> corner_wedges = {});
+                                          std::span<const std::uint32_t> corner_wedges = {},
+                                          std::span<const FixedQuadric> colour_quadrics = {},
+                                          std::span<const ColourSum> colours = {});
 
 // The decimation half, once `sums` (in `frame`) holds every input face (FaceQuadrics::add_face);
 // with `sweeps`, the first collapses are sweeps (DecimationOptions::sweep_to_faces) where
 // sweep_share_of_faces allows them.
 format::Result<FinishResult> finish_from_sums(MeshView approximation, const QuadricFrame& frame,
                                               const std::vector<FixedQuadric>& sums, const FinishOptions& options,
-                                              bool sweeps = false, std::span<const std::uint32_t> corner_wedges = {});
+                                              bool sweeps = false, std::span<const std::uint32_t> corner_wedges = {},
+                                              std::span<const ColourSum> colours = {});
 
 // Both halves in core: the input's faces are added on every core.
 format::Result<FinishResult> finish_in_core(MeshView input, MeshView approximation, const FinishOptions& options);
