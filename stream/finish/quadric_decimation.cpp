@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 namespace gaussmesh::stream {
 namespace {
@@ -136,14 +137,19 @@ class Decimator {
   bool locked(std::uint32_t v) const { return !locked_.empty() && locked_[v]; }
 
   void set_colours(std::vector<ColourSum> colours) { c_ = std::move(colours); }
-  // Vertex v's quadric as the collapses weigh it (with its colour error, ColourSum::effective).
-  Quadric weighed(std::uint32_t v) const { return c_.empty() ? q_[v] : c_[v].effective(q_[v]); }
+  // Vertex v's quadric as the collapses weigh it (with its colour error, ColourSum::effective):
+  // q_[v] itself without colours, else `scratch` filled with it (no copy on the plain path, which
+  // runs this for every edge and every vertex of every sweep).
+  const Quadric& weighed(std::uint32_t v, std::optional<Quadric>& scratch) const {
+    if (c_.empty()) return q_[v];
+    return scratch.emplace(c_[v].effective(q_[v]));
+  }
   // The same for the region of v0 and v1 together (q: their summed quadric).
-  Quadric weighed(const Quadric& q, std::uint32_t v0, std::uint32_t v1) const {
-    if (c_.empty()) return q;  // a copy the caller makes anyway
+  const Quadric& weighed(const Quadric& q, std::uint32_t v0, std::uint32_t v1, std::optional<Quadric>& scratch) const {
+    if (c_.empty()) return q;
     ColourSum c = c_[v0];
     c += c_[v1];
-    return c.effective(q);
+    return scratch.emplace(c.effective(q));
   }
   // Records v0 and v1's merged colour sums at `to` after their collapse.
   void merge_colours(std::uint32_t from, std::uint32_t to) {
@@ -230,15 +236,20 @@ class Decimator {
   }
 
   // The placement and cost of collapsing edge e.
+  // Compiled twice (kColours), so that the plain path, which runs for every edge many times, pays
+  // nothing for colours.
   bool evaluate(std::uint32_t e, Vec3dq& x, double& cost) const {
+    return c_.empty() ? evaluate_as<false>(e, x, cost) : evaluate_as<true>(e, x, cost);
+  }
+  template <bool kColours>
+  bool evaluate_as(std::uint32_t e, Vec3dq& x, double& cost) const {
     const std::uint32_t v0 = m_.edge(e).v[0], v1 = m_.edge(e).v[1];
     Quadric sum = q_[v0];
     sum += q_[v1];
-    // Without colours the ends' own quadrics, not copies: this runs for every edge, many times.
-    Quadric e0, e1;
-    const Quadric q = weighed(sum, v0, v1);
-    const Quadric& q0 = c_.empty() ? q_[v0] : (e0 = weighed(v0));
-    const Quadric& q1 = c_.empty() ? q_[v1] : (e1 = weighed(v1));
+    std::optional<Quadric> merged, e0, e1;
+    const Quadric& q = kColours ? weighed(sum, v0, v1, merged) : sum;
+    const Quadric& q0 = kColours ? weighed(v0, e0) : q_[v0];
+    const Quadric& q1 = kColours ? weighed(v1, e1) : q_[v1];
     const Vec3dq p0 = p_[v0], p1 = p_[v1], mid = scale(add(p0, p1), 0.5);
     std::uint32_t from = v0, to = v1;
     bool placed = false;
@@ -329,9 +340,13 @@ class Decimator {
   // The neighbour of free vertex v that it joins most cheaply (collapse_cost with v moved onto
   // it), leaving out those that took a collapse in this sweep; kNone when there is none.
   std::uint32_t cheapest_neighbour(std::uint32_t v, double& cost) {
+    return c_.empty() ? cheapest_neighbour_as<false>(v, cost) : cheapest_neighbour_as<true>(v, cost);
+  }
+  template <bool kColours>
+  std::uint32_t cheapest_neighbour_as(std::uint32_t v, double& cost) {
     std::uint32_t best = CollapseMesh::kNone;
-    Quadric own;
-    const Quadric& a = c_.empty() ? q_[v] : (own = weighed(v));
+    std::optional<Quadric> own;
+    const Quadric& a = kColours ? weighed(v, own) : q_[v];
     m_.for_each_edge(v, [&](std::uint32_t e, std::uint32_t w) {
       if (swept_[w] == sweep_) return;
       // With seams: a vertex off them joins a neighbour across an edge that is not a seam, one on
@@ -343,10 +358,11 @@ class Decimator {
       // With colours the merged region's error is not the sum of its parts' (the best colour
       // for both is another): it is weighed whole.
       double em = ea + eb;
-      if (!c_.empty()) {
+      if constexpr (kColours) {
         Quadric sum = q_[v];
         sum += q_[w];
-        em = weighed(sum, v, w).error(p_[w]);
+        std::optional<Quadric> scratch;
+        em = weighed(sum, v, w, scratch).error(p_[w]);
       }
       const double merged = wq > 0 ? em / wq : em;
       const double worse = std::max(wa > 0 ? ea / wa : ea, wb > 0 ? eb / wb : eb);
@@ -367,8 +383,11 @@ class Decimator {
     while (faces > goal && double(faces - goal) > kSweepRest * double(faces)) {
       ++sweep_;
       candidates.clear();
-      for (std::uint32_t v = 0; v < m_.vertex_count(); ++v)
-        if (m_.vertex_alive(v)) own_error_[v] = weighed(v).error(p_[v]);
+      for (std::uint32_t v = 0; v < m_.vertex_count(); ++v) {
+        if (!m_.vertex_alive(v)) continue;
+        std::optional<Quadric> scratch;
+        own_error_[v] = c_.empty() ? q_[v].error(p_[v]) : weighed(v, scratch).error(p_[v]);
+      }
       for (std::uint32_t v = 0; v < m_.vertex_count(); ++v) {
         double cost;
         if (!m_.vertex_alive(v) || locked(v) || (seams() && kind_[v] == kFixed)) continue;
@@ -401,7 +420,8 @@ class Decimator {
         }
         Quadric q = q_[v];
         q += q_[w];
-        const double error = decimation_error(weighed(q, v, w), p_[w]);
+        std::optional<Quadric> scratch;
+        const double error = decimation_error(weighed(q, v, w, scratch), p_[w]);
         if (error > options.max_error) {
           ++r.over_error;
           continue;
@@ -415,7 +435,7 @@ class Decimator {
         faces -= std::uint64_t(collapse(v, w));
         q_[w] = q;
         merge_colours(v, w);
-        own_error_[w] = weighed(w).error(p_[w]);
+        own_error_[w] = weighed(w, scratch).error(p_[w]);
         swept_[w] = sweep_;
         ++made;
         ++r.collapses;
@@ -448,7 +468,8 @@ class Decimator {
       const std::uint32_t v0 = m_.edge(c.edge).v[0], v1 = m_.edge(c.edge).v[1];
       Quadric q = q_[v0];
       q += q_[v1];
-      const double error = decimation_error(weighed(q, v0, v1), x);
+      std::optional<Quadric> scratch;
+      const double error = decimation_error(weighed(q, v0, v1, scratch), x);
       if (error > options.max_error) {  // it stays until a neighbour's collapse re-queues it
         ++r.over_error;
         continue;
