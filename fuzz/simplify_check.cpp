@@ -129,6 +129,15 @@ std::string check_simplify(std::string_view bytes) {
       break;
   }
   if (std::string broken = run(mesh, options, twice); !broken.empty()) return "with a target: " + broken;
+
+  // Once more with values per vertex that differ between vertices at one place (seams, which a
+  // target keeps: stream/attributes/seams.h) and colours weighed by the finish (--color-weight).
+  for (std::size_t i = 0; i < vertices; ++i) {
+    mesh.texcoords.push_back({float(i & 1), float((i >> 1) & 1)});
+    mesh.colors.push_back({float(i % 3) / 2, float(i % 5) / 4, float(i % 7) / 6, 1});
+  }
+  options.color_weight = amount / 64.0;
+  if (std::string broken = run(mesh, options, twice); !broken.empty()) return "with seams and colours: " + broken;
   return "";
 }
 

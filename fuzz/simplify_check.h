@@ -1,9 +1,10 @@
 // The whole in-core simplify of the public API on a small mesh made from fuzz bytes, run once
-// without and once with a target, its output checked for what every result must be: indices
-// in range, finite positions, no face with a repeated corner, no face twice (as a set of
-// vertices; unless the input has two faces over the same three positions, which simplify may
-// keep, as it keeps the topology), attributes one per vertex or none, stats that count the
-// output. Shared by fuzz_simplify and its regression test.
+// without and once with a target (then with the target again, texture coordinates that make
+// seams where vertices coincide, and weighed colours), its output checked for what every
+// result must be: indices in range, finite positions, no face with a repeated corner, no face
+// twice (as a set of vertices; unless the input has two faces over the same three positions,
+// which simplify may keep, as it keeps the topology), attributes one per vertex or none, stats
+// that count the output. Shared by fuzz_simplify and its regression test.
 //
 // Byte layout (small on purpose, so that executions stay fast):
 //   byte 0: vertex count - 3, modulo kMaxFuzzVertices - 2
