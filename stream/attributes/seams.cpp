@@ -52,6 +52,37 @@ Key value_key(MeshView input, std::uint32_t v, std::uint32_t welded) {
   return k;
 }
 
+// Per corner k of each face of seams.welded: the face across its edge k → k + 1 when that edge
+// is not a seam (both faces take the same wedges at its ends), else kNone.
+std::vector<std::uint32_t> faces_across(const Seams& seams) {
+  const auto& faces = seams.welded.triangles;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> edges;
+  edges.reserve(3 * faces.size());
+  for (std::uint32_t f = 0; f < faces.size(); ++f)
+    for (std::uint32_t k = 0; k < 3; ++k) {
+      const std::uint32_t a = faces[f].v[k], b = faces[f].v[(k + 1) % 3];
+      edges.push_back({(std::uint64_t(std::min(a, b)) << 32) | std::max(a, b), 3 * f + k});
+    }
+  std::sort(edges.begin(), edges.end());
+  std::vector<std::uint32_t> across(3 * faces.size(), kNone);
+  auto wedge_at = [&](std::uint32_t corner, std::uint32_t vertex) {
+    const std::uint32_t f = corner / 3;
+    for (std::uint32_t k = 0; k < 3; ++k)
+      if (faces[f].v[k] == vertex) return seams.corner_wedges[3 * std::size_t(f) + k];
+    return kNone;
+  };
+  for (std::size_t i = 0; i + 1 < edges.size(); ++i) {
+    if (edges[i].first != edges[i + 1].first || (i + 2 < edges.size() && edges[i + 2].first == edges[i].first)) continue;
+    if (i > 0 && edges[i - 1].first == edges[i].first) continue;  // three or more faces: not crossed
+    const std::uint32_t c = edges[i].second, d = edges[i + 1].second;
+    const auto a = std::uint32_t(edges[i].first >> 32), b = std::uint32_t(edges[i].first);
+    if (wedge_at(c, a) != wedge_at(d, a) || wedge_at(c, b) != wedge_at(d, b)) continue;  // a seam
+    across[c] = d / 3;
+    across[d] = c / 3;
+  }
+  return across;
+}
+
 }  // namespace
 
 std::optional<Seams> find_seams(MeshView input) {
@@ -140,6 +171,29 @@ Mesh split_at_seams(MeshView input, const Seams& seams, const Mesh& welded_outpu
       seen[k] = v;
       const double d = point_triangle_distance_squared(to_d(welded_output.positions[v]), a, b, c);
       if (d < nearest[v].first) nearest[v] = {d, f};
+    }
+  }
+  // The regions' faces need not cover the place a vertex moved to (a region is the input around
+  // the vertices it absorbed, and the place is a minimiser): from the region's nearest face, the
+  // search walks to nearer faces across edges that are not seams, so it finds the face under the
+  // vertex on its own side of every seam.
+  std::vector<std::uint32_t> across = faces_across(seams);
+  for (std::uint32_t v = 0; v < n; ++v) {
+    if (!moved[v] || nearest[v].second == kNone) continue;
+    const Vec3d p = to_d(welded_output.positions[v]);
+    for (std::size_t step = 0; step < welded.triangles.size(); ++step) {
+      const std::uint32_t f = nearest[v].second;
+      std::pair<double, std::uint32_t> best = nearest[v];
+      for (int k = 0; k < 3; ++k) {
+        const std::uint32_t g = across[3 * std::size_t(f) + std::size_t(k)];
+        if (g == kNone) continue;
+        const Triangle& t = welded.triangles[g];
+        const double d = point_triangle_distance_squared(p, to_d(welded.positions[t.v[0]]), to_d(welded.positions[t.v[1]]),
+                                                         to_d(welded.positions[t.v[2]]));
+        if (d < best.first || (d == best.first && g < best.second)) best = {d, g};
+      }
+      if (best.second == f || !(best.first < nearest[v].first)) break;
+      nearest[v] = best;
     }
   }
   // A vertex per (output vertex, wedge) in the order the faces use them.

@@ -33,8 +33,9 @@ std::optional<Seams> find_seams(MeshView input);
 // `corner_wedges` per face corner, `source` per vertex its welded input vertex, `region` per
 // welded input vertex its output vertex) split at the seams: a vertex per (output vertex, wedge)
 // its faces use. A vertex at its input place keeps its wedge's values exactly; a moved one takes
-// the values of the nearest point of the input faces around the vertices it absorbed, which all
-// lie on its side of every seam. Normals by `normals`. A vertex whose wedge has two fans of faces
+// the values of the nearest input face found by walking, across edges that are not seams, from
+// the nearest face around the vertices it absorbed: the surface under it, on its side of every
+// seam. Normals by `normals`. A vertex whose wedge has two fans of faces
 // gets a copy per fan.
 Mesh split_at_seams(MeshView input, const Seams& seams, const Mesh& welded_output,
                     const std::vector<std::uint32_t>& corner_wedges, const std::vector<std::uint32_t>& source,
