@@ -100,6 +100,15 @@ stream::Mesh read_with_corners(const std::string& path) {
   return m ? std::move(*m) : stream::Mesh{};
 }
 
+// `in` simplified to `ratio` of its faces, as OBJ, read back with its texture coordinates.
+stream::Mesh simplified(const ScratchDir& dir, const std::string& in, double ratio) {
+  const std::string out = dir.file("out.obj");
+  auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(out) + " -q --ratio " +
+                         std::to_string(ratio));
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  return run.exit_code == 0 ? read_with_corners(out) : stream::Mesh{};
+}
+
 // The output welded by position (its seams found again) is a closed manifold of genus 0.
 void expect_closed_sphere(const stream::Mesh& out) {
   auto seams = stream::find_seams(out.view());
@@ -126,11 +135,7 @@ TEST(SimplifySeamsCli, NoFaceOfASphereCrossesItsSeam) {
   const std::size_t input_faces = faces_of(text);
   for (const double ratio : {0.5, 0.1, 0.01}) {
     SCOPED_TRACE(ratio);
-    const std::string out_path = dir.file("out.obj");
-    auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(out_path) + " -q --ratio " +
-                           std::to_string(ratio));
-    ASSERT_EQ(run.exit_code, 0) << run.err;
-    const stream::Mesh out = read_with_corners(out_path);
+    const stream::Mesh out = simplified(dir, in, ratio);
     ASSERT_EQ(out.texcoords.size(), out.positions.size());
     const double target = std::round(ratio * double(input_faces));
     EXPECT_LE(double(out.triangles.size()), target);
@@ -170,11 +175,7 @@ TEST(SimplifySeamsCli, EveryFaceOfAnAtlasCubeStaysInOneTile) {
   const std::size_t input_faces = faces_of(text);
   for (const double ratio : {0.1, 0.01}) {
     SCOPED_TRACE(ratio);
-    const std::string out_path = dir.file("out.obj");
-    auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(out_path) + " -q --ratio " +
-                           std::to_string(ratio));
-    ASSERT_EQ(run.exit_code, 0) << run.err;
-    const stream::Mesh out = read_with_corners(out_path);
+    const stream::Mesh out = simplified(dir, in, ratio);
     ASSERT_EQ(out.texcoords.size(), out.positions.size());
     EXPECT_LE(double(out.triangles.size()), std::round(ratio * double(input_faces)));
     for (const auto& t : out.triangles) {
