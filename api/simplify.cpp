@@ -434,14 +434,14 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
     stream::SimplifyResult result;
     bool non_manifold = false;
   };
-  // With seams, any target collapses the welded input with its seams (the Gauss approximation does
-  // not keep them); only the first attempt: a split of fans does not know them.
   // --color-weight: the input's colour ramps as quadrics of the mesh the finish collapses.
   auto colour_terms = [&](MeshView collapsed) {
     return o.color_weight > 0 && !attribute_input.colors.empty()
                ? stream::colour_quadrics(attribute_input, collapsed, stream::frame_of(collapsed), o.color_weight)
                : stream::ColourTerms{};
   };
+  // With seams, any target collapses the welded input with its seams (the Gauss approximation does
+  // not keep them), once: the non-manifold retry below splits the fans of `input`, without them.
   bool seams_kept = false, seams_tried = false;
   std::size_t seam_split_vertices = 0;  // copies the fan split of the welded surface made
   auto attempt = [&](MeshView faces) -> Result<Attempt> {
@@ -558,10 +558,12 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   if (seams && !seams_kept) {
     stats.warnings.push_back("the input's values differ at " + std::to_string(seams->seam_vertices) +
                              " positions (texture seams, hard normals or colour edges); " +
-                             (seams_tried ? std::string("its surface welded by position is not an oriented manifold, so they "
-                                                        "are not kept: this output's faces may cross them")
-                                          : std::string("only a target (--ratio, --target-faces, --max-error) keeps them: "
-                                                        "this output's faces may cross them")));
+                             (seams_tried      ? std::string("its surface welded by position is not an oriented manifold, so "
+                                                                 "they are not kept: this output's faces may cross them")
+                              : o.target.any() ? std::string("an explicit --frequency takes the Gauss approximation, which does "
+                                                             "not keep them: this output's faces may cross them")
+                                               : std::string("only a target (--ratio, --target-faces, --max-error) keeps them: "
+                                                             "this output's faces may cross them")));
   }
   if (result->mesher_fallback) {
     // The collapse mesher leaves out the faces it cannot add without an edge or a vertex that is
