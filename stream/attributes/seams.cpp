@@ -1,8 +1,5 @@
 #include "stream/attributes/seams.h"
 
-#include <oneapi/tbb/blocked_range.h>
-#include <oneapi/tbb/parallel_for.h>
-
 #include <algorithm>
 #include <bit>
 #include <cstring>

@@ -345,6 +345,7 @@ class Decimator {
   template <bool kColours>
   std::uint32_t cheapest_neighbour_as(std::uint32_t v, double& cost) {
     std::uint32_t best = CollapseMesh::kNone;
+    cost = std::numeric_limits<double>::infinity();
     std::optional<Quadric> own;
     const Quadric& a = kColours ? weighed(v, own) : q_[v];
     m_.for_each_edge(v, [&](std::uint32_t e, std::uint32_t w) {
