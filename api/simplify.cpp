@@ -390,7 +390,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   stream::Mesh as_read;
   std::uint64_t welded = 0;
   if (reordered) {
-    if (has_attributes) {
+    if (has_attributes && !seams) {  // with seams the split input is kept already
       as_read.positions.assign(mesh->view.positions.begin(), mesh->view.positions.end());
       as_read.triangles.assign(mesh->view.triangles.begin(), mesh->view.triangles.end());
       auto take = [](auto& owned, auto view) {

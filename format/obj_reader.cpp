@@ -105,7 +105,7 @@ class ObjReader {
   Status name_ignored(bool& named, std::string_view keyword) {
     if (named) return {};
     named = true;
-    return ignored(keyword == "vt" ? "texture coordinates (vt, read in core only: --engine in-core)" : "normals (vn, read in core only: --engine in-core)");
+    return ignored(keyword == "vt" ? "texture coordinates (vt; simplify keeps them in core: --engine in-core)" : "normals (vn; simplify keeps them in core: --engine in-core)");
   }
 
   // MeshSink::on_ignored, kept until the header when the file is held.

@@ -7,6 +7,8 @@
 #include <unordered_map>
 
 #include "stream/analysis/mesh_distance.h"
+#include "stream/core/canonical_order.h"
+#include "stream/core/hash_mix.h"
 #include "stream/core/fan_split.h"
 
 namespace gaussmesh::stream {
@@ -14,24 +16,25 @@ namespace {
 
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 
-// A vertex's position, or its position and values, as words compared bit for bit.
+// A vertex's position, or its position and values, as words compared bit for bit (ordered_bits:
+// -0 is 0).
 struct Key {
   std::uint32_t w[12] = {};
   int size = 0;
-  void add(float f) { w[size++] = std::bit_cast<std::uint32_t>(f == 0.0f ? 0.0f : f); }  // -0 is 0
+  void add(float f) { w[size++] = ordered_bits(f); }
   friend bool operator==(const Key& a, const Key& b) {
     return a.size == b.size && std::memcmp(a.w, b.w, sizeof(std::uint32_t) * std::size_t(a.size)) == 0;
   }
 };
 struct KeyHash {
   std::size_t operator()(const Key& k) const {
-    std::uint64_t h = 0x9E3779B97F4A7C15ull;
-    for (int i = 0; i < k.size; ++i) h = (h ^ k.w[i]) * 0xBF58476D1CE4E5B9ull, h ^= h >> 29;
+    std::uint64_t h = 0;
+    for (int i = 0; i < k.size; ++i) h = mix64(h ^ k.w[i]);
     return std::size_t(h);
   }
 };
 
-Key position_key(const Vec3f& p) {
+Key place_key(const Vec3f& p) {
   Key k;
   k.add(p.x), k.add(p.y), k.add(p.z);
   return k;
@@ -90,7 +93,7 @@ std::optional<Seams> find_seams(MeshView input) {
   // tables below.
   {
     std::vector<std::uint64_t> hashes(n);
-    for (std::size_t v = 0; v < n; ++v) hashes[v] = KeyHash()(position_key(input.positions[v]));
+    for (std::size_t v = 0; v < n; ++v) hashes[v] = position_hash(input.positions[v]);
     std::sort(hashes.begin(), hashes.end());
     if (std::adjacent_find(hashes.begin(), hashes.end()) == hashes.end()) return std::nullopt;
   }
@@ -101,12 +104,12 @@ std::optional<Seams> find_seams(MeshView input) {
   for (const Triangle& t : input.triangles)
     for (const auto v : t.v) used[v] = 1;
   Seams s;
-  std::vector<std::uint32_t> wedge_count;
+  std::vector<std::uint32_t> wedge_count, first_vertex;  // per position: its wedges, its first vertex
   for (std::uint32_t v = 0; v < n; ++v) {
     if (!used[v]) continue;
-    auto [p, added] = positions.try_emplace(position_key(input.positions[v]), std::uint32_t(positions.size()));
+    auto [p, added] = positions.try_emplace(place_key(input.positions[v]), std::uint32_t(positions.size()));
     by_position[v] = p->second;
-    if (added) wedge_count.push_back(0);
+    if (added) wedge_count.push_back(0), first_vertex.push_back(v);
     auto [w, new_wedge] = wedges.try_emplace(value_key(input, v, p->second), std::uint32_t(wedges.size()));
     wedge[v] = w->second;
     if (new_wedge) {
@@ -119,9 +122,6 @@ std::optional<Seams> find_seams(MeshView input) {
   // The welded mesh: faces with a repeated corner once welded are left out, and the positions
   // they alone used with them.
   std::vector<std::uint32_t> index(positions.size(), kNone);
-  std::vector<std::uint32_t> first_vertex(positions.size(), kNone);
-  for (std::uint32_t v = 0; v < n; ++v)
-    if (used[v] && first_vertex[by_position[v]] == kNone) first_vertex[by_position[v]] = v;
   std::vector<Triangle> kept;
   for (const Triangle& t : input.triangles) {
     const std::uint32_t a = by_position[t.v[0]], b = by_position[t.v[1]], c = by_position[t.v[2]];

@@ -1,24 +1,24 @@
 #include "stream/finish/colour_quadrics.h"
 
 #include <algorithm>
-#include <bit>
 #include <cstdint>
 #include <unordered_map>
+
+#include "stream/core/canonical_order.h"
 
 namespace gaussmesh::stream {
 namespace {
 
+// Positions as map keys: the canonical position_hash, and equal when their ordered bits are (-0 is 0).
 struct PositionHash {
-  std::size_t operator()(const std::array<std::uint32_t, 3>& k) const {
-    std::uint64_t h = 0x9E3779B97F4A7C15ull;
-    for (const auto w : k) h = (h ^ w) * 0xBF58476D1CE4E5B9ull, h ^= h >> 29;
-    return std::size_t(h);
+  std::size_t operator()(const Vec3f& p) const { return std::size_t(position_hash(p)); }
+};
+struct SamePosition {
+  bool operator()(const Vec3f& a, const Vec3f& b) const {
+    return ordered_bits(a.x) == ordered_bits(b.x) && ordered_bits(a.y) == ordered_bits(b.y) &&
+           ordered_bits(a.z) == ordered_bits(b.z);
   }
 };
-
-std::array<std::uint32_t, 3> bits(const Vec3f& p) {
-  return {std::bit_cast<std::uint32_t>(p.x), std::bit_cast<std::uint32_t>(p.y), std::bit_cast<std::uint32_t>(p.z)};
-}
 
 }  // namespace
 
@@ -27,12 +27,12 @@ ColourTerms colour_quadrics(MeshView coloured, MeshView mesh, const QuadricFrame
   if (coloured.colors.empty() || !(weight > 0)) return terms;
   terms.quadrics.resize(mesh.positions.size());
   terms.sums.resize(mesh.positions.size());
-  std::unordered_map<std::array<std::uint32_t, 3>, std::uint32_t, PositionHash> at;
+  std::unordered_map<Vec3f, std::uint32_t, PositionHash, SamePosition> at;
   at.reserve(mesh.positions.size());
-  for (std::uint32_t v = 0; v < mesh.positions.size(); ++v) at.try_emplace(bits(mesh.positions[v]), v);
+  for (std::uint32_t v = 0; v < mesh.positions.size(); ++v) at.try_emplace(mesh.positions[v], v);
   std::vector<std::uint32_t> target(coloured.positions.size(), UINT32_MAX);
   for (std::uint32_t v = 0; v < coloured.positions.size(); ++v) {
-    auto it = at.find(bits(coloured.positions[v]));
+    auto it = at.find(coloured.positions[v]);
     if (it != at.end()) target[v] = it->second;
   }
   for (const Triangle& t : coloured.triangles) {

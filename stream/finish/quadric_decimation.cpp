@@ -151,7 +151,7 @@ class Decimator {
     c += c_[v1];
     return scratch.emplace(c.effective(q));
   }
-  // Records v0 and v1's merged colour sums at `to` after their collapse.
+  // After collapsing `from` onto `to`: `to` holds both ends' colour sums.
   void merge_colours(std::uint32_t from, std::uint32_t to) {
     if (!c_.empty()) c_[to] += c_[from];
   }

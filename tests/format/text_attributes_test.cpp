@@ -84,7 +84,7 @@ TEST(ObjAttributes, ColoursWhenTheFirstVertexHasThem) {
   ASSERT_EQ(o.sink.attributes.size(), 3u);
   EXPECT_EQ(o.sink.attributes[0].color, (Color{1, 0.5f, 0.25f, 1}));
   EXPECT_EQ(o.sink.attributes[2].color, (Color{0, 0, 1, 1}));
-  EXPECT_EQ(o.sink.ignored, (std::vector<std::string>{"texture coordinates (vt, read in core only: --engine in-core)", "normals (vn, read in core only: --engine in-core)"}));
+  EXPECT_EQ(o.sink.ignored, (std::vector<std::string>{"texture coordinates (vt; simplify keeps them in core: --engine in-core)", "normals (vn; simplify keeps them in core: --engine in-core)"}));
   Outcome missing = read("v 0 0 0 1 0.5 0.25\nv 1 0 0\nv 0 1 0 0 0 1\nf 1 2 3\n", "m.obj");
   ASSERT_FALSE(missing.status.is_ok());
   EXPECT_EQ(missing.status.where(), "m.obj:2");
@@ -120,7 +120,7 @@ TEST(ObjAttributes, CornerValuesSplitAVertexWhereItsValuesDiffer) {
   ASSERT_TRUE(streamed.status.is_ok()) << streamed.status.to_string();
   EXPECT_EQ(streamed.sink.positions.size(), 4u);
   EXPECT_EQ(streamed.sink.triangles, (std::vector<Triangle>{{{0, 1, 2}}, {{1, 3, 2}}}));
-  EXPECT_EQ(streamed.sink.ignored, (std::vector<std::string>{"texture coordinates (vt, read in core only: --engine in-core)", "normals (vn, read in core only: --engine in-core)"}));
+  EXPECT_EQ(streamed.sink.ignored, (std::vector<std::string>{"texture coordinates (vt; simplify keeps them in core: --engine in-core)", "normals (vn; simplify keeps them in core: --engine in-core)"}));
 }
 
 TEST(ObjAttributes, CornerValuesWithRelativeIndicesAndNoFaceUsingThem) {
