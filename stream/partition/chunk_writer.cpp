@@ -208,10 +208,14 @@ Status PartitionRun::write_chunks() {
   if (per_scan < chunks) fit(256);
   std::size_t frame_bytes = std::clamp(writer_budget / (per_scan + spare), min_frame, std::size_t{1} << 20);
   frame_bytes -= frame_bytes % kChunkFaceRecordBytes;
-  // One zstd context per compression thread, shared by the writers that thread serves.
+  // One zstd context per compression thread, shared by the writers that thread serves. A
+  // renumbered input's chunk records compress several times less than an ordered input's (its
+  // neighbours' ids differ by more), so they go at the renumbered spill's level: compressing
+  // harder costs more time than the fewer bytes save (docs/partition.md).
+  const int level = out_.reordered ? std::min(options_.compression_level, kRenumberedSpillLevel) : options_.compression_level;
   std::vector<std::unique_ptr<format::RecordCompressor>> compressors;
   for (std::size_t w = 0; w < std::max<std::size_t>(workers, 1); ++w) {
-    auto compressor = format::RecordCompressor::create(options_.compression_level);
+    auto compressor = format::RecordCompressor::create(level);
     if (!compressor) return compressor.status();
     compressors.push_back(std::move(*compressor));
   }
