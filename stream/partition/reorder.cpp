@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <numeric>
 #include <span>
 #include <string>
 #include <utility>
@@ -48,18 +49,6 @@ std::span<const Record> records_of(std::span<const std::byte> block) {
 
 std::uint64_t ceil_div(std::uint64_t a, std::uint64_t b) { return (a + b - 1) / b; }
 std::uint32_t floor_log2(std::uint64_t x) { return 63 - static_cast<std::uint32_t>(__builtin_clzll(x | 1)); }
-
-// `count` entries of the old-to-new map from entry `first`.
-Status read_map(const std::string& path, std::uint32_t* out, std::uint64_t first, std::uint64_t count) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return Status::error(Code::kBadInput, path, "cannot open temporary file: " + errno_text());
-  FdCloser closer{fd};
-  if (read_some(fd, out, count * sizeof(std::uint32_t), first * sizeof(std::uint32_t)) !=
-      static_cast<std::int64_t>(count * sizeof(std::uint32_t))) {
-    return Status::error(Code::kBadInput, path, "temporary file is shorter than written");
-  }
-  return {};
-}
 
 // Every corner of `faces` (from face `first` of the spill at `path` on) names one of `vertices`.
 Status check_corners(const std::string& path, std::span<const Triangle> faces, std::uint64_t first, std::uint64_t vertices) {
@@ -166,7 +155,7 @@ Status PartitionRun::reorder(bool weld) {
   GM_RETURN_IF_ERROR(moved.open(out_.dir + "/reorder-positions.bin", ranges, sizeof(PositionRecord), buffers / ranges));
   GM_RETURN_IF_ERROR(scan_positions(*vertex_files_, vertices, in_pieces, find_cells, [&](std::uint64_t first, std::span<const Vec3f> batch) {
     for (std::size_t i = 0; i < batch.size(); ++i)
-      GM_RETURN_IF_ERROR(moved.append(range_of[cell_of[i]], PositionRecord{static_cast<std::uint32_t>(first + i), batch[i]}));
+      if (const std::size_t r = range_of[cell_of[i]]; moved.stage(r, PositionRecord{static_cast<std::uint32_t>(first + i), batch[i]})) GM_RETURN_IF_ERROR(moved.flush(r));
     return Status{};
   }));
   std::vector<std::uint32_t>().swap(cell_of);
@@ -177,14 +166,13 @@ Status PartitionRun::reorder(bool weld) {
   // 3. Range by range: each cell sorted (VertexKey) and welded, the new position files written
   // in the new order (they replace the input's own records too), and each vertex's new id sent
   // by range of old ids.
-  const std::string map_path = out_.dir + "/reorder-map.bin";
-  // The old-to-new pairs go by ranges of old ids, a power of two within the table (a shift per
-  // vertex, not a division); the whole map fits the table when all the ids do.
+  // The old-to-new pairs go by slice of old ids (the corners' slices below), so that each slice
+  // of the map is put together from its own bucket when the corners are renamed; the whole map
+  // fits the table when all the ids do.
   const bool map_fits = vertices <= range_ids;
-  const std::uint32_t pair_bits = floor_log2(range_ids);
-  const std::uint64_t pair_ids = std::uint64_t{1} << pair_bits, old_ranges = ceil_div(vertices, pair_ids);
+  const std::uint64_t slices = ceil_div(vertices, std::uint64_t{1} << slice_bits);
   BucketFile pairs;
-  GM_RETURN_IF_ERROR(pairs.open(out_.dir + "/reorder-pairs.bin", old_ranges, sizeof(MapPair), buffers / old_ranges));
+  GM_RETURN_IF_ERROR(pairs.open(out_.dir + "/reorder-pairs.bin", slices, sizeof(MapPair), buffers / slices));
   std::uint32_t kept = 0;
   {
     // The kept positions gather a stripe at a time (position_file: stripes alternate between
@@ -204,7 +192,9 @@ Status PartitionRun::reorder(bool weld) {
         stripe[kept % kPositionStripeVertices] = v.p;
         if (++kept % kPositionStripeVertices == 0) failed = write_stripe(kept);
       }
-      if (Status appended = pairs.append(v.key.id >> pair_bits, MapPair{v.key.id, kept - 1}); !appended.is_ok()) failed = std::move(appended);
+      if (const std::size_t r = v.key.id >> slice_bits; pairs.stage(r, MapPair{v.key.id, kept - 1})) {
+        if (Status flushed = pairs.flush(r); !flushed.is_ok()) failed = std::move(flushed);
+      }
     };
     const auto fine_of = [&](const Vec3f& p) { return grid.sub_code(p, kReorderFineBits); };
     std::vector<PositionRecord> range;
@@ -308,12 +298,12 @@ Status PartitionRun::reorder(bool weld) {
       };
       run.resize(count);
       for_pieces(cells, [&](std::size_t from, std::size_t to) {
-        std::vector<std::uint64_t> scratch;  // the sort's keys: at most the piece's cells'
+        std::vector<std::uint64_t> scratch;  // the sort's keys and their radix copy: twice the largest cell's
         for (std::size_t c = from; c < to; ++c) {
           const std::span<OrderedVertex> cell = cell_span(static_cast<std::uint32_t>(cell0 + c));
           const PositionRecord* in = range.data() + (cell.data() - run.data());
           for (std::size_t i = 0; i < cell.size(); ++i) cell[i] = {VertexKey::of(fine_of(in[i].p), in[i].p, in[i].id), in[i].p};
-          scratch.resize(std::max(scratch.size(), cell.size()));
+          scratch.resize(std::max(scratch.size(), 2 * cell.size()));
           sort_run(cell, scratch);
         }
       }, 16);  // cells hold a few hundred vertices: pieces of 16 at least
@@ -335,29 +325,29 @@ Status PartitionRun::reorder(bool weld) {
   bytes_spilled_ += pairs.bytes();
   std::vector<std::uint32_t>().swap(cell_start);
 
-  // The map from old ids to new, written in old-id order one range at a time.
-  {
-    SpillWriter map;
-    GM_RETURN_IF_ERROR(map.open(map_path, std::size_t{1} << 20));
-    std::vector<std::uint32_t> slice(std::min(pair_ids, vertices));
-    for (std::size_t r = 0; r < old_ranges; ++r) {
-      const std::uint64_t first = r * pair_ids, count = std::min(pair_ids, vertices - first);
-      std::uint64_t got = 0;
-      GM_RETURN_IF_ERROR(pairs.read(r, [&](std::span<const std::byte> block) {
-        for (const MapPair& c : records_of<MapPair>(block)) slice[c.old_id - first] = c.new_id;
-        got += block.size() / sizeof(MapPair);
-        return Status{};
-      }));
-      if (got != count) return Status::error(Code::kProcessing, "reorder", "a range of the map lost a vertex");
-      GM_RETURN_IF_ERROR(map.write(slice.data(), count * sizeof(std::uint32_t)));
-    }
-    GM_RETURN_IF_ERROR(map.close());
-    bytes_spilled_ += map.bytes();
-    pairs.remove();
-  }
   const std::uint64_t new_vertices = kept;
   out_.reorder_steps.vertices = seconds_since(step);
   step = std::chrono::steady_clock::now();
+  // Entries [first, first + count) of the old-to-new map, from the pairs of their slices: the
+  // blocks i with i % parts == part, so that threads share a slice (each old id has one pair:
+  // they write apart). Adds the pairs read to `got`.
+  const auto read_map = [&](std::uint32_t* out, std::uint64_t first, std::uint64_t count, std::size_t part, std::size_t parts,
+                            std::uint64_t& got) -> Status {
+    for (std::uint64_t r = first >> slice_bits; r < slices && (r << slice_bits) < first + count; ++r) {
+      GM_RETURN_IF_ERROR(pairs.read(r, [&](std::span<const std::byte> block) {
+        for (const MapPair& c : records_of<MapPair>(block)) {
+          if (c.old_id - first >= count) return Status::error(Code::kProcessing, "reorder", "a vertex is in the wrong slice of the map");
+          out[c.old_id - first] = c.new_id;
+        }
+        got += block.size() / sizeof(MapPair);
+        return Status{};
+      }, part, parts));
+    }
+    return Status{};
+  };
+  const auto map_complete = [](std::uint64_t got, std::uint64_t count) {
+    return got == count ? Status{} : Status::error(Code::kProcessing, "reorder", "a slice of the map lost a vertex");
+  };
   // Buckets of lowest corners holding about half a table of faces each (a power of two of ids),
   // so that the ordering pass (7) holds a bucket and its ordered copy at once and reads it once.
   const std::uint32_t lowest_bits =
@@ -391,15 +381,17 @@ Status PartitionRun::reorder(bool weld) {
                                        buffers / 2 / parts / lowest_ranges));
   if (map_fits) {
     std::vector<std::uint32_t> whole(vertices);
-    GM_RETURN_IF_ERROR(read_map(map_path, whole.data(), 0, vertices));
-    ::unlink(map_path.c_str());
+    std::uint64_t got = 0;
+    GM_RETURN_IF_ERROR(read_map(whole.data(), 0, vertices, 0, 1, got));
+    GM_RETURN_IF_ERROR(map_complete(got, vertices));
+    pairs.remove();
     GM_RETURN_IF_ERROR(for_each_spilled_frame([&](std::span<const Triangle> faces) -> Status {
       for (std::size_t i = 0; i < faces.size(); ++i) {
         if (i + kAhead / 3 < faces.size())
           for (const std::uint32_t v : faces[i + kAhead / 3].v) __builtin_prefetch(whole.data() + v);
         Triangle t = faces[i];
         for (std::uint32_t& v : t.v) v = whole[v];
-        GM_RETURN_IF_ERROR(grouped[0].append(lowest_corner(t) >> lowest_bits, lowest_first(t)));
+        if (const std::size_t b = lowest_corner(t) >> lowest_bits; grouped[0].stage(b, lowest_first(t))) GM_RETURN_IF_ERROR(grouped[0].flush(b));
       }
       return {};
     }));
@@ -407,7 +399,6 @@ Status PartitionRun::reorder(bool weld) {
   } else {
     // 4. Every corner's old id, by slice of old ids, and in face order which slice it went to
     // (Tag: a byte, or two past 256 slices; four only for a test's tiny table).
-    const std::uint64_t slices = ceil_div(vertices, std::uint64_t{1} << slice_bits);
     const auto rename_by_slices = [&]<class Tag>(Tag) -> Status {
       // Parts of the face spill's frames, one per thread: each part's corners and tags go to
       // files of its own, so that the three passes run on every thread.
@@ -443,7 +434,7 @@ Status PartitionRun::reorder(bool weld) {
           GM_RETURN_IF_ERROR(check_corners(faces_path_, in, f, vertices));
           for (std::size_t k = 0; k < in.size(); ++k) {
             for (const std::uint32_t v : in[k].v) {
-              GM_RETURN_IF_ERROR(corners[w].append(v >> slice_bits, v));
+              if (corners[w].stage(v >> slice_bits, v)) GM_RETURN_IF_ERROR(corners[w].flush(v >> slice_bits));
               tags[used++] = static_cast<Tag>(v >> slice_bits);
             }
             if (used == tags.size()) {
@@ -479,7 +470,9 @@ Status PartitionRun::reorder(bool weld) {
         std::vector<std::uint32_t> slice(std::min(std::uint64_t{1} << slice_bits, vertices));
         for (std::size_t r = 0; r < slices; ++r) {
           const std::uint64_t first = std::uint64_t{r} << slice_bits, count = std::min(std::uint64_t{1} << slice_bits, vertices - first);
-          GM_RETURN_IF_ERROR(read_map(map_path, slice.data(), first, count));
+          std::vector<std::uint64_t> got(parts, 0);
+          GM_RETURN_IF_ERROR(on_parts(parts, [&](std::size_t w) { return read_map(slice.data(), first, count, w, parts, got[w]); }));
+          GM_RETURN_IF_ERROR(map_complete(std::accumulate(got.begin(), got.end(), std::uint64_t{0}), count));
           GM_RETURN_IF_ERROR(on_parts(parts, [&](std::size_t w) {
             return corners[w].rewrite(r, [&](std::span<std::byte> block) {
               const std::span<std::uint32_t> ids{reinterpret_cast<std::uint32_t*>(block.data()), block.size() / sizeof(std::uint32_t)};
@@ -494,7 +487,7 @@ Status PartitionRun::reorder(bool weld) {
           }));
         }
       }
-      ::unlink(map_path.c_str());
+      pairs.remove();
 
       // 6. Whole faces again, in input order: each corner the next renamed id of its slice, in
       // each part from its own tags and corners.
@@ -521,7 +514,7 @@ Status PartitionRun::reorder(bool weld) {
                 return Status::error(Code::kBadInput, tags_paths[w], "a corner is missing from its slice");
               }
             }
-            GM_RETURN_IF_ERROR(grouped[w].append(lowest_corner(t) >> lowest_bits, lowest_first(t)));
+            if (const std::size_t b = lowest_corner(t) >> lowest_bits; grouped[w].stage(b, lowest_first(t))) GM_RETURN_IF_ERROR(grouped[w].flush(b));
           }
           done += take;
         }

@@ -99,18 +99,48 @@ struct OrderedVertex {
   format::Vec3f p;
 };
 
+// Sorts keys (a fine code in the high half, an index in the low half, indices ascending) by fine
+// code, keeping index order among equal codes, with `other` (as many entries) as scratch: three
+// stable passes of kReorderFineBits bits, skipping a pass whose digit is the same for every key.
+// The same order as sorting the keys whole, at a few passes instead of log n compares a key.
+inline void radix_sort_fine(std::span<std::uint64_t> keys, std::span<std::uint64_t> other) {
+  constexpr std::uint32_t kDigits = 1u << kReorderFineBits;
+  std::uint64_t* from = keys.data();
+  std::uint64_t* to = other.data();
+  const std::size_t n = keys.size();
+  for (std::uint32_t shift = 32; shift < 32 + 3 * kReorderFineBits; shift += kReorderFineBits) {
+    std::uint32_t at[kDigits + 1] = {};
+    for (std::size_t i = 0; i < n; ++i) ++at[((from[i] >> shift) & (kDigits - 1)) + 1];
+    if (at[((from[0] >> shift) & (kDigits - 1)) + 1] == n) continue;
+    for (std::uint32_t d = 0; d < kDigits; ++d) at[d + 1] += at[d];
+    for (std::size_t i = 0; i < n; ++i) to[at[(from[i] >> shift) & (kDigits - 1)]++] = from[i];
+    std::swap(from, to);
+  }
+  if (from != keys.data()) std::copy(from, from + n, keys.data());
+}
+
 // Orders `run` (vertices of one cell, whole groups of equal fine codes): by key, and a group of
 // one fine code larger than kMaxWeldGroup by id. With `scratch` of at least run.size() entries,
 // by fine code first on 8-byte keys (most vertices are alone in theirs), the records moved once,
-// then each group of one code by its whole keys.
+// then each group of one code by its whole keys; with twice that, the 8-byte keys by radix
+// (fine codes of 3 * kReorderFineBits bits).
 inline void sort_run(std::span<OrderedVertex> run, std::span<std::uint64_t> scratch = {}) {
   const auto by_key = [](const OrderedVertex& a, const OrderedVertex& b) { return a.key < b.key; };
   const std::size_t n = run.size();
   if (n < 2) return;
   const bool by_fine_first = scratch.size() >= n && n <= UINT32_MAX;
   if (by_fine_first) {
-    for (std::size_t i = 0; i < n; ++i) scratch[i] = std::uint64_t{run[i].key.fine} << 32 | i;
-    std::sort(scratch.begin(), scratch.begin() + std::ptrdiff_t(n));
+    std::uint32_t all_fine = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      scratch[i] = std::uint64_t{run[i].key.fine} << 32 | i;
+      all_fine |= run[i].key.fine;
+    }
+    // Small runs: a radix pass's table costs more than the compares.
+    if (scratch.size() >= 2 * n && n >= 64 && all_fine >> (3 * kReorderFineBits) == 0) {
+      radix_sort_fine(scratch.first(n), scratch.subspan(n, n));
+    } else {
+      std::sort(scratch.begin(), scratch.begin() + std::ptrdiff_t(n));
+    }
     // run[i] takes the record at scratch[i]'s index, cycle by cycle; a slot done points at itself.
     const auto from = [&](std::size_t i) { return static_cast<std::uint32_t>(scratch[i]); };
     for (std::size_t i = 0; i < n; ++i) {

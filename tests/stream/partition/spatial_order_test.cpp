@@ -143,6 +143,34 @@ TEST(SpatialOrder, FineCodesInterleaveTheSubCellsBitsTopLevelFirst) {
   }
 }
 
+TEST(SpatialOrder, SortingRunsByRadixGivesTheComparisonSortsOrder) {
+  // sort_run with room for the radix copy against sort_run without it (std::sort on the same
+  // 8-byte keys), on runs with many equal fine codes, equal positions and codes clustered in one
+  // corner of the cell (digits that are the same for every key), at sizes around the cut-over.
+  std::mt19937 rng(43);
+  for (const std::size_t n : {2u, 63u, 64u, 65u, 1000u, 5000u}) {
+    for (const std::uint32_t spread : {1u, 64u, 1u << 12, 1u << 30}) {
+      std::uniform_int_distribution<std::uint32_t> code(0, spread - 1), coordinate(0, 3);
+      std::vector<OrderedVertex> run(n);
+      for (std::size_t i = 0; i < n; ++i) {
+        const Vec3f p{float(coordinate(rng)), float(coordinate(rng)), float(coordinate(rng))};
+        run[i] = {VertexKey::of(code(rng), p, static_cast<std::uint32_t>(rng())), p};
+      }
+      std::vector<OrderedVertex> by_radix = run, by_compare = run;
+      std::vector<std::uint64_t> two(2 * n), one(n);
+      sort_run(by_radix, two);
+      sort_run(by_compare, one);
+      for (std::size_t i = 0; i < n; ++i) {
+        ASSERT_EQ(by_radix[i].key.fine, by_compare[i].key.fine) << n << " " << spread << " " << i;
+        ASSERT_EQ(by_radix[i].key.id, by_compare[i].key.id) << n << " " << spread << " " << i;
+        if (i > 0) {
+          ASSERT_FALSE(by_radix[i].key < by_radix[i - 1].key) << n << " " << spread << " " << i;
+        }
+      }
+    }
+  }
+}
+
 TEST(SpatialOrder, RenumberingKeepsTheSurfaceAndSortsByCellThenLowestCorner) {
   const Mesh input = testing::scattered_mesh(sheet_and_fan(), 11);
   Mesh mesh = input;
