@@ -165,7 +165,7 @@ Status PartitionRun::reorder(bool weld) {
 
   // 3. Range by range: each cell sorted (VertexKey) and welded, the new position files written
   // in the new order (they replace the input's own records too), and each vertex's new id sent
-  // by range of old ids.
+  // by slice of old ids.
   // The old-to-new pairs go by slice of old ids (the corners' slices below), so that each slice
   // of the map is put together from its own bucket when the corners are renamed; the whole map
   // fits the table when all the ids do.
