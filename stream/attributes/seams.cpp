@@ -71,9 +71,11 @@ std::vector<std::uint32_t> faces_across(const Seams& seams) {
       if (faces[f].v[k] == vertex) return seams.corner_wedges[3 * std::size_t(f) + k];
     return kNone;
   };
-  for (std::size_t i = 0; i + 1 < edges.size(); ++i) {
-    if (edges[i].first != edges[i + 1].first || (i + 2 < edges.size() && edges[i + 2].first == edges[i].first)) continue;
-    if (i > 0 && edges[i - 1].first == edges[i].first) continue;  // three or more faces: not crossed
+  // Each run of one edge: crossed only between exactly two faces (a border or three or more faces
+  // is not crossed).
+  for (std::size_t i = 0, j = 0; i < edges.size(); i = j) {
+    while (j < edges.size() && edges[j].first == edges[i].first) ++j;
+    if (j - i != 2) continue;
     const std::uint32_t c = edges[i].second, d = edges[i + 1].second;
     const auto a = std::uint32_t(edges[i].first >> 32), b = std::uint32_t(edges[i].first);
     if (wedge_at(c, a) != wedge_at(d, a) || wedge_at(c, b) != wedge_at(d, b)) continue;  // a seam

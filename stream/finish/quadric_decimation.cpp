@@ -387,7 +387,7 @@ class Decimator {
       for (std::uint32_t v = 0; v < m_.vertex_count(); ++v) {
         if (!m_.vertex_alive(v)) continue;
         std::optional<Quadric> scratch;
-        own_error_[v] = c_.empty() ? q_[v].error(p_[v]) : weighed(v, scratch).error(p_[v]);
+        own_error_[v] = weighed(v, scratch).error(p_[v]);
       }
       for (std::uint32_t v = 0; v < m_.vertex_count(); ++v) {
         double cost;

@@ -56,35 +56,10 @@ class BucketFile {
   // One record of the size given to open().
   template <class Record>
   format::Status append(std::size_t bucket, const Record& record) {
-    return stage(bucket, record) ? flush(bucket) : format::Status{};
-  }
-  // append() for the passes' inner loops, which call it for every record: no Status unless the
-  // bucket's buffer is full, when it returns true and the caller calls flush(bucket).
-  template <class Record>
-  bool stage(std::size_t bucket, const Record& record) {
-    std::byte* buffer = buffers_[bucket].get();
-    if (buffer == nullptr) [[unlikely]] {
-      buffers_[bucket].reset(new std::byte[block_]);
-      buffer = buffers_[bucket].get();
-    }
-    std::size_t& used = used_[bucket];
-    std::memcpy(buffer + used, &record, sizeof(Record));
-    used += sizeof(Record);
-    return used == block_;
-  }
-  // Writes the bucket's buffer as the file's next block (a partial one only from finish(); after stage() returned true).
-  format::Status flush(std::size_t bucket) {
-    const std::size_t size = used_[bucket];
-    if (size == 0) return {};
-    if (end_ / block_ >= UINT32_MAX) return format::Status::error(format::Code::kResources, path_, "more than 2^32 blocks");
-    if (!format::write_all(fd_, buffers_[bucket].get(), size, end_, true)) {
-      return format::Status::error(format::Code::kOutput, path_, "write failed: " + errno_text());
-    }
-    blocks_[bucket].push_back(static_cast<std::uint32_t>(end_ / block_));
-    if (size < block_) last_bytes_[bucket] = size;
-    end_ += block_;
-    written_ += size;
-    used_[bucket] = 0;
+    if (!buffers_[bucket]) buffers_[bucket].reset(new std::byte[block_]);
+    std::memcpy(buffers_[bucket].get() + used_[bucket], &record, sizeof(Record));
+    used_[bucket] += sizeof(Record);
+    if (used_[bucket] == block_) return flush(bucket);
     return {};
   }
   // Writes out what the buffers hold and frees them.
@@ -95,12 +70,11 @@ class BucketFile {
     }
     return {};
   }
-  // Calls fn(bytes) for each block of `bucket`, in order (finish() first); with `parts` > 1, for
-  // the blocks i with i % parts == part only (threads sharing a bucket each call it with a part).
+  // Calls fn(bytes) for each block of `bucket`, in order (finish() first).
   template <class Fn>
-  format::Status read(std::size_t bucket, Fn&& fn, std::size_t part = 0, std::size_t parts = 1) {
+  format::Status read(std::size_t bucket, Fn&& fn) {
     std::vector<std::byte> buffer(block_);
-    for (std::size_t i = part; i < blocks_[bucket].size(); i += parts) {
+    for (std::size_t i = 0; i < blocks_[bucket].size(); ++i) {
       GM_RETURN_IF_ERROR(read_block(bucket, i, buffer.data()));
       GM_RETURN_IF_ERROR(fn(std::span<const std::byte>(buffer.data(), block_size(bucket, i))));
     }
@@ -187,7 +161,21 @@ class BucketFile {
     }
     return {};
   }
-
+  // Writes the bucket's buffer as the file's next block (a partial one only from finish()).
+  format::Status flush(std::size_t bucket) {
+    const std::size_t size = used_[bucket];
+    if (size == 0) return {};
+    if (end_ / block_ >= UINT32_MAX) return format::Status::error(format::Code::kResources, path_, "more than 2^32 blocks");
+    if (!format::write_all(fd_, buffers_[bucket].get(), size, end_, true)) {
+      return format::Status::error(format::Code::kOutput, path_, "write failed: " + errno_text());
+    }
+    blocks_[bucket].push_back(static_cast<std::uint32_t>(end_ / block_));
+    if (size < block_) last_bytes_[bucket] = size;
+    end_ += block_;
+    written_ += size;
+    used_[bucket] = 0;
+    return {};
+  }
 
   int fd_ = -1;
   std::string path_;

@@ -10,7 +10,6 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
-#include <numeric>
 #include <span>
 #include <string>
 #include <utility>
@@ -155,7 +154,7 @@ Status PartitionRun::reorder(bool weld) {
   GM_RETURN_IF_ERROR(moved.open(out_.dir + "/reorder-positions.bin", ranges, sizeof(PositionRecord), buffers / ranges));
   GM_RETURN_IF_ERROR(scan_positions(*vertex_files_, vertices, in_pieces, find_cells, [&](std::uint64_t first, std::span<const Vec3f> batch) {
     for (std::size_t i = 0; i < batch.size(); ++i)
-      if (const std::size_t r = range_of[cell_of[i]]; moved.stage(r, PositionRecord{static_cast<std::uint32_t>(first + i), batch[i]})) GM_RETURN_IF_ERROR(moved.flush(r));
+      GM_RETURN_IF_ERROR(moved.append(range_of[cell_of[i]], PositionRecord{static_cast<std::uint32_t>(first + i), batch[i]}));
     return Status{};
   }));
   std::vector<std::uint32_t>().swap(cell_of);
@@ -165,10 +164,9 @@ Status PartitionRun::reorder(bool weld) {
 
   // 3. Range by range: each cell sorted (VertexKey) and welded, the new position files written
   // in the new order (they replace the input's own records too), and each vertex's new id sent
-  // by slice of old ids.
-  // The old-to-new pairs go by slice of old ids (the corners' slices below), so that each slice
-  // of the map is put together from its own bucket when the corners are renamed; the whole map
-  // fits the table when all the ids do.
+  // by slice of old ids (the corners' slices below), so that each slice of the map is put
+  // together from its own bucket when the corners are renamed. The whole map fits the table when
+  // all the ids do.
   const bool map_fits = vertices <= range_ids;
   const std::uint64_t slices = ceil_div(vertices, std::uint64_t{1} << slice_bits);
   BucketFile pairs;
@@ -192,9 +190,7 @@ Status PartitionRun::reorder(bool weld) {
         stripe[kept % kPositionStripeVertices] = v.p;
         if (++kept % kPositionStripeVertices == 0) failed = write_stripe(kept);
       }
-      if (const std::size_t r = v.key.id >> slice_bits; pairs.stage(r, MapPair{v.key.id, kept - 1})) {
-        if (Status flushed = pairs.flush(r); !flushed.is_ok()) failed = std::move(flushed);
-      }
+      if (Status appended = pairs.append(v.key.id >> slice_bits, MapPair{v.key.id, kept - 1}); !appended.is_ok()) failed = std::move(appended);
     };
     const auto fine_of = [&](const Vec3f& p) { return grid.sub_code(p, kReorderFineBits); };
     std::vector<PositionRecord> range;
@@ -328,11 +324,9 @@ Status PartitionRun::reorder(bool weld) {
   const std::uint64_t new_vertices = kept;
   out_.reorder_steps.vertices = seconds_since(step);
   step = std::chrono::steady_clock::now();
-  // Entries [first, first + count) of the old-to-new map, from the pairs of their slices: the
-  // blocks i with i % parts == part, so that threads share a slice (each old id has one pair:
-  // they write apart). Adds the pairs read to `got`.
-  const auto read_map = [&](std::uint32_t* out, std::uint64_t first, std::uint64_t count, std::size_t part, std::size_t parts,
-                            std::uint64_t& got) -> Status {
+  // Entries [first, first + count) of the old-to-new map, from the pairs of their slices.
+  const auto read_map = [&](std::uint32_t* out, std::uint64_t first, std::uint64_t count) -> Status {
+    std::uint64_t got = 0;
     for (std::uint64_t r = first >> slice_bits; r < slices && (r << slice_bits) < first + count; ++r) {
       GM_RETURN_IF_ERROR(pairs.read(r, [&](std::span<const std::byte> block) {
         for (const MapPair& c : records_of<MapPair>(block)) {
@@ -341,12 +335,10 @@ Status PartitionRun::reorder(bool weld) {
         }
         got += block.size() / sizeof(MapPair);
         return Status{};
-      }, part, parts));
+      }));
     }
+    if (got != count) return Status::error(Code::kProcessing, "reorder", "a slice of the map lost a vertex");
     return Status{};
-  };
-  const auto map_complete = [](std::uint64_t got, std::uint64_t count) {
-    return got == count ? Status{} : Status::error(Code::kProcessing, "reorder", "a slice of the map lost a vertex");
   };
   // Buckets of lowest corners holding about half a table of faces each (a power of two of ids),
   // so that the ordering pass (7) holds a bucket and its ordered copy at once and reads it once.
@@ -381,9 +373,7 @@ Status PartitionRun::reorder(bool weld) {
                                        buffers / 2 / parts / lowest_ranges));
   if (map_fits) {
     std::vector<std::uint32_t> whole(vertices);
-    std::uint64_t got = 0;
-    GM_RETURN_IF_ERROR(read_map(whole.data(), 0, vertices, 0, 1, got));
-    GM_RETURN_IF_ERROR(map_complete(got, vertices));
+    GM_RETURN_IF_ERROR(read_map(whole.data(), 0, vertices));
     pairs.remove();
     GM_RETURN_IF_ERROR(for_each_spilled_frame([&](std::span<const Triangle> faces) -> Status {
       for (std::size_t i = 0; i < faces.size(); ++i) {
@@ -391,7 +381,7 @@ Status PartitionRun::reorder(bool weld) {
           for (const std::uint32_t v : faces[i + kAhead / 3].v) __builtin_prefetch(whole.data() + v);
         Triangle t = faces[i];
         for (std::uint32_t& v : t.v) v = whole[v];
-        if (const std::size_t b = lowest_corner(t) >> lowest_bits; grouped[0].stage(b, lowest_first(t))) GM_RETURN_IF_ERROR(grouped[0].flush(b));
+        GM_RETURN_IF_ERROR(grouped[0].append(lowest_corner(t) >> lowest_bits, lowest_first(t)));
       }
       return {};
     }));
@@ -434,7 +424,7 @@ Status PartitionRun::reorder(bool weld) {
           GM_RETURN_IF_ERROR(check_corners(faces_path_, in, f, vertices));
           for (std::size_t k = 0; k < in.size(); ++k) {
             for (const std::uint32_t v : in[k].v) {
-              if (corners[w].stage(v >> slice_bits, v)) GM_RETURN_IF_ERROR(corners[w].flush(v >> slice_bits));
+              GM_RETURN_IF_ERROR(corners[w].append(v >> slice_bits, v));
               tags[used++] = static_cast<Tag>(v >> slice_bits);
             }
             if (used == tags.size()) {
@@ -470,9 +460,7 @@ Status PartitionRun::reorder(bool weld) {
         std::vector<std::uint32_t> slice(std::min(std::uint64_t{1} << slice_bits, vertices));
         for (std::size_t r = 0; r < slices; ++r) {
           const std::uint64_t first = std::uint64_t{r} << slice_bits, count = std::min(std::uint64_t{1} << slice_bits, vertices - first);
-          std::vector<std::uint64_t> got(parts, 0);
-          GM_RETURN_IF_ERROR(on_parts(parts, [&](std::size_t w) { return read_map(slice.data(), first, count, w, parts, got[w]); }));
-          GM_RETURN_IF_ERROR(map_complete(std::accumulate(got.begin(), got.end(), std::uint64_t{0}), count));
+          GM_RETURN_IF_ERROR(read_map(slice.data(), first, count));
           GM_RETURN_IF_ERROR(on_parts(parts, [&](std::size_t w) {
             return corners[w].rewrite(r, [&](std::span<std::byte> block) {
               const std::span<std::uint32_t> ids{reinterpret_cast<std::uint32_t*>(block.data()), block.size() / sizeof(std::uint32_t)};
@@ -514,7 +502,7 @@ Status PartitionRun::reorder(bool weld) {
                 return Status::error(Code::kBadInput, tags_paths[w], "a corner is missing from its slice");
               }
             }
-            if (const std::size_t b = lowest_corner(t) >> lowest_bits; grouped[w].stage(b, lowest_first(t))) GM_RETURN_IF_ERROR(grouped[w].flush(b));
+            GM_RETURN_IF_ERROR(grouped[w].append(lowest_corner(t) >> lowest_bits, lowest_first(t)));
           }
           done += take;
         }
