@@ -1,6 +1,7 @@
 #include "stream/attributes/seams.h"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cstring>
 #include <limits>
@@ -8,7 +9,6 @@
 
 #include "stream/analysis/mesh_distance.h"
 #include "stream/core/canonical_order.h"
-#include "stream/core/hash_mix.h"
 #include "stream/core/fan_split.h"
 
 namespace gaussmesh::stream {
@@ -16,40 +16,18 @@ namespace {
 
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 
-// A vertex's position, or its position and values, as words compared bit for bit (ordered_bits:
-// -0 is 0).
-struct Key {
-  std::uint32_t w[12] = {};
-  int size = 0;
-  void add(float f) { w[size++] = ordered_bits(f); }
-  friend bool operator==(const Key& a, const Key& b) {
-    return a.size == b.size && std::memcmp(a.w, b.w, sizeof(std::uint32_t) * std::size_t(a.size)) == 0;
-  }
-};
-struct KeyHash {
-  std::size_t operator()(const Key& k) const {
-    std::uint64_t h = 0;
-    for (int i = 0; i < k.size; ++i) h = mix64(h ^ k.w[i]);
-    return std::size_t(h);
-  }
-};
-
-Key place_key(const Vec3f& p) {
-  Key k;
-  k.add(p.x), k.add(p.y), k.add(p.z);
-  return k;
-}
-
-Key value_key(MeshView input, std::uint32_t v, std::uint32_t welded) {
-  Key k;
-  k.w[k.size++] = welded;
-  if (!input.normals.empty()) k.add(input.normals[v].x), k.add(input.normals[v].y), k.add(input.normals[v].z);
+// A vertex's values as words compared bit for bit (ordered_bits: -0 is 0): normals, colour,
+// texture coordinates, zero where the input has none.
+using ValueWords = std::array<std::uint32_t, 9>;
+ValueWords value_words(MeshView input, std::uint32_t v) {
+  ValueWords w{};
+  if (!input.normals.empty()) w[0] = ordered_bits(input.normals[v].x), w[1] = ordered_bits(input.normals[v].y), w[2] = ordered_bits(input.normals[v].z);
   if (!input.colors.empty()) {
     const auto& c = input.colors[v];
-    k.add(c.r), k.add(c.g), k.add(c.b), k.add(c.a);
+    w[3] = ordered_bits(c.r), w[4] = ordered_bits(c.g), w[5] = ordered_bits(c.b), w[6] = ordered_bits(c.a);
   }
-  if (!input.texcoords.empty()) k.add(input.texcoords[v].u), k.add(input.texcoords[v].v);
-  return k;
+  if (!input.texcoords.empty()) w[7] = ordered_bits(input.texcoords[v].u), w[8] = ordered_bits(input.texcoords[v].v);
+  return w;
 }
 
 // Per corner k of each face of seams.welded: the face across its edge k → k + 1 when that edge
@@ -99,31 +77,71 @@ std::optional<Seams> find_seams(MeshView input) {
     std::sort(hashes.begin(), hashes.end());
     if (std::adjacent_find(hashes.begin(), hashes.end()) == hashes.end()) return std::nullopt;
   }
-  // Each input vertex's position and wedge, for the vertices the faces use.
-  std::vector<std::uint32_t> by_position(n, kNone), wedge(n, kNone);
-  std::unordered_map<Key, std::uint32_t, KeyHash> positions, wedges;
+  // Each input vertex's position and wedge, for the vertices the faces use, both numbered in the
+  // order of their first vertex: the used vertices sorted by position bits (then id), and within
+  // one position by their values, give each vertex the first vertex of its position and of its
+  // wedge.
   std::vector<std::uint8_t> used(n, 0);
   for (const Triangle& t : input.triangles)
     for (const auto v : t.v) used[v] = 1;
+  struct Placed {
+    std::array<std::uint32_t, 3> bits;
+    std::uint32_t v;
+    bool operator<(const Placed& o) const { return bits != o.bits ? bits < o.bits : v < o.v; }
+  };
+  std::vector<Placed> placed;
+  for (std::uint32_t v = 0; v < n; ++v)
+    if (used[v]) {
+      const Vec3f& p = input.positions[v];
+      placed.push_back({{ordered_bits(p.x), ordered_bits(p.y), ordered_bits(p.z)}, v});
+    }
+  std::sort(placed.begin(), placed.end());
+  std::vector<std::uint32_t> position_first(n, kNone), wedge_first(n, kNone);
+  std::vector<std::pair<ValueWords, std::uint32_t>> group;
+  for (std::size_t i = 0, j = 0; i < placed.size(); i = j) {
+    while (j < placed.size() && placed[j].bits == placed[i].bits) ++j;
+    if (j - i == 1) {
+      position_first[placed[i].v] = wedge_first[placed[i].v] = placed[i].v;
+      continue;
+    }
+    group.clear();
+    for (std::size_t k = i; k < j; ++k) {
+      position_first[placed[k].v] = placed[i].v;
+      group.push_back({value_words(input, placed[k].v), placed[k].v});
+    }
+    std::sort(group.begin(), group.end());
+    for (std::size_t a = 0, b = 0; a < group.size(); a = b) {
+      while (b < group.size() && group[b].first == group[a].first) ++b;
+      for (std::size_t k = a; k < b; ++k) wedge_first[group[k].second] = group[a].second;
+    }
+  }
+  // Numbers in vertex order: a first vertex opens its position or wedge.
   Seams s;
+  std::vector<std::uint32_t> by_position(n, kNone), wedge(n, kNone);
   std::vector<std::uint32_t> wedge_count, first_vertex;  // per position: its wedges, its first vertex
+  std::uint32_t wedges = 0;
   for (std::uint32_t v = 0; v < n; ++v) {
     if (!used[v]) continue;
-    auto [p, added] = positions.try_emplace(place_key(input.positions[v]), std::uint32_t(positions.size()));
-    by_position[v] = p->second;
-    if (added) wedge_count.push_back(0), first_vertex.push_back(v);
-    auto [w, new_wedge] = wedges.try_emplace(value_key(input, v, p->second), std::uint32_t(wedges.size()));
-    wedge[v] = w->second;
-    if (new_wedge) {
+    if (position_first[v] == v) {
+      by_position[v] = std::uint32_t(first_vertex.size());
+      first_vertex.push_back(v);
+      wedge_count.push_back(0);
+    } else {
+      by_position[v] = by_position[position_first[v]];
+    }
+    if (wedge_first[v] == v) {
+      wedge[v] = wedges++;
       s.wedge_vertex.push_back(v);
-      ++wedge_count[p->second];
+      ++wedge_count[by_position[v]];
+    } else {
+      wedge[v] = wedge[wedge_first[v]];
     }
   }
   for (const auto c : wedge_count) s.seam_vertices += c > 1;
   if (s.seam_vertices == 0) return std::nullopt;
   // The welded mesh: faces with a repeated corner once welded are left out, and the positions
   // they alone used with them.
-  std::vector<std::uint32_t> index(positions.size(), kNone);
+  std::vector<std::uint32_t> index(first_vertex.size(), kNone);
   std::vector<Triangle> kept;
   for (const Triangle& t : input.triangles) {
     const std::uint32_t a = by_position[t.v[0]], b = by_position[t.v[1]], c = by_position[t.v[2]];
