@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "api/internal.h"
+#include "format/obj_census.h"
 #include "format/output_file.h"
 #include "format/temp_registry.h"
 #include "stream/core/memory_limit.h"
@@ -32,6 +33,9 @@ constexpr std::uint64_t kMinBytesPerFace = 16;
 // the mesher's, with a margin over what docs/benchmarks.md measures ("Engine choice").
 constexpr std::uint64_t kInCoreBytesPerFace = 96;
 constexpr std::uint64_t kProcessBytes = std::uint64_t{16} << 20;
+// What per-corner texture coordinates and normals add to it: each corner's value index, the
+// values, and the seams' split vertices (docs/benchmarks.md, "Engine choice").
+constexpr std::uint64_t kCornerValuesBytesPerFace = 96;
 
 // The partition refuses smaller budgets; the API checks before choosing an engine.
 static_assert(kMinMemory == stream::kMinPartitionMemory);
@@ -101,6 +105,37 @@ Result<EngineChoice> choose_in_core_only(const Source& source, const ResourceOpt
   }
   choice->engine = Engine::kInCore;
   return choice;
+}
+
+void keep_obj_values_in_core(const Source& source, const ResourceOptions& resources, std::uint64_t extra_bytes_per_face,
+                              EngineChoice& choice) {
+  if (resources.engine != Engine::kAuto || choice.engine != Engine::kOutOfCore || source.kind != Source::Kind::kFile ||
+      source.path == "-" || (source.format != MeshFormat::kUnknown && source.format != MeshFormat::kObj)) {
+    return;
+  }
+  struct stat st {};
+  if (::stat(source.path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return;
+  auto bytes = format::ByteSource::open(source.path);
+  if (!bytes) return;  // the reader says why
+  if (source.format == MeshFormat::kUnknown) {
+    auto format = format::detect_format(**bytes);
+    if (!format) return;
+    if (*format != MeshFormat::kObj && !(*format == MeshFormat::kUnknown && format::format_from_extension(source.path) == MeshFormat::kObj))
+      return;
+  }
+  const std::uint64_t limit = resources.memory_bytes != 0 ? resources.memory_bytes : usable_memory() / 4;
+  const std::uint64_t per_face = kInCoreBytesPerFace + kCornerValuesBytesPerFace + extra_bytes_per_face;
+  if (limit <= kProcessBytes) return;
+  auto slash = format::any_slash(**bytes);
+  if (!slash || !*slash) return;
+  bytes = format::ByteSource::open(source.path);
+  if (!bytes) return;
+  auto census = format::census_obj(**bytes, (limit - kProcessBytes) / per_face);
+  if (!census) return;  // the reader meets the same error and says it
+  if (!census->complete || !census->corner_values) return;
+  choice.engine = Engine::kInCore;
+  choice.estimated_faces = census->triangles;
+  return;
 }
 
 std::uint32_t thread_count(std::uint32_t threads) {

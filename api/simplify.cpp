@@ -671,6 +671,7 @@ Result<SimplifyStats> simplify_job(const Source& source, const Sink& sink, const
       engine->memory_bytes = options.resources.memory_bytes != 0 ? options.resources.memory_bytes : auto_memory_budget();
     }
   }
+  api::keep_obj_values_in_core(source, options.resources, options.target.any() ? stream::kInputBytesPerFace : 0, *engine);
   if (engine->engine == Engine::kOutOfCore) {
     if (options.target.measure) {
       return Status::error(Code::kUsage, "--measure",

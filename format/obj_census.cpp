@@ -118,4 +118,14 @@ Result<ObjCensus> census_obj(ByteSource& source, std::uint64_t enough) {
   return census;
 }
 
+Result<bool> any_slash(ByteSource& source) {
+  for (;;) {
+    Result<size_t> got = source.ensure(ByteSource::kMaxWindow);
+    if (!got) return got.status();
+    if (*got == 0) return false;
+    if (std::memchr(source.cursor(), '/', *got)) return true;
+    source.advance(*got);
+  }
+}
+
 }  // namespace gaussmesh::format

@@ -23,4 +23,8 @@ struct ObjCensus {
 // `enough` triangles are counted. A read error is the source's.
 Result<ObjCensus> census_obj(ByteSource& source, std::uint64_t enough);
 
+// Whether any byte from the cursor on is a '/'. A file without one names no vt or vn in a corner,
+// and this is many times faster to find than the census's count: a plain OBJ costs only this.
+Result<bool> any_slash(ByteSource& source);
+
 }  // namespace gaussmesh::format

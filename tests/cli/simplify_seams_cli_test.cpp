@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "stream/attributes/seams.h"
 #include "stream/core/mesh.h"
 #include "stream/core/mesh_topology.h"
@@ -205,6 +207,54 @@ TEST(SimplifySeamsCli, WithoutATargetTheRunSaysTheSeamsAreNotKept) {
   auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(dir.file("out.obj")));
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.err.find("warning: the input's values differ at 21 positions"), std::string::npos) << run.err;
+}
+
+// Only the in-core reader keeps per-corner values, and the engine choice's size rule (16 bytes
+// of file a face) takes a textured OBJ for several times its faces. Under --engine auto the file
+// is counted instead, and runs in core when that count fits the budget: here 6,240 faces, which
+// with a target's finish need about 20 MiB in core, where the size rule would count ~30 MiB.
+TEST(SimplifySeamsCli, AnObjThatFitsWhenCountedRunsInCoreAndKeepsItsSeams) {
+  ScratchDir dir;
+  const std::string in = dir.file("sphere.obj"), plain = dir.file("plain.obj"), text = uv_sphere_obj(40, 80);
+  write_file(in, text);
+  // The same sphere without texture coordinates in its corners ("f a/b" -> "f a").
+  std::string stripped;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i] == '/') {
+      while (i + 1 < text.size() && text[i + 1] != ' ' && text[i + 1] != '\n') ++i;
+      continue;
+    }
+    stripped += text[i];
+  }
+  write_file(plain, stripped);
+  const auto run = [&](const std::string& input, const std::string& out, const std::string& flags) {
+    auto r = run_command(q(gaussmesh_binary()) + " simplify " + q(input) + " -o " + q(dir.file(out)) + " --ratio 0.1 " + flags +
+                         " --report " + q(dir.file(out + ".json")));
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return std::make_pair(r, nlohmann::json::parse(read_file(dir.file(out + ".json"))));
+  };
+  const auto [counted, counted_report] = run(in, "counted.obj", "--memory 24M");
+  EXPECT_FALSE(counted_report["out_of_core"].get<bool>());
+  EXPECT_TRUE(counted_report["output_attributes"]["texcoords"].get<bool>());
+  EXPECT_EQ(counted.err.find("vt"), std::string::npos) << counted.err;
+  const auto [held, held_report] = run(in, "held.obj", "--engine in-core");
+  EXPECT_EQ(read_file(dir.file("counted.obj")), read_file(dir.file("held.obj")));
+  const stream::Mesh out = read_with_corners(dir.file("counted.obj"));
+  ASSERT_EQ(out.texcoords.size(), out.positions.size());
+  for (const auto& t : out.triangles) {
+    float lo = 2, hi = -1;
+    for (const auto v : t.v) lo = std::min(lo, out.texcoords[v].u), hi = std::max(hi, out.texcoords[v].u);
+    EXPECT_LT(hi - lo, 0.5) << "a face across the seam";
+  }
+  expect_closed_sphere(out);
+  // Without corner values the file streams as the size rule says.
+  const auto [plain_run, plain_report] = run(plain, "plain.obj", "--memory 24M");
+  EXPECT_TRUE(plain_report["out_of_core"].get<bool>());
+  // A budget the counted faces do not fit: the file streams, and says what it does not keep.
+  const auto [tight, tight_report] = run(in, "tight.obj", "--memory 16M");
+  EXPECT_TRUE(tight_report["out_of_core"].get<bool>());
+  EXPECT_FALSE(tight_report["output_attributes"]["texcoords"].get<bool>());
+  EXPECT_NE(tight.err.find("texture coordinates (vt"), std::string::npos) << tight.err;
 }
 
 }  // namespace

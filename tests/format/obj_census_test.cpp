@@ -43,6 +43,22 @@ TEST(ObjCensus, SaysWhenACornerNamesATextureCoordinateOrANormal) {
   EXPECT_FALSE(census_of("vt 0 0\nvn 0 0 1\nf 1 2 3\n").corner_values);
 }
 
+TEST(ObjCensus, AnySlashLooksAtEveryByte) {
+  const auto slash = [](const std::string& text) {
+    auto source = format::ByteSource::from_memory(text, "t.obj");
+    auto found = format::any_slash(*source);
+    EXPECT_TRUE(found) << found.status().to_string();
+    return found && *found;
+  };
+  EXPECT_FALSE(slash("v 0 0 0\nf 1 1 1\n"));
+  EXPECT_TRUE(slash("v 0 0 0\nf 1/1 1/1 1/1\n"));
+  // Past the first window (4 MiB).
+  std::string text(std::size_t{9} << 20, ' ');
+  EXPECT_FALSE(slash(text));
+  text.back() = '/';
+  EXPECT_TRUE(slash(text));
+}
+
 TEST(ObjCensus, StopsOncePastEnough) {
   std::string text;
   for (int i = 0; i < 100000; ++i) text += "f 1 2 3 4\n";
