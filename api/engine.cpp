@@ -4,6 +4,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <optional>
+#include <span>
 #include <thread>
 
 #include "api/internal.h"
@@ -107,35 +109,79 @@ Result<EngineChoice> choose_in_core_only(const Source& source, const ResourceOpt
   return choice;
 }
 
-void keep_obj_values_in_core(const Source& source, const ResourceOptions& resources, std::uint64_t extra_bytes_per_face,
-                              EngineChoice& choice) {
+namespace {
+
+// The triangles of a PLY file with texture coordinates, counted by reading it (positions and
+// faces are passed over, never held): a header without them, or more than `enough` triangles,
+// stops the read.
+class TexturedFaceCount final : public format::MeshSink {
+ public:
+  explicit TexturedFaceCount(std::uint64_t enough) : enough_(enough) {}
+  Status on_header(const format::MeshHeader& header) override {
+    textured_ = header.attributes.texcoords;
+    // Every declared polygon is a triangle at least.
+    return textured_ && header.declared_faces.value_or(0) <= enough_ ? Status() : stop();
+  }
+  Status on_vertices(std::span<const Vec3f>) override { return {}; }
+  Status on_triangles(std::span<const Triangle> batch) override {
+    triangles_ += batch.size();
+    return triangles_ > enough_ ? stop() : Status();
+  }
+  Status on_end() override {
+    complete_ = true;
+    return {};
+  }
+  // The triangles, when the file has texture coordinates and was read to its end within `enough`.
+  std::optional<std::uint64_t> triangles() const { return textured_ && complete_ ? std::optional(triangles_) : std::nullopt; }
+
+ private:
+  static Status stop() { return Status::error(Code::kProcessing, "", "counted"); }
+  std::uint64_t enough_, triangles_ = 0;
+  bool textured_ = false, complete_ = false;
+};
+
+}  // namespace
+
+void keep_seams_in_core(const Source& source, const ResourceOptions& resources, std::uint64_t extra_bytes_per_face,
+                        EngineChoice& choice) {
   if (resources.engine != Engine::kAuto || choice.engine != Engine::kOutOfCore || source.kind != Source::Kind::kFile ||
-      source.path == "-" || (source.format != MeshFormat::kUnknown && source.format != MeshFormat::kObj)) {
+      source.path == "-" ||
+      (source.format != MeshFormat::kUnknown && source.format != MeshFormat::kObj && source.format != MeshFormat::kPly)) {
     return;
   }
   struct stat st {};
   if (::stat(source.path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return;
-  auto bytes = format::ByteSource::open(source.path);
-  if (!bytes) return;  // the reader says why
-  if (source.format == MeshFormat::kUnknown) {
-    auto format = format::detect_format(**bytes);
-    if (!format) return;
-    if (*format != MeshFormat::kObj && !(*format == MeshFormat::kUnknown && format::format_from_extension(source.path) == MeshFormat::kObj))
-      return;
-  }
   const std::uint64_t limit = resources.memory_bytes != 0 ? resources.memory_bytes : usable_memory() / 4;
   const std::uint64_t per_face = kInCoreBytesPerFace + kCornerValuesBytesPerFace + extra_bytes_per_face;
   if (limit <= kProcessBytes) return;
-  auto slash = format::any_slash(**bytes);
-  if (!slash || !*slash) return;
-  bytes = format::ByteSource::open(source.path);
+  const std::uint64_t enough = (limit - kProcessBytes) / per_face;
+  // Any error here is the reader's to say when the run reads the file.
+  auto bytes = format::ByteSource::open(source.path);
   if (!bytes) return;
-  auto census = format::census_obj(**bytes, (limit - kProcessBytes) / per_face);
-  if (!census) return;  // the reader meets the same error and says it
-  if (!census->complete || !census->corner_values) return;
+  MeshFormat format = source.format;
+  if (format == MeshFormat::kUnknown) {
+    auto detected = format::detect_format(**bytes);
+    if (!detected) return;
+    format = *detected != MeshFormat::kUnknown ? *detected : format::format_from_extension(source.path);
+  }
+  std::optional<std::uint64_t> triangles;
+  if (format == MeshFormat::kObj) {
+    auto slash = format::any_slash(**bytes);
+    if (!slash || !*slash) return;
+    bytes = format::ByteSource::open(source.path);
+    if (!bytes) return;
+    auto census = format::census_obj(**bytes, enough);
+    if (census && census->complete && census->corner_values) triangles = census->triangles;
+  } else if (format == MeshFormat::kPly) {
+    TexturedFaceCount count(enough);
+    format::ReadOptions read;
+    read.format = MeshFormat::kPly;
+    (void)format::read_mesh(**bytes, read, count);
+    triangles = count.triangles();
+  }
+  if (!triangles) return;
   choice.engine = Engine::kInCore;
-  choice.estimated_faces = census->triangles;
-  return;
+  choice.estimated_faces = *triangles;
 }
 
 std::uint32_t thread_count(std::uint32_t threads) {

@@ -82,14 +82,17 @@ Result<Mesh> gather(format::MeshParts& parts);
 Result<EngineChoice> choose_in_core_only(const Source& source, const ResourceOptions& resources, const char* flag,
                                          const std::string& job);
 
-// An OBJ file whose face corners name texture coordinates or normals keeps them only when it is
-// held (format::ReadOptions::corner_values): in core. Under the automatic engine, when `choice`
-// streams such a file, it is read once by format::census_obj and turned in core if the working
-// set of its counted faces fits the in-core limit (an explicit --memory, else a quarter of usable
-// memory), at any size: keeping the input's values comes before the streaming engine's speed.
-// `extra_bytes_per_face`: what the job holds beyond in_core_bytes (a target's finish).
-void keep_obj_values_in_core(const Source& source, const ResourceOptions& resources, std::uint64_t extra_bytes_per_face,
-                              EngineChoice& choice);
+// Texture seams are kept only by the in-core engine: an OBJ's per-corner vt and vn only its
+// in-core reader keeps (format::ReadOptions::corner_values), and a PLY's per-vertex texture
+// coordinates come split at their seams, which out of core are open edges. Under the automatic
+// engine, when `choice` streams such a file, its triangles are counted (format::census_obj for an
+// OBJ whose corners name vt or vn; a read of a PLY whose header has texture coordinates) and the
+// file is turned in core if their working set fits the in-core limit (an explicit --memory, else a
+// quarter of usable memory), at any size: keeping the input's seams comes before the streaming
+// engine's speed. `extra_bytes_per_face`: what the job holds beyond in_core_bytes (a target's
+// finish).
+void keep_seams_in_core(const Source& source, const ResourceOptions& resources, std::uint64_t extra_bytes_per_face,
+                        EngineChoice& choice);
 
 // Threads to use: the option, or the machine's cores when 0.
 std::uint32_t thread_count(std::uint32_t threads);

@@ -272,6 +272,13 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   stats.out_of_core = true;
   stats.memory_bytes = memory;
   stats.warnings = input_warnings(result->input_warnings, result->ignored_vertex_values, dropped);
+  // Per-vertex texture coordinates come with their seams split into separate vertices at one
+  // place; the streaming engine sees those as open edges and simplifies each side apart.
+  if (result->input_attributes.texcoords) {
+    stats.warnings.push_back(
+        "texture coordinates stream without their seams: a vertex split at a seam is two vertices out of core, so the two "
+        "sides are simplified apart and the output may open along the seams (--engine in-core keeps them)");
+  }
   stats.chunks = result->chunks;
   stats.peak_rss_bytes = peak_rss_bytes();
   stats.seconds = seconds_since(started);
@@ -671,7 +678,7 @@ Result<SimplifyStats> simplify_job(const Source& source, const Sink& sink, const
       engine->memory_bytes = options.resources.memory_bytes != 0 ? options.resources.memory_bytes : auto_memory_budget();
     }
   }
-  api::keep_obj_values_in_core(source, options.resources, options.target.any() ? stream::kInputBytesPerFace : 0, *engine);
+  api::keep_seams_in_core(source, options.resources, options.target.any() ? stream::kInputBytesPerFace : 0, *engine);
   if (engine->engine == Engine::kOutOfCore) {
     if (options.target.measure) {
       return Status::error(Code::kUsage, "--measure",

@@ -94,6 +94,31 @@ std::string atlas_cube_obj(int n) {
   return obj;
 }
 
+// The UV sphere as PLY stores a textured mesh: a vertex per (ring, segment) of the grid, the
+// column at u = 1 repeating the one at u = 0 and each pole a row of vertices at one place, so the
+// seam and the poles are split into vertices with different texture coordinates (s, t).
+std::string uv_sphere_ply(int rings, int segments) {
+  std::string vertices, faces;
+  int face_count = 0;
+  for (int i = 0; i <= rings; ++i)
+    for (int j = 0; j <= segments; ++j) {
+      const double th = kPi * i / rings, ph = 2 * kPi * (j % segments) / segments;
+      const double x = i == 0 || i == rings ? 0 : std::sin(th) * std::cos(ph), y = i == 0 || i == rings ? 0 : std::sin(th) * std::sin(ph);
+      vertices += std::to_string(x) + " " + std::to_string(y) + " " + std::to_string(std::cos(th)) + " " +
+                  std::to_string(double(j) / segments) + " " + std::to_string(1 - double(i) / rings) + "\n";
+    }
+  auto id = [&](int i, int j) { return std::to_string(i * (segments + 1) + j); };
+  for (int i = 0; i < rings; ++i)
+    for (int j = 0; j < segments; ++j) {
+      if (i < rings - 1) faces += "3 " + id(i, j) + " " + id(i + 1, j) + " " + id(i + 1, j + 1) + "\n", ++face_count;
+      if (i > 0 && i < rings - 1) faces += "3 " + id(i, j) + " " + id(i + 1, j + 1) + " " + id(i, j + 1) + "\n", ++face_count;
+      if (i == rings - 1) faces += "3 " + id(i, j) + " " + id(i + 1, j) + " " + id(i, j + 1) + "\n", ++face_count;
+    }
+  return "ply\nformat ascii 1.0\nelement vertex " + std::to_string((rings + 1) * (segments + 1)) +
+         "\nproperty float x\nproperty float y\nproperty float z\nproperty float s\nproperty float t\nelement face " +
+         std::to_string(face_count) + "\nproperty list uchar int vertex_indices\nend_header\n" + vertices + faces;
+}
+
 stream::Mesh read_with_corners(const std::string& path) {
   format::ReadOptions options;
   options.corner_values = true;
@@ -255,6 +280,35 @@ TEST(SimplifySeamsCli, AnObjThatFitsWhenCountedRunsInCoreAndKeepsItsSeams) {
   EXPECT_TRUE(tight_report["out_of_core"].get<bool>());
   EXPECT_FALSE(tight_report["output_attributes"]["texcoords"].get<bool>());
   EXPECT_NE(tight.err.find("texture coordinates (vt"), std::string::npos) << tight.err;
+}
+
+// A PLY split at its seams (the same sphere) is counted the same way; forced to stream, the run
+// says that its seams are simplified apart.
+TEST(SimplifySeamsCli, APlySplitAtItsSeamsThatFitsWhenCountedRunsInCore) {
+  ScratchDir dir;
+  const std::string in = dir.file("sphere.ply");
+  write_file(in, uv_sphere_ply(40, 80));
+  const auto run = [&](const std::string& out, const std::string& flags) {
+    auto r = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(dir.file(out)) + " --ratio 0.1 " + flags +
+                         " --report " + q(dir.file(out + ".json")));
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return std::make_pair(r, nlohmann::json::parse(read_file(dir.file(out + ".json"))));
+  };
+  const auto [counted, counted_report] = run("counted.obj", "--memory 24M");
+  EXPECT_FALSE(counted_report["out_of_core"].get<bool>());
+  EXPECT_GT(counted_report["seam_vertices"].get<int>(), 0);
+  EXPECT_EQ(counted.err.find("warning"), std::string::npos) << counted.err;
+  const stream::Mesh out = read_with_corners(dir.file("counted.obj"));
+  ASSERT_EQ(out.texcoords.size(), out.positions.size());
+  for (const auto& t : out.triangles) {
+    float lo = 2, hi = -1;
+    for (const auto v : t.v) lo = std::min(lo, out.texcoords[v].u), hi = std::max(hi, out.texcoords[v].u);
+    EXPECT_LT(hi - lo, 0.5) << "a face across the seam";
+  }
+  expect_closed_sphere(out);
+  const auto [streamed, streamed_report] = run("streamed.obj", "--engine out-of-core --memory 24M");
+  EXPECT_TRUE(streamed_report["out_of_core"].get<bool>());
+  EXPECT_NE(streamed.err.find("texture coordinates stream without their seams"), std::string::npos) << streamed.err;
 }
 
 }  // namespace
