@@ -7,7 +7,7 @@
 // faces use becomes a vertex. docs/formats.md.
 #include <string>
 #include <string_view>
-#include <unordered_map>
+#include <algorithm>
 #include <vector>
 
 #include "format/mesh_batcher.h"
@@ -202,6 +202,62 @@ class ObjReader {
     uint32_t t = kNoValue, n = kNoValue;
   };
 
+  // The distinct corners, numbered in the order they first appear. Most positions have one
+  // (vt, vn): each position's first corner is found through a table by position; the others (at
+  // seams) through an open-addressing table of ids, at most half full, over the distinct corners
+  // themselves. No allocation per entry, and faces in file order read the first table nearly in
+  // order.
+  class CornerIds {
+   public:
+    explicit CornerIds(std::size_t positions) : first_(positions, kEmpty) {}
+    // c's number, and whether c is new.
+    std::pair<VertexIndex, bool> insert(const Corner& c) {
+      uint32_t& first = first_[c.v];
+      if (first == kEmpty) {
+        first = add(c);
+        return {first, true};
+      }
+      if (same(distinct_[first], c)) return {first, false};
+      if (2 * (others_ + 1) > slots_.size()) grow();
+      for (std::size_t i = slot_of(c);; i = (i + 1) & (slots_.size() - 1)) {
+        const uint32_t id = slots_[i];
+        if (id == kEmpty) {
+          ++others_;
+          slots_[i] = add(c);
+          return {slots_[i], true};
+        }
+        if (same(distinct_[id], c)) return {id, false};
+      }
+    }
+    std::size_t size() const { return distinct_.size(); }
+
+   private:
+    static constexpr uint32_t kEmpty = UINT32_MAX;
+    static bool same(const Corner& a, const Corner& b) { return a.v == b.v && a.t == b.t && a.n == b.n; }
+    uint32_t add(const Corner& c) {
+      distinct_.push_back(c);
+      return static_cast<uint32_t>(distinct_.size() - 1);
+    }
+    std::size_t slot_of(const Corner& c) const {
+      uint64_t h = (uint64_t(c.v) << 32 | c.t) ^ (uint64_t(c.n) * 0x9E3779B97F4A7C15ull);
+      h ^= h >> 31, h *= 0xBF58476D1CE4E5B9ull, h ^= h >> 29, h *= 0x94D049BB133111EBull, h ^= h >> 32;
+      return static_cast<std::size_t>(h) & (slots_.size() - 1);
+    }
+    // Twice the slots, the others (not first at their position) placed again.
+    void grow() {
+      slots_.assign(std::max<std::size_t>(2 * slots_.size(), 1024), kEmpty);
+      for (uint32_t id = 0; id < distinct_.size(); ++id) {
+        if (first_[distinct_[id].v] == id) continue;
+        std::size_t i = slot_of(distinct_[id]);
+        while (slots_[i] != kEmpty) i = (i + 1) & (slots_.size() - 1);
+        slots_[i] = id;
+      }
+    }
+    std::vector<uint32_t> first_, slots_;
+    std::vector<Corner> distinct_;
+    std::size_t others_ = 0;
+  };
+
   // Resolves a 1-based or negative (relative) OBJ index into a list of `count` entries.
   Status resolve(int64_t index, uint64_t count, const char* what, const char* whats, uint32_t& out) const {
     if (index > 0) {
@@ -309,18 +365,10 @@ class ObjReader {
       for (std::size_t i = 0; i < corners_.size(); i += 3)
         GM_RETURN_IF_ERROR(batcher.add_triangle(corners_[i].v, corners_[i + 1].v, corners_[i + 2].v));
     } else {
-      struct Hash {
-        std::size_t operator()(const Corner& c) const {
-          return std::hash<uint64_t>()((uint64_t(c.v) << 32 | c.t) * 0x9E3779B97F4A7C15ull ^ c.n);
-        }
-      };
-      struct Equal {
-        bool operator()(const Corner& a, const Corner& b) const { return a.v == b.v && a.t == b.t && a.n == b.n; }
-      };
-      std::unordered_map<Corner, VertexIndex, Hash, Equal> ids;
+      CornerIds ids(positions_.size());
       VertexIndex t[3];
       for (std::size_t i = 0; i < corners_.size(); ++i) {
-        auto [at, added] = ids.try_emplace(corners_[i], VertexIndex(ids.size()));
+        const auto [id, added] = ids.insert(corners_[i]);
         if (added) {
           if (ids.size() > kMaxVertices) {
             return Status::error(Code::kBadInput, source_.name(),
@@ -328,7 +376,7 @@ class ObjReader {
           }
           GM_RETURN_IF_ERROR(batcher.add_vertex(positions_[corners_[i].v], attributes_of(corners_[i])));
         }
-        t[i % 3] = at->second;
+        t[i % 3] = id;
         if (i % 3 == 2) GM_RETURN_IF_ERROR(batcher.add_triangle(t[0], t[1], t[2]));
       }
     }

@@ -4,6 +4,8 @@
 // corner, a vertex per distinct (v, vt, vn), when the caller asks for corner values.
 #include <gtest/gtest.h>
 
+#include <map>
+
 #include <string>
 #include <vector>
 
@@ -134,6 +136,38 @@ TEST(ObjAttributes, CornerValuesWithRelativeIndicesAndNoFaceUsingThem) {
   EXPECT_FALSE(unused.sink.header.attributes.any());
   EXPECT_EQ(unused.sink.positions.size(), 3u);
   EXPECT_EQ(unused.sink.ignored, (std::vector<std::string>{"texture coordinates (vt) no face uses"}));
+}
+
+// A position with thousands of texture coordinates (past the first table, the second grows
+// several times), corners that repeat earlier ones in any order: one vertex per distinct
+// (v, vt), numbered where it first appears, each face over the right ones.
+TEST(ObjAttributes, CornerValuesNumberManyValuesAtOnePositionInOrderOfAppearance) {
+  constexpr int kFaces = 5000;
+  std::string text = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+  for (int i = 0; i < kFaces; ++i) text += "vt " + std::to_string(i) + " 0\n";
+  // Face i: vertex 1 with vt i, vertex 2 with vt 0, vertex 3 with vt (i * 7) % kFaces.
+  std::map<std::pair<int, int>, std::uint32_t> want_id;
+  std::vector<Triangle> want;
+  std::vector<std::pair<int, int>> order;
+  for (int i = 0; i < kFaces; ++i) {
+    const std::pair<int, int> corners[3] = {{1, i}, {2, 0}, {3, (i * 7) % kFaces}};
+    Triangle t;
+    for (int k = 0; k < 3; ++k) {
+      auto [at, added] = want_id.try_emplace(corners[k], std::uint32_t(order.size()));
+      if (added) order.push_back(corners[k]);
+      t.v[k] = at->second;
+    }
+    want.push_back(t);
+    text += "f 1/" + std::to_string(i + 1) + " 2/1 3/" + std::to_string((i * 7) % kFaces + 1) + "\n";
+  }
+  Outcome o = read(text, "m.obj", true);
+  ASSERT_TRUE(o.status.is_ok()) << o.status.to_string();
+  ASSERT_EQ(o.sink.positions.size(), order.size());
+  EXPECT_EQ(o.sink.triangles, want);
+  for (std::size_t id = 0; id < order.size(); ++id) {
+    EXPECT_EQ(o.sink.positions[id], (Vec3f{order[id].first == 2 ? 1.0f : 0.0f, order[id].first == 3 ? 1.0f : 0.0f, 0}));
+    EXPECT_EQ(o.sink.attributes[id].texcoord, (Vec2f{float(order[id].second), 0})) << id;
+  }
 }
 
 TEST(ObjAttributes, CornerValuesRefuseABadIndexAndAFileOverTheBudget) {
