@@ -38,6 +38,10 @@ constexpr std::uint64_t kProcessBytes = std::uint64_t{16} << 20;
 // What per-corner texture coordinates and normals add to it: each corner's value index, the
 // values, and the seams' split vertices (docs/benchmarks.md, "Engine choice").
 constexpr std::uint64_t kCornerValuesBytesPerFace = 96;
+// What a counted file holds per vertex statement beyond that, so that one with long lists and few
+// faces is not taken in core: an OBJ reader's lists (a position and a colour, a texture
+// coordinate, a normal), a PLY vertex with every value.
+constexpr std::uint64_t kObjPositionBytes = 28, kObjTexcoordBytes = 8, kObjNormalBytes = 12, kPlyVertexBytes = 64;
 
 // The partition refuses smaller budgets; the API checks before choosing an engine.
 static_assert(kMinMemory == stream::kMinPartitionMemory);
@@ -119,6 +123,7 @@ class TexturedFaceCount final : public format::MeshSink {
   explicit TexturedFaceCount(std::uint64_t enough) : enough_(enough) {}
   Status on_header(const format::MeshHeader& header) override {
     textured_ = header.attributes.texcoords;
+    vertices_ = header.declared_vertices.value_or(0);
     // Every declared polygon is a triangle at least.
     return textured_ && header.declared_faces.value_or(0) <= enough_ ? Status() : stop();
   }
@@ -133,10 +138,11 @@ class TexturedFaceCount final : public format::MeshSink {
   }
   // The triangles, when the file has texture coordinates and was read to its end within `enough`.
   std::optional<std::uint64_t> triangles() const { return textured_ && complete_ ? std::optional(triangles_) : std::nullopt; }
+  std::uint64_t vertices() const { return vertices_; }  // as the header declares them
 
  private:
   static Status stop() { return Status::error(Code::kProcessing, "", "counted"); }
-  std::uint64_t enough_, triangles_ = 0;
+  std::uint64_t enough_, triangles_ = 0, vertices_ = 0;
   bool textured_ = false, complete_ = false;
 };
 
@@ -165,21 +171,26 @@ void keep_seams_in_core(const Source& source, const ResourceOptions& resources, 
     format = *detected != MeshFormat::kUnknown ? *detected : format::format_from_extension(source.path);
   }
   std::optional<std::uint64_t> triangles;
+  std::uint64_t held = 0;  // what the file's lists take beyond its faces
   if (format == MeshFormat::kObj) {
     auto slash = format::any_slash(**bytes);
     if (!slash || !*slash) return;
     bytes = format::ByteSource::open(source.path);
     if (!bytes) return;
     auto census = format::census_obj(**bytes, enough);
-    if (census && census->complete && census->corner_values) triangles = census->triangles;
+    if (census && census->complete && census->corner_values) {
+      triangles = census->triangles;
+      held = kObjPositionBytes * census->vertices + kObjTexcoordBytes * census->texcoords + kObjNormalBytes * census->normals;
+    }
   } else if (format == MeshFormat::kPly) {
     TexturedFaceCount count(enough);
     format::ReadOptions read;
     read.format = MeshFormat::kPly;
     (void)format::read_mesh(**bytes, read, count);
     triangles = count.triangles();
+    held = kPlyVertexBytes * std::min<std::uint64_t>(count.vertices(), UINT32_MAX);
   }
-  if (!triangles) return;
+  if (!triangles || kProcessBytes + per_face * *triangles + held > limit) return;
   choice.engine = Engine::kInCore;
   choice.estimated_faces = *triangles;
 }

@@ -81,6 +81,11 @@ Result<ObjCensus> census_obj(ByteSource& source, std::uint64_t enough) {
           if (is_blank(c)) {
             state = keyword_length == 1 && keyword[0] == 'f' ? State::kFaceGap : State::kSkip;
             corners = 0;
+            if (keyword[0] == 'v') {
+              if (keyword_length == 1) ++census.vertices;
+              else if (keyword[1] == 't') ++census.texcoords;
+              else if (keyword[1] == 'n') ++census.normals;
+            }
           } else if (keyword_length < 2) {
             keyword[keyword_length++] = c;
           } else {

@@ -13,6 +13,8 @@ namespace gaussmesh::format {
 
 struct ObjCensus {
   std::uint64_t triangles = 0;  // each `f` of n ≥ 3 corners counts n − 2, as the reader fans it
+  // The `v`, `vt` and `vn` statements: the lists a reader that holds the file keeps.
+  std::uint64_t vertices = 0, texcoords = 0, normals = 0;
   bool corner_values = false;   // some `f` corner names a vt or a vn (v/vt, v//vn, v/vt/vn)
   bool complete = false;        // false: stopped once past the caller's `enough` triangles
 };

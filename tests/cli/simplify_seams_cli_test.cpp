@@ -275,6 +275,15 @@ TEST(SimplifySeamsCli, AnObjThatFitsWhenCountedRunsInCoreAndKeepsItsSeams) {
   // Without corner values the file streams as the size rule says.
   const auto [plain_run, plain_report] = run(plain, "plain.obj", "--memory 24M");
   EXPECT_TRUE(plain_report["out_of_core"].get<bool>());
+  // Few faces but long lists (two million texture coordinates, 16 MB held): counted with its
+  // lists, the file does not fit and streams.
+  std::string lists = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+  for (int i = 0; i < 2000000; ++i) lists += "vt 0 0\n";
+  write_file(dir.file("lists.obj"), lists + "f 1/1 2/2 3/3\n");
+  auto long_lists = run_command(q(gaussmesh_binary()) + " simplify " + q(dir.file("lists.obj")) + " -o " +
+                                q(dir.file("lists.ply")) + " --memory 24M --report " + q(dir.file("lists.json")));
+  EXPECT_EQ(long_lists.exit_code, 0) << long_lists.err;
+  EXPECT_TRUE(nlohmann::json::parse(read_file(dir.file("lists.json")))["out_of_core"].get<bool>());
   // A budget the counted faces do not fit: the file streams, and says what it does not keep.
   const auto [tight, tight_report] = run(in, "tight.obj", "--memory 16M");
   EXPECT_TRUE(tight_report["out_of_core"].get<bool>());

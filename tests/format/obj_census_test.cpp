@@ -23,6 +23,15 @@ TEST(ObjCensus, CountsTheTrianglesOfEveryPolygon) {
   EXPECT_EQ(c.triangles, 1u + 2u + 3u);
   EXPECT_FALSE(c.corner_values);
   EXPECT_TRUE(c.complete);
+  EXPECT_EQ(c.vertices, 5u);
+}
+
+TEST(ObjCensus, CountsTheListsAReaderHolds) {
+  const auto c = census_of("v 0 0 0\n\tv 1 0 0 1 1 1\nvt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 1\nvp 0.5\nvtx 1\n# v 1 1 1\nf 1/1/1 2/2/1 1/3/1\n");
+  EXPECT_EQ(c.vertices, 2u);
+  EXPECT_EQ(c.texcoords, 3u);
+  EXPECT_EQ(c.normals, 1u);
+  EXPECT_EQ(c.triangles, 1u);
 }
 
 TEST(ObjCensus, FollowsContinuationsCommentsAndLineEnds) {
