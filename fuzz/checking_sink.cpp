@@ -3,6 +3,7 @@
 
 #include "format/byte_source.h"
 #include "format/mesh_reader.h"
+#include "format/obj_census.h"
 
 namespace gaussmesh::fuzz {
 
@@ -96,6 +97,16 @@ ReadCheck read_and_check(std::string_view bytes, format::MeshFormat format) {
     if (!corners.broken.empty()) {
       corners.broken = "with corner values: " + corners.broken;
       return corners;
+    }
+    auto counted = format::ByteSource::from_memory(bytes, "<fuzz>");
+    auto census = format::census_obj(*counted, UINT64_MAX);
+    if (!census) return {census.status(), "the census failed on bytes in memory"};
+    if (check.status.is_ok() && census->triangles < sink.triangles()) {
+      return {check.status, "the census counted fewer triangles than the reader delivered"};
+    }
+    if (corners.status.is_ok() && (held.header().attributes.texcoords || held.header().attributes.normals) &&
+        !census->corner_values) {
+      return {corners.status, "the census missed corner values the reader delivered"};
     }
   }
   if (check.status.is_ok() && !sink.ended()) check.broken = "success without on_end";

@@ -27,6 +27,8 @@ class CheckingSink : public format::MeshSink {
   // The first breach of the contract, empty while there is none.
   const std::string& broken() const { return broken_; }
   bool ended() const { return ended_; }
+  std::uint64_t triangles() const { return triangles_; }
+  const format::MeshHeader& header() const { return header_; }
 
  private:
   void breach(const char* what);
@@ -48,6 +50,8 @@ struct ReadCheck {
 // Reads bytes with the reader of `format` forced, from memory, in small batches, under a 256 MiB
 // memory limit (a lying header must be refused, not allocated). Besides the sink's checks: a
 // success must have ended the mesh, and an error must be kBadInput or kResources with a message.
+// OBJ: the census the engine choice counts with (format/obj_census.h) errs towards more: never
+// fewer triangles than a successful read delivers, and corner values wherever it delivers them.
 ReadCheck read_and_check(std::string_view bytes, format::MeshFormat format);
 
 }  // namespace gaussmesh::fuzz

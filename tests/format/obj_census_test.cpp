@@ -42,6 +42,15 @@ TEST(ObjCensus, FollowsContinuationsCommentsAndLineEnds) {
   EXPECT_EQ(census_of("# f 1 2 3\nf 1 2 3\r\nf 1 2 3 4\r\n").triangles, 3u);
   EXPECT_EQ(census_of("f 1 2 3").triangles, 1u);  // no final newline
   EXPECT_EQ(census_of("fo 1 2 3\nvf 1 2 3\n").triangles, 0u);
+  // A '\' alone, or closing a keyword, is a blank that continues the statement.
+  EXPECT_EQ(census_of("\\\nf 1 2 3\n").triangles, 1u);
+  EXPECT_EQ(census_of("f\\\n1 2 3 4\n").triangles, 2u);
+  EXPECT_EQ(census_of("v\\\n0 0 0\nvt\\\n0 0\n").vertices, 1u);
+  EXPECT_EQ(census_of("v\\\n0 0 0\nvt\\\n0 0\n").texcoords, 1u);
+  // One '\r' before the '\n' belongs to the line end; a second one ends the statement.
+  EXPECT_EQ(census_of("f 1 2 3 \\\r\n4\n").triangles, 2u);
+  EXPECT_EQ(census_of("f 1 2 3\\\r\r\nf 4 5 6\n").triangles, 2u);
+  EXPECT_EQ(census_of("f 1 2 \\\r\r\nf\\\n1 2 3\n").triangles, 2u);
 }
 
 TEST(ObjCensus, SaysWhenACornerNamesATextureCoordinateOrANormal) {
