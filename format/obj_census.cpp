@@ -120,6 +120,27 @@ Result<ObjCensus> census_obj(ByteSource& source, std::uint64_t enough) {
         p = upto;
         if (!newline) break;
       }
+      // Face statements are the rest of the bytes: their plain characters in a tight loop, the
+      // few that need the rules above ('\n', '\r', '#', '\\') through them.
+      while (p < end && (state == State::kFaceGap || state == State::kFaceToken) && !pending_cr) {
+        const char c = *p;
+        if (c == '\n' || c == '\r' || c == '#' || c == '\\') break;
+        ++p;
+        last = c;
+        const bool blank = c == ' ' || c == '\t' || c == '\v' || c == '\f';
+        if (state == State::kFaceGap) {
+          if (blank) continue;
+          ++corners;
+          lone_backslash = false;
+          state = State::kFaceToken;
+        } else if (blank) {
+          state = State::kFaceGap;
+          continue;
+        }
+        lone_backslash = false;
+        if (c == '/') census.corner_values = true;
+      }
+      if (p == end) break;
       const char c = *p++;
       if (c == '\n') end_line();
       else feed(c);
