@@ -149,6 +149,27 @@ void expect_closed_sphere(const stream::Mesh& out) {
   EXPECT_EQ(*topology->genus, 0);
 }
 
+// `in` simplified to 10 % with `flags`, to `dir`'s file `out`: the run and its report.
+std::pair<CommandResult, nlohmann::json> tenth(const ScratchDir& dir, const std::string& in, const std::string& out,
+                                               const std::string& flags) {
+  auto r = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(dir.file(out)) + " --ratio 0.1 " + flags +
+                       " --report " + q(dir.file(out + ".json")));
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  return {r, r.exit_code == 0 ? nlohmann::json::parse(read_file(dir.file(out + ".json"))) : nlohmann::json::object()};
+}
+
+// A simplified UV sphere kept its seam: no face spans more than half the texture's width, and
+// welded by position it is closed, of genus 0.
+void expect_seam_kept(const stream::Mesh& out) {
+  ASSERT_EQ(out.texcoords.size(), out.positions.size());
+  for (const auto& t : out.triangles) {
+    float lo = 2, hi = -1;
+    for (const auto v : t.v) lo = std::min(lo, out.texcoords[v].u), hi = std::max(hi, out.texcoords[v].u);
+    EXPECT_LT(hi - lo, 0.5) << "a face across the seam";
+  }
+  expect_closed_sphere(out);
+}
+
 std::size_t faces_of(const std::string& obj) {
   std::size_t faces = 0;
   for (std::size_t at = 0; (at = obj.find("\nf ", at)) != std::string::npos; ++at) ++faces;
@@ -252,40 +273,23 @@ TEST(SimplifySeamsCli, AnObjThatFitsWhenCountedRunsInCoreAndKeepsItsSeams) {
     stripped += text[i];
   }
   write_file(plain, stripped);
-  const auto run = [&](const std::string& input, const std::string& out, const std::string& flags) {
-    auto r = run_command(q(gaussmesh_binary()) + " simplify " + q(input) + " -o " + q(dir.file(out)) + " --ratio 0.1 " + flags +
-                         " --report " + q(dir.file(out + ".json")));
-    EXPECT_EQ(r.exit_code, 0) << r.err;
-    return std::make_pair(r, nlohmann::json::parse(read_file(dir.file(out + ".json"))));
-  };
-  const auto [counted, counted_report] = run(in, "counted.obj", "--memory 24M");
+  const auto [counted, counted_report] = tenth(dir, in, "counted.obj", "--memory 24M");
   EXPECT_FALSE(counted_report["out_of_core"].get<bool>());
   EXPECT_TRUE(counted_report["output_attributes"]["texcoords"].get<bool>());
   EXPECT_EQ(counted.err.find("vt"), std::string::npos) << counted.err;
-  const auto [held, held_report] = run(in, "held.obj", "--engine in-core");
+  tenth(dir, in, "held.obj", "--engine in-core");
   EXPECT_EQ(read_file(dir.file("counted.obj")), read_file(dir.file("held.obj")));
-  const stream::Mesh out = read_with_corners(dir.file("counted.obj"));
-  ASSERT_EQ(out.texcoords.size(), out.positions.size());
-  for (const auto& t : out.triangles) {
-    float lo = 2, hi = -1;
-    for (const auto v : t.v) lo = std::min(lo, out.texcoords[v].u), hi = std::max(hi, out.texcoords[v].u);
-    EXPECT_LT(hi - lo, 0.5) << "a face across the seam";
-  }
-  expect_closed_sphere(out);
+  expect_seam_kept(read_with_corners(dir.file("counted.obj")));
   // Without corner values the file streams as the size rule says.
-  const auto [plain_run, plain_report] = run(plain, "plain.obj", "--memory 24M");
-  EXPECT_TRUE(plain_report["out_of_core"].get<bool>());
+  EXPECT_TRUE(tenth(dir, plain, "plain.obj", "--memory 24M").second["out_of_core"].get<bool>());
   // Few faces but long lists (two million texture coordinates, 16 MB held): counted with its
   // lists, the file does not fit and streams.
   std::string lists = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
   for (int i = 0; i < 2000000; ++i) lists += "vt 0 0\n";
   write_file(dir.file("lists.obj"), lists + "f 1/1 2/2 3/3\n");
-  auto long_lists = run_command(q(gaussmesh_binary()) + " simplify " + q(dir.file("lists.obj")) + " -o " +
-                                q(dir.file("lists.ply")) + " --memory 24M --report " + q(dir.file("lists.json")));
-  EXPECT_EQ(long_lists.exit_code, 0) << long_lists.err;
-  EXPECT_TRUE(nlohmann::json::parse(read_file(dir.file("lists.json")))["out_of_core"].get<bool>());
+  EXPECT_TRUE(tenth(dir, dir.file("lists.obj"), "lists.ply", "--memory 24M").second["out_of_core"].get<bool>());
   // A budget the counted faces do not fit: the file streams, and says what it does not keep.
-  const auto [tight, tight_report] = run(in, "tight.obj", "--memory 16M");
+  const auto [tight, tight_report] = tenth(dir, in, "tight.obj", "--memory 16M");
   EXPECT_TRUE(tight_report["out_of_core"].get<bool>());
   EXPECT_FALSE(tight_report["output_attributes"]["texcoords"].get<bool>());
   EXPECT_NE(tight.err.find("texture coordinates (vt"), std::string::npos) << tight.err;
@@ -297,25 +301,12 @@ TEST(SimplifySeamsCli, APlySplitAtItsSeamsThatFitsWhenCountedRunsInCore) {
   ScratchDir dir;
   const std::string in = dir.file("sphere.ply");
   write_file(in, uv_sphere_ply(40, 80));
-  const auto run = [&](const std::string& out, const std::string& flags) {
-    auto r = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(dir.file(out)) + " --ratio 0.1 " + flags +
-                         " --report " + q(dir.file(out + ".json")));
-    EXPECT_EQ(r.exit_code, 0) << r.err;
-    return std::make_pair(r, nlohmann::json::parse(read_file(dir.file(out + ".json"))));
-  };
-  const auto [counted, counted_report] = run("counted.obj", "--memory 24M");
+  const auto [counted, counted_report] = tenth(dir, in, "counted.obj", "--memory 24M");
   EXPECT_FALSE(counted_report["out_of_core"].get<bool>());
   EXPECT_GT(counted_report["seam_vertices"].get<int>(), 0);
   EXPECT_EQ(counted.err.find("warning"), std::string::npos) << counted.err;
-  const stream::Mesh out = read_with_corners(dir.file("counted.obj"));
-  ASSERT_EQ(out.texcoords.size(), out.positions.size());
-  for (const auto& t : out.triangles) {
-    float lo = 2, hi = -1;
-    for (const auto v : t.v) lo = std::min(lo, out.texcoords[v].u), hi = std::max(hi, out.texcoords[v].u);
-    EXPECT_LT(hi - lo, 0.5) << "a face across the seam";
-  }
-  expect_closed_sphere(out);
-  const auto [streamed, streamed_report] = run("streamed.obj", "--engine out-of-core --memory 24M");
+  expect_seam_kept(read_with_corners(dir.file("counted.obj")));
+  const auto [streamed, streamed_report] = tenth(dir, in, "streamed.obj", "--engine out-of-core --memory 24M");
   EXPECT_TRUE(streamed_report["out_of_core"].get<bool>());
   EXPECT_NE(streamed.err.find("texture coordinates stream without their seams"), std::string::npos) << streamed.err;
 }
