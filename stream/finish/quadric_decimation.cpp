@@ -35,10 +35,19 @@ Vec3dq along_edge(const Quadric& q, const Vec3dq& p0, const Vec3dq& p1) {
   return add(p0, scale(d, std::clamp(-dot(gradient, d) / curvature, 0.0, 1.0)));
 }
 
+// Equal costs (a flat region's collapses all cost nothing) go by edge number, but an edge whose two
+// ends have more than kCrowdedDegrees edges between them waits behind the others, fewest first:
+// otherwise the collapses of a flat region keep merging into one vertex, whose fan grows with
+// every one, and each collapse and link test walks it.
+inline constexpr std::uint32_t kCrowdedDegrees = 20;
 struct Candidate {
   double cost;
   std::uint32_t edge;
-  bool before(const Candidate& o) const { return cost != o.cost ? cost < o.cost : edge < o.edge; }
+  std::uint32_t degrees;
+  bool before(const Candidate& o) const {
+    if (cost != o.cost) return cost < o.cost;
+    return degrees != o.degrees ? degrees < o.degrees : edge < o.edge;
+  }
 };
 
 // A 4-ary min-heap of (cost, edge) with at most one entry per edge, whose cost can be updated:
@@ -49,15 +58,16 @@ class EdgeHeap {
   explicit EdgeHeap(std::size_t edges) : pos_(edges, kAbsent) {}
   bool empty() const { return heap_.empty(); }
   const Candidate& top() const { return heap_.front(); }
-  void set(std::uint32_t edge, double cost) {
+  void set(std::uint32_t edge, double cost, std::uint32_t degrees) {
+    const Candidate c{cost, edge, degrees};
     if (pos_[edge] == kAbsent) {
       pos_[edge] = std::uint32_t(heap_.size());
-      heap_.push_back({cost, edge});
+      heap_.push_back(c);
       up(heap_.size() - 1);
     } else {
       const std::size_t i = pos_[edge];
-      const bool lower = cost < heap_[i].cost;
-      heap_[i].cost = cost;
+      const bool lower = c.before(heap_[i]);
+      heap_[i] = c;
       lower ? up(i) : down(i);
     }
   }
@@ -330,9 +340,13 @@ class Decimator {
     double cost;
     if (!evaluate(e, x, cost)) return;
     target_[e] = x;
-    heap_.set(e, cost);
+    const std::uint32_t degrees = degree_[m_.edge(e).v[0]] + degree_[m_.edge(e).v[1]];
+    heap_.set(e, cost, degrees > kCrowdedDegrees ? degrees : 0);
   }
   void push_all() {
+    degree_.assign(m_.vertex_count(), 0);
+    for (std::uint32_t e = 0; e < m_.edge_count(); ++e)
+      if (m_.edge_alive(e)) ++degree_[m_.edge(e).v[0]], ++degree_[m_.edge(e).v[1]];
     for (std::uint32_t e = 0; e < m_.edge_count(); ++e)
       if (m_.edge_alive(e)) push(e);
   }
@@ -499,6 +513,10 @@ class Decimator {
       q_[to] = q;
       ++r.collapses;
       r.estimated_error = std::max(r.estimated_error, error);
+      // `to` takes `from`'s edges but the one between them and those to the vertices across,
+      // which merge with its own (the link condition leaves no other common neighbour).
+      degree_[to] += degree_[from] - 2 - std::uint32_t(across.count);
+      for (int i = 0; i < across.count; ++i) --degree_[across.vertex[i]];
       m_.for_each_edge(to, [&](std::uint32_t e, std::uint32_t) { push(e); });
     }
     r.reached_target = options.target_faces == 0 || faces <= options.target_faces;
@@ -517,6 +535,7 @@ class Decimator {
   std::vector<std::uint32_t> swept_;  // per vertex: the last sweep that collapsed onto it
   std::vector<double> own_error_;     // per vertex: its quadric's error at its own place
   std::vector<std::uint32_t> choice_; // per vertex: the neighbour this sweep chose for it
+  std::vector<std::uint32_t> degree_; // per vertex: its edges, for the queue's ties (Candidate)
   std::uint32_t sweep_ = 0;
   std::uint32_t epoch_ = 0;
   const QuadricFrame& frame_;
