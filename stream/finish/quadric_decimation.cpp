@@ -39,7 +39,7 @@ Vec3dq along_edge(const Quadric& q, const Vec3dq& p0, const Vec3dq& p1) {
 // ends have more than kCrowdedDegrees edges between them waits behind the others, fewest first:
 // otherwise the collapses of a flat region keep merging into one vertex, whose fan grows with
 // every one, and each collapse and link test walks it.
-inline constexpr std::uint32_t kCrowdedDegrees = 20;
+inline constexpr std::uint32_t kCrowdedDegrees = 32;
 struct Candidate {
   double cost;
   std::uint32_t edge;
