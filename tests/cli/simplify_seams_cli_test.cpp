@@ -309,6 +309,13 @@ TEST(SimplifySeamsCli, APlySplitAtItsSeamsThatFitsWhenCountedRunsInCore) {
   const auto [streamed, streamed_report] = tenth(dir, in, "streamed.obj", "--engine out-of-core --memory 24M");
   EXPECT_TRUE(streamed_report["out_of_core"].get<bool>());
   EXPECT_NE(streamed.err.find("texture coordinates stream without their seams"), std::string::npos) << streamed.err;
+  // One face over half a million declared vertices (32 MB held at 64 B each): counted with its
+  // vertices, the file does not fit and streams.
+  std::string many = "ply\nformat ascii 1.0\nelement vertex 500000\nproperty float x\nproperty float y\nproperty float z\n"
+                     "property float s\nproperty float t\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  for (int i = 0; i < 500000; ++i) many += std::to_string(i % 3 == 1) + " " + std::to_string(i % 3 == 2) + " 0 0 0\n";
+  write_file(dir.file("many.ply"), many + "3 0 1 2\n");
+  EXPECT_TRUE(tenth(dir, dir.file("many.ply"), "many.obj", "--memory 24M").second["out_of_core"].get<bool>());
 }
 
 }  // namespace
