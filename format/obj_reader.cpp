@@ -5,9 +5,9 @@
 // them. vt and vn are named as not kept, unless the caller asks for corner values
 // (ReadOptions::corner_values): the file is then held, and each distinct (v, vt, vn) triple its
 // faces use becomes a vertex. docs/formats.md.
+#include <algorithm>
 #include <string>
 #include <string_view>
-#include <algorithm>
 #include <vector>
 
 #include "format/mesh_batcher.h"

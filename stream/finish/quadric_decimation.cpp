@@ -43,10 +43,10 @@ inline constexpr std::uint32_t kCrowdedDegrees = 32;
 struct Candidate {
   double cost;
   std::uint32_t edge;
-  std::uint32_t degrees;
+  std::uint32_t crowding;  // the ends' edges when more than kCrowdedDegrees, else 0
   bool before(const Candidate& o) const {
     if (cost != o.cost) return cost < o.cost;
-    return degrees != o.degrees ? degrees < o.degrees : edge < o.edge;
+    return crowding != o.crowding ? crowding < o.crowding : edge < o.edge;
   }
 };
 
@@ -58,8 +58,8 @@ class EdgeHeap {
   explicit EdgeHeap(std::size_t edges) : pos_(edges, kAbsent) {}
   bool empty() const { return heap_.empty(); }
   const Candidate& top() const { return heap_.front(); }
-  void set(std::uint32_t edge, double cost, std::uint32_t degrees) {
-    const Candidate c{cost, edge, degrees};
+  void set(std::uint32_t edge, double cost, std::uint32_t crowding) {
+    const Candidate c{cost, edge, crowding};
     if (pos_[edge] == kAbsent) {
       pos_[edge] = std::uint32_t(heap_.size());
       heap_.push_back(c);
