@@ -11,6 +11,7 @@
 #include <bit>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <unordered_map>
 #include <vector>
 
@@ -180,6 +181,31 @@ std::array<double, 3> barycentric(const Vec3d& q, const Vec3d& a, const Vec3d& b
   return {wa / sum, wb / sum, wc / sum};
 }
 
+// The values at p's nearest point of the triangle with corners `at` and corner values `corner`:
+// barycentric weights, the corners' values weighted in double, rounded once; normals
+// renormalised. The kinds say which to take.
+format::VertexAttributes interpolate(const std::array<Vec3f, 3>& at, const format::VertexAttributes* corner,
+                                     const Vec3f& p, const format::AttributeKinds& kinds) {
+  const Vec3d a = to_d(at[0]), b = to_d(at[1]), c = to_d(at[2]);
+  Vec3d q;
+  point_triangle_distance_squared(to_d(p), a, b, c, &q);
+  const std::array<double, 3> w = barycentric(q, a, b, c);
+  double sum[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  for (int k = 0; k < 3; ++k) {
+    if (kinds.normals) {
+      const Vec3f& m = corner[k].normal;
+      sum[0] += w[k] * m.x, sum[1] += w[k] * m.y, sum[2] += w[k] * m.z;
+    }
+    if (kinds.colors) {
+      const Color& m = corner[k].color;
+      sum[3] += w[k] * m.r, sum[4] += w[k] * m.g, sum[5] += w[k] * m.b, sum[6] += w[k] * m.a;
+    }
+    if (kinds.texcoords) sum[7] += w[k] * corner[k].texcoord.u, sum[8] += w[k] * corner[k].texcoord.v;
+  }
+  return {normalised(sum[0], sum[1], sum[2]), {float(sum[3]), float(sum[4]), float(sum[5]), float(sum[6])},
+          {float(sum[7]), float(sum[8])}};
+}
+
 // Each output vertex's nearest input triangle. A round takes only triangles within its radius of
 // a vertex: a vertex that found one has its nearest (a nearer triangle is within the radius too,
 // and its box grown by the radius holds the vertex).
@@ -300,26 +326,13 @@ format::Status transfer_nearest_vertex(const VertexPassFn& pass, const format::A
 
 format::VertexAttributes values_at(format::MeshView input, const Triangle& t, const Vec3f& p,
                                    const format::AttributeKinds& kinds) {
-  const Vec3d a = to_d(input.positions[t.v[0]]), b = to_d(input.positions[t.v[1]]), c = to_d(input.positions[t.v[2]]);
-  Vec3d q;
-  point_triangle_distance_squared(to_d(p), a, b, c, &q);
-  const std::array<double, 3> w = barycentric(q, a, b, c);
-  // The corners' values weighted in double, rounded once.
-  double sum[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  std::array<format::VertexAttributes, 3> corner;
   for (int k = 0; k < 3; ++k) {
-    const std::uint32_t corner = t.v[k];
-    if (kinds.normals) {
-      const Vec3f& m = input.normals[corner];
-      sum[0] += w[k] * m.x, sum[1] += w[k] * m.y, sum[2] += w[k] * m.z;
-    }
-    if (kinds.colors) {
-      const Color& m = input.colors[corner];
-      sum[3] += w[k] * m.r, sum[4] += w[k] * m.g, sum[5] += w[k] * m.b, sum[6] += w[k] * m.a;
-    }
-    if (kinds.texcoords) sum[7] += w[k] * input.texcoords[corner].u, sum[8] += w[k] * input.texcoords[corner].v;
+    if (kinds.normals) corner[k].normal = input.normals[t.v[k]];
+    if (kinds.colors) corner[k].color = input.colors[t.v[k]];
+    if (kinds.texcoords) corner[k].texcoord = input.texcoords[t.v[k]];
   }
-  return {normalised(sum[0], sum[1], sum[2]), {float(sum[3]), float(sum[4]), float(sum[5]), float(sum[6])},
-          {float(sum[7]), float(sum[8])}};
+  return interpolate({input.positions[t.v[0]], input.positions[t.v[1]], input.positions[t.v[2]]}, corner.data(), p, kinds);
 }
 
 void assign_attributes(const std::vector<format::VertexAttributes>& values, const format::AttributeKinds& kinds,
@@ -340,6 +353,146 @@ void transfer_attributes(format::MeshView input, Mesh& output, NormalsMode norma
     });
   }
   assign(values, kinds, normals, output);
+}
+
+
+namespace {
+
+// A position's bits as a lookup key, -0 taken as +0 (a weld takes them as one place).
+using PositionKey = std::array<std::uint32_t, 3>;
+PositionKey position_key(const Vec3f& p) {
+  auto bits = [](float x) { return std::bit_cast<std::uint32_t>(x == 0 ? 0.0f : x); };
+  return {bits(p.x), bits(p.y), bits(p.z)};
+}
+std::uint64_t key_hash(const PositionKey& k) {
+  std::uint64_t h = (std::uint64_t{k[0]} << 32 | k[1]) * 0x9E3779B97F4A7C15ull;
+  h ^= (h >> 29) + std::uint64_t{k[2]} * 0xBF58476D1CE4E5B9ull;
+  return h ^ (h >> 32);
+}
+
+// The output's triangle corners by position: each distinct position once, with the corner slots
+// (3 v + k) at it, and whether an input vertex has given them values yet.
+class CornerLookup {
+ public:
+  explicit CornerLookup(const std::vector<std::array<Vec3f, 3>>& corners, const std::vector<std::uint8_t>& has) {
+    for (std::uint32_t v = 0; v < corners.size(); ++v)
+      if (has[v])
+        for (std::uint32_t k = 0; k < 3; ++k) entries_.push_back({position_key(corners[v][k]), 3 * v + k});
+    std::sort(entries_.begin(), entries_.end(), [](const Entry& a, const Entry& b) {
+      return a.key != b.key ? a.key < b.key : a.slot < b.slot;
+    });
+    for (std::uint32_t i = 0; i < entries_.size(); ++i)
+      if (i == 0 || entries_[i].key != entries_[i - 1].key) starts_.push_back(i);
+    starts_.push_back(std::uint32_t(entries_.size()));
+    filled_.assign(starts_.size() - 1, 0);
+    std::size_t size = 16;
+    while (size < 2 * filled_.size()) size *= 2;
+    table_.assign(size, kEmpty);
+    for (std::uint32_t r = 0; r + 1 < starts_.size(); ++r) {
+      std::size_t i = key_hash(entries_[starts_[r]].key) & (size - 1);
+      while (table_[i] != kEmpty) i = (i + 1) & (size - 1);
+      table_[i] = r;
+    }
+  }
+
+  // The slots at p that no input vertex has given values yet (each position's first vertex in
+  // input order gives them); marks them given.
+  template <class Fn>
+  void take(const Vec3f& p, Fn&& fn) {
+    const PositionKey key = position_key(p);
+    for (std::size_t i = key_hash(key) & (table_.size() - 1); table_[i] != kEmpty; i = (i + 1) & (table_.size() - 1)) {
+      const std::uint32_t r = table_[i];
+      if (entries_[starts_[r]].key != key) continue;
+      if (filled_[r]) return;
+      filled_[r] = 1;
+      for (std::uint32_t e = starts_[r]; e < starts_[r + 1]; ++e) fn(entries_[e].slot);
+      return;
+    }
+  }
+  bool all_given() const { return std::find(filled_.begin(), filled_.end(), 0) == filled_.end(); }
+
+ private:
+  struct Entry {
+    PositionKey key;
+    std::uint32_t slot;
+  };
+  static constexpr std::uint32_t kEmpty = std::numeric_limits<std::uint32_t>::max();
+  std::vector<Entry> entries_;
+  std::vector<std::uint32_t> starts_;  // first entry of each distinct position, then the end
+  std::vector<std::uint8_t> filled_;   // per distinct position
+  std::vector<std::uint32_t> table_;   // open addressing: distinct position index, or kEmpty
+};
+
+}  // namespace
+
+format::Result<std::vector<format::VertexAttributes>> surface_values(const TrianglePassFn& triangles,
+                                                                     const VertexPassFn& vertices,
+                                                                     const format::AttributeKinds& kinds,
+                                                                     const std::vector<Vec3f>& positions, double area) {
+  const std::size_t n = positions.size();
+  std::vector<format::VertexAttributes> values(n);
+  if (n == 0 || !kinds.any()) return values;
+  // Each vertex's nearest triangle so far (as transfer_attributes' words) and that triangle's
+  // corners, written together under one of the stripes' locks.
+  std::vector<std::atomic<std::uint64_t>> best(n);
+  for (auto& b : best) b.store(kNone, std::memory_order_relaxed);
+  std::vector<std::array<Vec3f, 3>> corners(n);
+  std::array<std::mutex, 64> stripes;
+  std::atomic<bool> any_triangle{false};
+  auto round = [&](const VertexGrid& grid, double radius) {
+    return triangles([&](std::span<const IndexedTriangle> batch) {
+      if (!batch.empty()) any_triangle.store(true, std::memory_order_relaxed);
+      VertexGrid::Cursor cursor;
+      for (const IndexedTriangle& t : batch) {
+        const Vec3d a = to_d(t.corners[0]), b = to_d(t.corners[1]), c = to_d(t.corners[2]);
+        const Vec3d lo{std::min({a.x, b.x, c.x}), std::min({a.y, b.y, c.y}), std::min({a.z, b.z, c.z})};
+        const Vec3d hi{std::max({a.x, b.x, c.x}), std::max({a.y, b.y, c.y}), std::max({a.z, b.z, c.z})};
+        grid.near(lo, hi, radius, cursor, [&](std::uint32_t v) {
+          const Vec3d p = to_d(positions[v]);
+          const double bx = std::max({lo.x - p.x, p.x - hi.x, 0.0});
+          const double by = std::max({lo.y - p.y, p.y - hi.y, 0.0});
+          const double bz = std::max({lo.z - p.z, p.z - hi.z, 0.0});
+          if (bx * bx + by * by + bz * bz > radius * radius) return;
+          const double d = point_triangle_distance_squared(p, a, b, c);
+          if (d > radius * radius) return;
+          const std::uint64_t word = pack(d, t.index);
+          if (word >= best[v].load(std::memory_order_relaxed)) return;
+          std::lock_guard<std::mutex> lock(stripes[v % stripes.size()]);
+          if (word >= best[v].load(std::memory_order_relaxed)) return;
+          best[v].store(word, std::memory_order_relaxed);
+          corners[v] = t.corners;
+        });
+      }
+      return format::Status();
+    });
+  };
+  // A pass without triangles would never find one: the rounds stop after the first.
+  GM_RETURN_IF_ERROR(search_rounds(positions, area, round, [&](std::uint32_t v) {
+    return best[v].load(std::memory_order_relaxed) != kNone || !any_triangle.load(std::memory_order_relaxed);
+  }));
+  std::vector<std::uint8_t> has(n);
+  for (std::size_t v = 0; v < n; ++v) has[v] = best[v].load(std::memory_order_relaxed) != kNone;
+  std::vector<std::atomic<std::uint64_t>>().swap(best);
+
+  // The corners' values: one pass over the input's vertices.
+  std::vector<format::VertexAttributes> corner_values(3 * n);
+  {
+    CornerLookup lookup(corners, has);
+    GM_RETURN_IF_ERROR(vertices([&](std::span<const Vec3f> points, std::span<const format::VertexAttributes> attributes) {
+      for (std::size_t i = 0; i < points.size(); ++i)
+        lookup.take(points[i], [&](std::uint32_t slot) { corner_values[slot] = attributes[i]; });
+      return format::Status();
+    }));
+    if (!lookup.all_given())
+      return format::Status::error(format::Code::kProcessing, "attributes",
+                                   "a corner of an input triangle matches no input vertex's position");
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& range) {
+    for (std::size_t v = range.begin(); v < range.end(); ++v)
+      values[v] = has[v] ? interpolate(corners[v], &corner_values[3 * v], positions[v], kinds)
+                         : format::VertexAttributes{{0, 0, 1}, {}, {}};
+  });
+  return values;
 }
 
 }  // namespace gaussmesh::stream

@@ -2,6 +2,8 @@
 // values of the nearest point of the input's surface (docs/attributes.md).
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <functional>
 #include <span>
 
@@ -56,6 +58,35 @@ format::Status transfer_nearest_vertex(const VertexPassFn& pass, const format::A
 format::Result<std::vector<format::VertexAttributes>> nearest_vertex_values(const VertexPassFn& pass,
                                                                             const std::vector<format::Vec3f>& positions,
                                                                             double area);
+// An input triangle as an out-of-core pass gives it: its corners' positions and its index in the
+// input (the lowest index wins among equally near triangles).
+struct IndexedTriangle {
+  std::array<format::Vec3f, 3> corners;
+  std::uint64_t index = 0;
+};
+// Streams the input's triangles once through `batch`, which it may call from several threads at
+// once; stops at the first error either returns.
+using TriangleBatchFn = std::function<format::Status(std::span<const IndexedTriangle>)>;
+using TrianglePassFn = std::function<format::Status(const TriangleBatchFn& batch)>;
+
+// transfer_attributes for an input that is streamed, not held (out of core), for an output held
+// as positions: each vertex takes its nearest input triangle from passes of `triangles` (one per
+// search round, as transfer_attributes' rounds), then the corners' values from one pass of
+// `vertices`, each corner from the first input vertex at its exact position (±0 alike), and the
+// values at its nearest point of that triangle, interpolated as values_at does. So the values are
+// transfer_attributes' whenever no two input vertices share a position with different values and
+// the triangles' indices are the input's. `area` (surface_area) sizes the search grid. Memory:
+// kSurfaceValuesBytesPerVertex per output vertex, beside `positions`. A corner found at no
+// input vertex is kProcessing.
+format::Result<std::vector<format::VertexAttributes>> surface_values(const TrianglePassFn& triangles,
+                                                                     const VertexPassFn& vertices,
+                                                                     const format::AttributeKinds& kinds,
+                                                                     const std::vector<format::Vec3f>& positions,
+                                                                     double area);
+// What surface_values holds per output vertex at its peak: the winning triangle's corners and
+// their values, the corners' lookup by position, and the values found.
+inline constexpr std::uint64_t kSurfaceValuesBytesPerVertex = 36 + 108 + 48 + 48 + 36;
+
 double surface_area(const std::vector<format::Vec3f>& positions, std::span<const format::Triangle> triangles);
 // vertex_normals for faces that stream: each face's area-weighted normal added to its corners'
 // `normal` (in float, in face order); normalise_normals once every face has been added.

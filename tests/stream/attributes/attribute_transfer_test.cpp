@@ -3,8 +3,10 @@
 // computed or left out; the same values whatever the threads.
 #include <gtest/gtest.h>
 
+#include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
 
+#include <atomic>
 #include <cmath>
 
 #include "stream/analysis/mesh_distance.h"
@@ -169,6 +171,99 @@ TEST(AttributeTransfer, StreamedVerticesGiveTheNearestVertexsValues) {
   EXPECT_TRUE(other.normals.empty());
   EXPECT_TRUE(other.texcoords.empty());
   EXPECT_EQ(other.colors, output.colors);
+}
+
+
+// The input as an out-of-core run streams it: its triangles in batches (several at once, from
+// tbb's threads, in a shuffled order) with their input index, and its vertices in input order.
+struct StreamedInput {
+  const Mesh& input;
+  std::vector<format::VertexAttributes> values;
+  std::size_t batch = 37;
+
+  explicit StreamedInput(const Mesh& m) : input(m), values(m.positions.size()) {
+    for (std::size_t v = 0; v < values.size(); ++v) {
+      if (!m.colors.empty()) values[v].color = m.colors[v];
+      if (!m.normals.empty()) values[v].normal = m.normals[v];
+      if (!m.texcoords.empty()) values[v].texcoord = m.texcoords[v];
+    }
+  }
+  TrianglePassFn triangles() const {
+    return [this](const TriangleBatchFn& fn) {
+      std::vector<IndexedTriangle> all;
+      for (std::size_t f = 0; f < input.triangles.size(); ++f) {
+        const auto& t = input.triangles[f].v;
+        all.push_back({{input.positions[t[0]], input.positions[t[1]], input.positions[t[2]]}, f});
+      }
+      for (std::size_t i = 0; i < all.size(); ++i) std::swap(all[i], all[(i * 7919) % all.size()]);
+      std::atomic<bool> failed{false};
+      tbb::parallel_for(std::size_t{0}, (all.size() + batch - 1) / batch, [&](std::size_t b) {
+        const std::size_t first = b * batch, n = std::min(batch, all.size() - first);
+        if (!fn(std::span<const IndexedTriangle>(all).subspan(first, n)).is_ok()) failed = true;
+      });
+      return failed ? format::Status::error(format::Code::kProcessing, "test", "batch") : format::Status();
+    };
+  }
+  VertexPassFn vertices() const {
+    return [this](const VertexBatchFn& fn) {
+      for (std::size_t i = 0; i < input.positions.size(); i += batch) {
+        const std::size_t n = std::min(batch, input.positions.size() - i);
+        GM_RETURN_IF_ERROR(fn(std::span(input.positions).subspan(i, n), std::span<const format::VertexAttributes>(values).subspan(i, n)));
+      }
+      return format::Status();
+    };
+  }
+};
+
+// Streamed triangles and vertices give the values the held input gives, bit for bit: points off
+// the input's vertices (a nearby torus) and on some of them, with 1 and 2 threads.
+TEST(AttributeTransfer, StreamedTrianglesGiveTheHeldInputsValues) {
+  const Mesh input = coloured_torus(6000);
+  testing::ShapeOptions shape;
+  shape.vertices = 2500;
+  Mesh held = testing::make_torus(1.0, 0.41, shape);
+  for (std::size_t v = 0; v < 60; ++v) held.positions[v] = input.positions[13 * v];
+  transfer_attributes(input.view(), held, NormalsMode::kKeep);
+  const StreamedInput streamed(input);
+  for (int threads : {1, 2}) {
+    format::Result<std::vector<format::VertexAttributes>> values = format::Status();
+    tbb::task_arena(threads).execute([&] {
+      values = surface_values(streamed.triangles(), streamed.vertices(), {true, true, true}, held.positions,
+                              surface_area(held.positions, held.triangles));
+    });
+    ASSERT_TRUE(values.is_ok()) << values.status().message();
+    ASSERT_EQ(values->size(), held.positions.size());
+    for (std::size_t v = 0; v < held.positions.size(); ++v) {
+      EXPECT_EQ((*values)[v].color, held.colors[v]) << v;
+      EXPECT_EQ((*values)[v].normal, held.normals[v]) << v;
+      EXPECT_EQ((*values)[v].texcoord, held.texcoords[v]) << v;
+    }
+  }
+  for (std::size_t v = 0; v < 60; ++v) EXPECT_EQ(held.colors[v], input.colors[13 * v]) << v;
+}
+
+// Two input vertices at one place: a corner there takes the first one's values (input order),
+// and a triangle whose corner is at no input vertex is an error, not a guess.
+TEST(AttributeTransfer, StreamedCornersTakeTheFirstVertexAtTheirPlace) {
+  Mesh input;
+  input.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {-0.0f, 0, 0}};
+  input.triangles = {{{0, 1, 2}}};
+  input.colors = {{0.25f, 0, 0, 1}, {0, 1, 0, 1}, {0, 0, 1, 1}, {1, 1, 1, 1}};
+  StreamedInput streamed(input);
+  const std::vector<Vec3f> at = {{0, 0, 0.5f}, {0.5f, 0.5f, 0}};
+  auto values = surface_values(streamed.triangles(), streamed.vertices(), {false, true, false}, at, 1.0);
+  ASSERT_TRUE(values.is_ok()) << values.status().message();
+  EXPECT_EQ((*values)[0].color, (Color{0.25f, 0, 0, 1}));  // above corner 0: vertex 0's, not vertex 3's
+  EXPECT_FLOAT_EQ((*values)[1].color.g, 0.5f);
+  EXPECT_FLOAT_EQ((*values)[1].color.b, 0.5f);
+  input.positions[1].x = 2;  // the triangle's corner no longer at an input vertex's place
+  const TrianglePassFn moved = [&](const TriangleBatchFn& fn) {
+    const IndexedTriangle t{{Vec3f{0, 0, 0}, Vec3f{1, 0, 0}, Vec3f{0, 1, 0}}, 0};
+    return fn(std::span<const IndexedTriangle>(&t, 1));
+  };
+  auto missing = surface_values(moved, streamed.vertices(), {false, true, false}, at, 1.0);
+  ASSERT_FALSE(missing.is_ok());
+  EXPECT_EQ(missing.status().code(), format::Code::kProcessing);
 }
 
 }  // namespace
