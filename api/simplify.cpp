@@ -114,8 +114,10 @@ Json output_attributes_json(const format::AttributeKinds& kinds) {
 
 // The attributes of a chunked finish's output that streams to PLY or OBJ: its vertex positions
 // held (its faces streamed twice, for the search grid's size and for computed normals), each
-// vertex given the nearest input vertex's values as transfer_nearest_vertex does.
-Status streamed_attributes(format::MeshParts& parts, const stream::VertexAttributeSpill* spill, stream::NormalsMode normals,
+// vertex given the values of the input's surface under it (surface_values) when `triangles` is
+// given, else of the nearest input vertex (nearest_vertex_values).
+Status streamed_attributes(format::MeshParts& parts, const stream::VertexAttributeSpill* spill,
+                           const stream::TrianglePassFn* triangles, stream::NormalsMode normals,
                            format::PartsAttributes& out, std::vector<format::VertexAttributes>& values) {
   std::vector<format::Vec3f> positions;
   positions.reserve(parts.vertex_count());
@@ -130,8 +132,9 @@ Status streamed_attributes(format::MeshParts& parts, const stream::VertexAttribu
   }));
   const format::AttributeKinds input = spill ? spill->kinds() : format::AttributeKinds{};
   if (input.any()) {
-    auto found = stream::nearest_vertex_values([spill](const stream::VertexBatchFn& batch) { return spill->each(batch); },
-                                               positions, area);
+    const stream::VertexPassFn vertices = [spill](const stream::VertexBatchFn& batch) { return spill->each(batch); };
+    auto found = triangles ? stream::surface_values(*triangles, vertices, input, positions, area)
+                           : stream::nearest_vertex_values(vertices, positions, area);
     if (!found) return found.status();
     values = std::move(*found);
   } else {
@@ -221,36 +224,77 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   if (output_faces == 0) return empty_approximation(source);
   // The input's attributes from its vertex spill. A chunked finish's output that streams (PLY,
   // OBJ) holds its vertices for them; one that does not (Draco, memory) is gathered whole. When
-  // that would pass an explicit budget, the output goes without them, and says so.
+  // that would pass an explicit budget, the output goes without them, and says so. While the
+  // partition's files are at hand (a chunked finish) and the budget holds the search, each vertex
+  // takes the values of the input's surface under it, as in core; else of the nearest input vertex.
   auto t = Clock::now();
   format::AttributeKinds dropped;
   format::PartsAttributes parts_attributes;
   std::vector<format::VertexAttributes> parts_values;
   const stream::NormalsMode normals = normals_mode(o.normals);
-  if (result->parts && (result->attribute_spill || normals == stream::NormalsMode::kCompute)) {
+  const stream::VertexAttributeSpill* spill = result->attribute_spill.get();
+  const format::AttributeKinds input_kinds = spill ? spill->kinds() : format::AttributeKinds{};
+  const char* transfer = input_kinds.any() ? "nearest_vertex" : "none";
+  bool transferred = false;
+  if (result->parts && (spill || normals == stream::NormalsMode::kCompute)) {
     // A streamed output adds its vertices' share to what the process holds now (its resident set
     // once the allocator's free pages are handed back).
     const bool streams = api::whole_output_bytes_per_face(sink) == 0;
     if (streams) stream::release_free_memory();
-    const std::uint64_t need =
-        streams ? stream::current_rss() + result->parts->vertex_count() * kStreamedAttributeBytesPerVertex
-                : api::whole_output_bytes(sink, result->parts->face_count(), kAttributedBytesPerFace);
+    const std::uint64_t vertices = result->parts->vertex_count();
+    const std::uint64_t need = streams ? stream::current_rss() + vertices * kStreamedAttributeBytesPerVertex
+                                       : api::whole_output_bytes(sink, result->parts->face_count(), kAttributedBytesPerFace);
+    const std::uint64_t limit = options.memory_explicit ? options.memory.bytes() : options.memory_ceiling;
+    const bool surface = input_kinds.any() && result->input_triangles &&
+                         (limit == 0 || need + vertices * stream::kSurfaceValuesBytesPerVertex <= limit);
+    if (surface) transfer = "surface";
     if (options.memory_explicit && need > options.memory.bytes()) {
       dropped = result->input_attributes;
+      transfer = "none";
     } else if (streams) {
-      GM_RETURN_IF_ERROR(streamed_attributes(*result->parts, result->attribute_spill.get(), normals, parts_attributes, parts_values));
+      GM_RETURN_IF_ERROR(streamed_attributes(*result->parts, spill, surface ? &result->input_triangles : nullptr, normals,
+                                             parts_attributes, parts_values));
     } else {
       auto whole = api::gather(*result->parts);
       if (!whole) return whole.status();
       result->mesh = std::move(*whole);
+      if (surface) {
+        auto values = stream::surface_values(
+            result->input_triangles, [spill](const stream::VertexBatchFn& batch) { return spill->each(batch); }, input_kinds,
+            result->mesh.positions, stream::surface_area(result->mesh.positions, result->mesh.triangles));
+        if (!values) return values.status();
+        stream::assign_attributes(*values, input_kinds, normals, result->mesh);
+        transferred = true;
+      }
+      result->input_triangles = nullptr;  // it reads the partition's files, which go with the parts
       result->parts.reset();
     }
   }
-  if (!result->parts) {  // else it streams as it is read back, without attributes
-    const stream::VertexAttributeSpill* spill = result->attribute_spill.get();
-    GM_RETURN_IF_ERROR(stream::transfer_nearest_vertex(
-        [spill](const stream::VertexBatchFn& batch) { return spill ? spill->each(batch) : Status(); },
-        spill ? spill->kinds() : format::AttributeKinds{}, result->mesh, normals));
+  if (!result->parts && !transferred) {  // else it streams as it is read back, without attributes
+    const stream::VertexPassFn vertices = [spill](const stream::VertexBatchFn& batch) {
+      return spill ? spill->each(batch) : Status();
+    };
+    const std::uint64_t limit = options.memory_explicit ? options.memory.bytes() : options.memory_ceiling;
+    bool surface = input_kinds.any() && result->input_triangles;
+    if (surface && limit > 0) {
+      stream::release_free_memory();
+      surface = stream::current_rss() + result->mesh.positions.size() * stream::kSurfaceValuesBytesPerVertex <= limit;
+    }
+    if (surface) {
+      auto values = stream::surface_values(result->input_triangles, vertices, input_kinds, result->mesh.positions,
+                                           stream::surface_area(result->mesh.positions, result->mesh.triangles));
+      if (!values) return values.status();
+      stream::assign_attributes(*values, input_kinds, normals, result->mesh);
+      transfer = "surface";
+    } else {
+      GM_RETURN_IF_ERROR(stream::transfer_nearest_vertex(vertices, input_kinds, result->mesh, normals));
+    }
+  }
+  result->input_triangles = nullptr;
+  {
+    const auto cleanup = Clock::now();
+    result->input_partition.reset();  // and the partition's files it read
+    result->seconds_cleanup += seconds_since(cleanup);
   }
   result->attribute_spill.reset();  // and its file
   const double seconds_attributes = seconds_since(t);
@@ -290,6 +334,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   result->seconds_cleanup += seconds_since(t);
   finish_report(report, result->finish_options, result->finish, stats);
   if (result->finish) report["approximation"] = result->collapsed_input ? "input" : "gauss";
+  report["attribute_transfer"] = transfer;
   report["output_attributes"] = parts_attributes.kinds.any() ? output_attributes_json(parts_attributes.kinds)
                                                              : output_attributes_json(result->mesh);
   report["warnings"] = stats.warnings;
@@ -592,6 +637,8 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
                               result->orientation_index, *bytes);
   finish_report(report, finish, finished, stats);
   if (finished) report["approximation"] = collapsed_input ? "input" : "gauss";
+  // In core: the surface under each vertex, or the seams' own rule (stream/attributes/seams.h).
+  report["attribute_transfer"] = !has_attributes ? "none" : seams_kept ? "seams" : "surface";
   report["output_attributes"] = output_attributes_json(result->mesh);
   report["warnings"] = stats.warnings;
   if (measured) {

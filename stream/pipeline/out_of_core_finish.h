@@ -79,6 +79,7 @@ class ChunkedOutput : public format::MeshParts {
   format::Status vertices(const std::function<format::Status(std::span<const format::Vec3f>)>& batch) override;
   format::Status faces(const std::function<format::Status(std::span<const format::Triangle>)>& batch) override;
   void own(Partition partition) { partition_ = std::move(partition); }
+  const Partition& partition() const { return partition_; }  // the one own() gave
 
  private:
   Partition partition_;  // declared first, so that its directory goes last

@@ -876,6 +876,26 @@ std::string approximation_of(std::uint64_t samples) {
   return "an approximation of about " + std::to_string(2 * samples) + " faces";
 }
 
+// surface_values' pass over the input's triangles: every chunk's owned faces with their corners'
+// positions, numbered by the partition's face ids; it reads `partition`'s files.
+TrianglePassFn owned_triangles(const Partition& partition, std::uint32_t threads, const MemoryBudget& memory) {
+  return [kept = &partition, threads, memory](const TriangleBatchFn& batch) {
+    return for_each_chunk(
+        *kept, threads,
+        [&batch](std::size_t, const ChunkMesh& chunk, ChunkSamplerWorkspace&) {
+          std::vector<IndexedTriangle> owned;
+          owned.reserve(chunk.triangles.size());
+          for (std::size_t f = 0; f < chunk.triangles.size(); ++f) {
+            if (!chunk.owned_face[f]) continue;
+            const format::Triangle& t = chunk.triangles[f];
+            owned.push_back({{chunk.positions[t.v[0]], chunk.positions[t.v[1]], chunk.positions[t.v[2]]}, chunk.global_face[f]});
+          }
+          return batch(owned);
+        },
+        {}, memory);
+  };
+}
+
 format::Status simplify_input(Partition& partition, const OutOfCoreSimplifyOptions& options, OutOfCoreSimplify& out,
                               bool& done) {
   const std::uint64_t need = input_finish_memory_estimate(partition.faces);
@@ -922,6 +942,7 @@ format::Status simplify_input(Partition& partition, const OutOfCoreSimplifyOptio
     out.bytes_spilled = partition.bytes_spilled;
     // The output is read from the temporary directory when it is written: it goes with it.
     finished->output->own(std::move(partition));
+    if (out.attribute_spill) out.input_triangles = owned_triangles(finished->output->partition(), options.threads, chunked.memory);
     out.parts = std::move(finished->output);
     out.collapsed_input = true;
     done = true;
@@ -971,10 +992,16 @@ format::Status simplify_input(Partition& partition, const OutOfCoreSimplifyOptio
   out.mesh = std::move(finished->mesh);
   out.finish = std::move(finished).value();
   out.seconds_mesh = seconds_since(start);
-  const auto cleanup = Clock::now();
-  partition.remove_temp();
-  out.seconds_cleanup = seconds_since(cleanup);
   out.bytes_spilled = partition.bytes_spilled;
+  if (out.attribute_spill) {
+    // The input's triangles for its attributes: the caller lets the files go after them.
+    out.input_partition = std::make_shared<Partition>(std::move(partition));
+    out.input_triangles = owned_triangles(*out.input_partition, options.threads, options.memory);
+  } else {
+    const auto cleanup = Clock::now();
+    partition.remove_temp();
+    out.seconds_cleanup = seconds_since(cleanup);
+  }
   out.collapsed_input = true;
   done = true;
   return format::Status();

@@ -31,6 +31,7 @@
 #include "format/mesh_reader.h"
 #include "format/mesh_writer.h"
 #include "format/status.h"
+#include "stream/attributes/attribute_transfer.h"
 #include "stream/core/gauss_sphere.h"
 #include "stream/core/memory_budget.h"
 #include "stream/core/mesh.h"
@@ -126,6 +127,12 @@ struct OutOfCoreSimplify {
   std::uint64_t welded_vertices = 0;  // welded away by it (vertices counts the rest)
   format::AttributeKinds input_attributes;                // Partition's
   std::shared_ptr<VertexAttributeSpill> attribute_spill;  // Partition's
+  // With attribute_spill, when the finish collapsed the input: its triangles (every chunk's owned
+  // faces), what surface_values needs, read from the partition's files, which `parts` holds (a
+  // chunked finish) or `input_partition` (the input held whole); empty otherwise. Resetting
+  // input_partition removes the files.
+  TrianglePassFn input_triangles;
+  std::shared_ptr<Partition> input_partition;
   std::vector<std::string> ignored_vertex_values;    // Partition's
   std::vector<std::string> input_warnings;           // Partition's
   double seconds_reorder = 0;

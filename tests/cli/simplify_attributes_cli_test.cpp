@@ -73,22 +73,17 @@ stream::Mesh read_mesh(const std::string& path) {
   return m ? std::move(*m) : stream::Mesh{};
 }
 
-// The largest colour error of `out` against the colour function beyond 1/255 + slope times each
-// vertex's distance to its nearest input vertex (what the nearest-vertex rule allows); <= 0 when
-// every vertex is within it.
-double colour_excess(const stream::Mesh& out, const stream::Mesh& input, const Gradient& g) {
+// The largest colour error of `out` against the colour function beyond what the surface transfer
+// allows: the function at each vertex's nearest point of the input's surface, within the two
+// bytes' rounding (1/255), so 1/255 + the slope times the vertex's distance to the surface; <= 0
+// when every vertex is within it.
+double colour_excess_over_surface(const stream::Mesh& out, const stream::TriangleTree& surface, const Gradient& g) {
   double worst = -1;
   for (std::size_t v = 0; v < out.positions.size(); ++v) {
-    double nearest = 1e30;
-    const Vec3f& o = out.positions[v];
-    for (const Vec3f& p : input.positions) {
-      nearest = std::min(nearest, double(p.x - o.x) * (p.x - o.x) + double(p.y - o.y) * (p.y - o.y) + double(p.z - o.z) * (p.z - o.z));
-    }
-    const Color want = g.at(o);
-    for (int k = 0; k < 3; ++k) {
-      const double allowed = 1.0 / 255 + 1e-6 + std::sqrt(nearest) * g.slope();
-      worst = std::max(worst, std::abs((&out.colors[v].r)[k] - (&want.r)[k]) - allowed);
-    }
+    const Vec3f& p = out.positions[v];
+    const double allowed = 1.0 / 255 + 1e-6 + std::sqrt(surface.nearest_distance_squared({p.x, p.y, p.z})) * g.slope();
+    const Color want = g.at(p);
+    for (int k = 0; k < 3; ++k) worst = std::max(worst, std::abs((&out.colors[v].r)[k] - (&want.r)[k]) - allowed);
   }
   return worst;
 }
@@ -182,10 +177,11 @@ TEST(SimplifyAttributesCli, NormalsAreKeptComputedOrLeftOut) {
   EXPECT_EQ(run.exit_code, 1);
 }
 
-// Out of core the input's vertices and their attributes are spilled at the ingest and each
-// output vertex takes the nearest input vertex's: the plain approximation (input vertices) gives
-// the in-core bytes, from a file and from a pipe; a target gives colours within the slope times
-// the distance to the nearest input vertex; nothing is left in --tmp.
+// Out of core the input's vertices and their attributes are spilled at the ingest: the plain
+// approximation (input vertices, each taking the nearest input vertex's values) gives the in-core
+// bytes, from a file and from a pipe; with a target the input held whole gives them too, each
+// vertex taking the values of the surface under it from the partition's triangles; nothing is
+// left in --tmp.
 TEST(SimplifyAttributesCli, TheStreamingEngineKeepsThem) {
   ScratchDir dir, tmp;
   stream::Mesh input;
@@ -204,25 +200,32 @@ TEST(SimplifyAttributesCli, TheStreamingEngineKeepsThem) {
   EXPECT_EQ(read_mesh(streamed).colors.size(), read_mesh(streamed).positions.size());
   EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
 
-  const std::string target = dir.file("target.ply");
+  const std::string target = dir.file("target.ply"), target_in_core = dir.file("target-in-core.ply");
   run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(target) +
-                    " --ratio 0.1 --engine out-of-core --memory 64M" + budget);
+                    " --ratio 0.1 --engine out-of-core --memory 64M --report " + q(dir.file("r.json")) + budget);
   ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(read_file(dir.file("r.json")).find("\"attribute_transfer\": \"surface\""), std::string::npos);
+  EXPECT_EQ(read_file(dir.file("r.json")).find("\"chunked_finish\""), std::string::npos) << "the input held whole";
+  run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(target_in_core) + " --ratio 0.1 --engine in-core -q");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(read_file(target), read_file(target_in_core));
   const stream::Mesh out = read_mesh(target);
   ASSERT_EQ(out.colors.size(), out.positions.size());
   ASSERT_EQ(out.normals.size(), out.positions.size());
-  EXPECT_LE(colour_excess(out, input, g), 0.0);
+  EXPECT_LE(colour_excess_over_surface(out, stream::TriangleTree(input.view()), g), 0.0);
   EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
 }
 
 // A chunked finish's output that streams (PLY, OBJ) holds only its vertices to take the
-// attributes, so they are kept under the smallest budget: each vertex takes the nearest input
-// vertex's values, as without the chunked finish; --normals compute gives unit normals.
+// attributes, so they are kept under the smallest budget: each vertex takes the values of the
+// input's surface under it, from the partition's triangles, as in core; --normals compute gives
+// unit normals.
 TEST(SimplifyAttributesCli, AChunkedFinishStreamsItsAttributes) {
   ScratchDir dir, tmp;
   stream::Mesh input;
   const std::string in = coloured_copy("homer.off", dir.file("in.ply"), input);
   const Gradient g = gradient_of(input);
+  const stream::TriangleTree surface(input.view());
   for (const std::string& format : {std::string("ply"), std::string("obj")}) {
     for (const std::string& normals : {std::string("keep"), std::string("compute")}) {
       SCOPED_TRACE(format + " " + normals);
@@ -233,9 +236,10 @@ TEST(SimplifyAttributesCli, AChunkedFinishStreamsItsAttributes) {
       const std::string report = read_file(dir.file("r.json"));
       EXPECT_NE(report.find("\"chunked_finish\""), std::string::npos);
       EXPECT_EQ(report.find("too large to hold"), std::string::npos) << report;
+      EXPECT_NE(report.find("\"attribute_transfer\": \"surface\""), std::string::npos) << report;
       const stream::Mesh m = read_mesh(out);
       ASSERT_EQ(m.colors.size(), m.positions.size());
-      EXPECT_LE(colour_excess(m, input, g), 0.0);
+      EXPECT_LE(colour_excess_over_surface(m, surface, g), 0.0);
       if (format == "ply") {  // (gaussmesh reads an OBJ's colours, not its vt and vn)
         ASSERT_EQ(m.texcoords.size(), m.positions.size());
         ASSERT_EQ(m.normals.size(), m.positions.size());
@@ -247,6 +251,35 @@ TEST(SimplifyAttributesCli, AChunkedFinishStreamsItsAttributes) {
       EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
     }
   }
+}
+
+// A chunked finish's output to Draco is gathered whole, and takes the surface's values the same
+// way: a coloured torus of 100k faces to 10 % under 32 MiB (too large to collapse whole, its
+// output small enough to encode), read back within 1/255 + slope times the distance.
+TEST(SimplifyAttributesCli, AChunkedFinishToDracoTakesTheSurfacesValues) {
+  ScratchDir dir, tmp;
+  ShapeOptions shape;
+  shape.vertices = 50000;
+  stream::Mesh torus = make_torus(1.0, 0.35, shape);
+  const Gradient g = gradient_of(torus);
+  for (const Vec3f& p : torus.positions) torus.colors.push_back(g.at(p));
+  const std::string in = dir.file("in.ply"), out = dir.file("out.drc");
+  {
+    auto file = format::OutputFile::create(in, true);
+    ASSERT_TRUE(file);
+    ASSERT_TRUE(format::write_ply(**file, torus.view(), {}).is_ok());
+    ASSERT_TRUE((*file)->commit().is_ok());
+  }
+  auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(out) + " --ratio 0.1 --memory 32M --tmp " +
+                         q(tmp.path().string()) + " -q --report " + q(dir.file("r.json")));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::string report = read_file(dir.file("r.json"));
+  EXPECT_NE(report.find("\"chunked_finish\""), std::string::npos) << report;
+  EXPECT_NE(report.find("\"attribute_transfer\": \"surface\""), std::string::npos) << report;
+  const stream::Mesh m = read_mesh(out);
+  ASSERT_EQ(m.colors.size(), m.positions.size());
+  EXPECT_LE(colour_excess_over_surface(m, stream::TriangleTree(torus.view()), g), 0.0);
+  EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
 }
 
 // When even the vertices do not fit an explicit budget, the run writes the output without its
