@@ -696,6 +696,26 @@ format::Status SimplifyRun::finish() {
   return format::Status();
 }
 
+// surface_values' pass over the input's triangles: every chunk's owned faces with their corners'
+// positions, numbered by the partition's face ids; it reads `partition`'s files.
+TrianglePassFn owned_triangles(const Partition& partition, std::uint32_t threads, const MemoryBudget& memory) {
+  return [kept = &partition, threads, memory](const TriangleBatchFn& batch) {
+    return for_each_chunk(
+        *kept, threads,
+        [&batch](std::size_t, const ChunkMesh& chunk, ChunkSamplerWorkspace&) {
+          std::vector<IndexedTriangle> owned;
+          owned.reserve(chunk.triangles.size());
+          for (std::size_t f = 0; f < chunk.triangles.size(); ++f) {
+            if (!chunk.owned_face[f]) continue;
+            const format::Triangle& t = chunk.triangles[f];
+            owned.push_back({{chunk.positions[t.v[0]], chunk.positions[t.v[1]], chunk.positions[t.v[2]]}, chunk.global_face[f]});
+          }
+          return batch(owned);
+        },
+        {}, memory);
+  };
+}
+
 // The passes after the partition, for `spheres` (the exact test: every orientation in the sample
 // pass; the paper test: one), in order: sample, pieces, merge, chains (the paper test), loops,
 // the loop stitch, mesh (with its fetch rounds). `out` comes with the partition's figures. The
@@ -727,7 +747,6 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition& partition, std::
     out.seconds_cleanup = seconds_since(start);
   };
   if (options.samples_only) {
-    out.bytes_spilled = partition.bytes_spilled;
     out.seconds_stitch = stats.end_pass();
     cleanup();
     run.keep_samples();
@@ -743,6 +762,14 @@ format::Result<OutOfCoreSimplify> simplify_partition(Partition& partition, std::
   GM_RETURN_IF_ERROR(run.mesh());
   if (out.finish_options.enabled()) GM_RETURN_IF_ERROR(run.finish());
   out.seconds_mesh = stats.end_pass();
+  if (remove_temp && out.finish && out.attribute_spill) {
+    // The finish moved the approximation's vertices: their attributes come from the input's
+    // triangles, and the caller lets the files go after them.
+    out.bytes_spilled = partition.bytes_spilled;
+    out.input_partition = std::make_shared<Partition>(std::move(partition));
+    out.input_triangles = owned_triangles(*out.input_partition, options.threads, options.memory);
+    return out;
+  }
   cleanup();
   return out;
 }
@@ -874,26 +901,6 @@ format::Status too_large_for_budget(const std::string& what, std::uint64_t need,
 
 std::string approximation_of(std::uint64_t samples) {
   return "an approximation of about " + std::to_string(2 * samples) + " faces";
-}
-
-// surface_values' pass over the input's triangles: every chunk's owned faces with their corners'
-// positions, numbered by the partition's face ids; it reads `partition`'s files.
-TrianglePassFn owned_triangles(const Partition& partition, std::uint32_t threads, const MemoryBudget& memory) {
-  return [kept = &partition, threads, memory](const TriangleBatchFn& batch) {
-    return for_each_chunk(
-        *kept, threads,
-        [&batch](std::size_t, const ChunkMesh& chunk, ChunkSamplerWorkspace&) {
-          std::vector<IndexedTriangle> owned;
-          owned.reserve(chunk.triangles.size());
-          for (std::size_t f = 0; f < chunk.triangles.size(); ++f) {
-            if (!chunk.owned_face[f]) continue;
-            const format::Triangle& t = chunk.triangles[f];
-            owned.push_back({{chunk.positions[t.v[0]], chunk.positions[t.v[1]], chunk.positions[t.v[2]]}, chunk.global_face[f]});
-          }
-          return batch(owned);
-        },
-        {}, memory);
-  };
 }
 
 format::Status simplify_input(Partition& partition, const OutOfCoreSimplifyOptions& options, OutOfCoreSimplify& out,
