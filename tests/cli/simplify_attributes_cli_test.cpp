@@ -179,9 +179,9 @@ TEST(SimplifyAttributesCli, NormalsAreKeptComputedOrLeftOut) {
 
 // Out of core the input's vertices and their attributes are spilled at the ingest: the plain
 // approximation (input vertices, each taking the nearest input vertex's values) gives the in-core
-// bytes, from a file and from a pipe; with a target the input held whole gives them too, each
-// vertex taking the values of the surface under it from the partition's triangles; nothing is
-// left in --tmp.
+// bytes, from a file and from a pipe; with a target, whether the finish collapses the input held
+// whole or a Gauss approximation, it gives them too, each vertex taking the values of the surface
+// under it from the partition's triangles; nothing is left in --tmp.
 TEST(SimplifyAttributesCli, TheStreamingEngineKeepsThem) {
   ScratchDir dir, tmp;
   stream::Mesh input;
@@ -200,20 +200,27 @@ TEST(SimplifyAttributesCli, TheStreamingEngineKeepsThem) {
   EXPECT_EQ(read_mesh(streamed).colors.size(), read_mesh(streamed).positions.size());
   EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
 
-  const std::string target = dir.file("target.ply"), target_in_core = dir.file("target-in-core.ply");
-  run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(target) +
-                    " --ratio 0.1 --engine out-of-core --memory 64M --report " + q(dir.file("r.json")) + budget);
-  ASSERT_EQ(run.exit_code, 0) << run.err;
-  EXPECT_NE(read_file(dir.file("r.json")).find("\"attribute_transfer\": \"surface\""), std::string::npos);
-  EXPECT_EQ(read_file(dir.file("r.json")).find("\"chunked_finish\""), std::string::npos) << "the input held whole";
-  run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(target_in_core) + " --ratio 0.1 --engine in-core -q");
-  ASSERT_EQ(run.exit_code, 0) << run.err;
-  EXPECT_TRUE(read_file(target) == read_file(target_in_core)) << "the out-of-core output differs from the in-core one";
-  const stream::Mesh out = read_mesh(target);
-  ASSERT_EQ(out.colors.size(), out.positions.size());
-  ASSERT_EQ(out.normals.size(), out.positions.size());
-  EXPECT_LE(colour_excess_over_surface(out, stream::TriangleTree(input.view()), g), 0.0);
-  EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
+  // 10 %: the finish collapses the input; 0.5 %: a Gauss approximation's vertices.
+  for (const std::string ratio : {"0.1", "0.005"}) {
+    SCOPED_TRACE(ratio);
+    const std::string target = dir.file("target.ply"), target_in_core = dir.file("target-in-core.ply");
+    run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(target) + " --ratio " + ratio +
+                      " --engine out-of-core --memory 64M --report " + q(dir.file("r.json")) + budget);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const std::string report = read_file(dir.file("r.json"));
+    EXPECT_NE(report.find("\"attribute_transfer\": \"surface\""), std::string::npos);
+    EXPECT_NE(report.find(ratio == "0.1" ? "\"approximation\": \"input\"" : "\"approximation\": \"gauss\""), std::string::npos);
+    EXPECT_EQ(report.find("\"chunked_finish\""), std::string::npos) << "the input held whole";
+    run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(target_in_core) + " --ratio " + ratio +
+                      " --engine in-core -q");
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_TRUE(read_file(target) == read_file(target_in_core)) << "the out-of-core output differs from the in-core one";
+    const stream::Mesh out = read_mesh(target);
+    ASSERT_EQ(out.colors.size(), out.positions.size());
+    ASSERT_EQ(out.normals.size(), out.positions.size());
+    EXPECT_LE(colour_excess_over_surface(out, stream::TriangleTree(input.view()), g), 0.0);
+    EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
+  }
 }
 
 // A chunked finish's output that streams (PLY, OBJ) holds only its vertices to take the
