@@ -101,9 +101,9 @@ void finish_report(Json& report, const stream::FinishOptions& o, const std::opti
 // the search's state.
 constexpr std::uint64_t kAttributedBytesPerFace = 18 + 60;
 // What a streamed output (PLY, OBJ) holds a vertex to take its attributes: its position, its
-// values (format::VertexAttributes, 36 B) and the search's state (the best distance, the grid and
-// its list of open vertices); its faces stream.
-constexpr std::uint64_t kStreamedAttributeBytesPerVertex = 12 + 36 + 8 + 16;
+// values (format::VertexAttributes, 36 B) and the search's state (the best distance, the list of
+// open vertices, the grid at its peak: about 30 B); its faces stream.
+constexpr std::uint64_t kStreamedAttributeBytesPerVertex = 12 + 36 + 8 + 4 + 30;
 
 Json output_attributes_json(const Mesh& mesh) {
   return {{"normals", !mesh.normals.empty()}, {"colors", !mesh.colors.empty()}, {"texcoords", !mesh.texcoords.empty()}};

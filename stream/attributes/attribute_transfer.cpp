@@ -12,7 +12,6 @@
 #include <cmath>
 #include <limits>
 #include <mutex>
-#include <unordered_map>
 #include <vector>
 
 #include "stream/analysis/mesh_distance.h"
@@ -43,7 +42,9 @@ void lower(std::atomic<std::uint64_t>& slot, std::uint64_t word) {
 }
 
 // The chosen vertices of the output in cells of side `cell`: a triangle visits the cells its
-// box, grown by the search radius, overlaps.
+// box, grown by the search radius, overlaps. The vertices are held cell after cell, and the
+// occupied cells in an open-addressing table (about 18 bytes a vertex in all), since the out-of-core
+// transfers hold the grid within the budget beside the output.
 class VertexGrid {
  public:
   VertexGrid(const std::vector<Vec3f>& positions, const std::vector<std::uint32_t>& chosen, double cell) : cell_(cell) {
@@ -53,17 +54,29 @@ class VertexGrid {
       const Vec3f& p = positions[v];
       lo_ = {std::min(lo_.x, double(p.x)), std::min(lo_.y, double(p.y)), std::min(lo_.z, double(p.z))};
     }
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed;
-    keyed.reserve(chosen.size());
-    for (std::uint32_t v : chosen) keyed.push_back({key(cell_of(positions[v])), v});
-    std::sort(keyed.begin(), keyed.end());
-    vertices_.reserve(keyed.size());
-    for (std::size_t i = 0; i < keyed.size(); ++i) {
-      if (i == 0 || keyed[i].first != keyed[i - 1].first) cells_[keyed[i].first] = {std::uint32_t(i), std::uint32_t(i)};
-      vertices_.push_back(keyed[i].second);
-      cells_[keyed[i].first].second = std::uint32_t(i + 1);
+    std::vector<std::uint64_t> keys;  // of the occupied cells, ascending
+    {
+      std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed;
+      keyed.reserve(chosen.size());
+      for (std::uint32_t v : chosen) keyed.push_back({key(cell_of(positions[v])), v});
+      std::sort(keyed.begin(), keyed.end());
+      vertices_.reserve(keyed.size());
+      for (std::size_t i = 0; i < keyed.size(); ++i) {
+        if (i == 0 || keyed[i].first != keyed[i - 1].first) keys.push_back(keyed[i].first), starts_.push_back(std::uint32_t(i));
+        vertices_.push_back(keyed[i].second);
+      }
     }
-    all_ = chosen;
+    starts_.push_back(std::uint32_t(vertices_.size()));
+    std::size_t size = 16;
+    while (size < 2 * keys.size()) size *= 2;
+    table_keys_.assign(size, kEmpty);
+    table_cells_.resize(size);
+    for (std::uint32_t c = 0; c < keys.size(); ++c) {
+      std::size_t i = slot(keys[c]);
+      while (table_keys_[i] != kEmpty) i = (i + 1) & (size - 1);
+      table_keys_[i] = keys[c];
+      table_cells_[i] = c;
+    }
   }
 
   // The last cell looked up, per caller: neighbouring triangles mostly meet the same cell.
@@ -79,8 +92,8 @@ class VertexGrid {
     const std::array<std::int64_t, 3> a = cell_of(Vec3d{lo.x - r, lo.y - r, lo.z - r});
     const std::array<std::int64_t, 3> b = cell_of(Vec3d{hi.x + r, hi.y + r, hi.z + r});
     const double span = double(b[0] - a[0] + 1) * double(b[1] - a[1] + 1) * double(b[2] - a[2] + 1);
-    if (span > double(all_.size())) {
-      for (std::uint32_t v : all_) fn(v);
+    if (span > double(vertices_.size())) {
+      for (std::uint32_t v : vertices_) fn(v);
       return;
     }
     for (std::int64_t x = a[0]; x <= b[0]; ++x) {
@@ -88,9 +101,8 @@ class VertexGrid {
         for (std::int64_t z = a[2]; z <= b[2]; ++z) {
           const std::uint64_t k = key({x, y, z});
           if (k != cursor.key) {
-            const auto it = cells_.find(k);
             cursor.key = k;
-            cursor.range = it == cells_.end() ? std::pair<std::uint32_t, std::uint32_t>{0, 0} : it->second;
+            cursor.range = find(k);
           }
           for (std::uint32_t i = cursor.range.first; i < cursor.range.second; ++i) fn(vertices_[i]);
         }
@@ -99,6 +111,16 @@ class VertexGrid {
   }
 
  private:
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};  // no cell's key (those use 63 bits)
+
+  std::size_t slot(std::uint64_t k) const { return (k * 0x9E3779B97F4A7C15ull >> 20) & (table_keys_.size() - 1); }
+  // The range of vertices_ in cell k (empty when no chosen vertex is there).
+  std::pair<std::uint32_t, std::uint32_t> find(std::uint64_t k) const {
+    for (std::size_t i = slot(k);; i = (i + 1) & (table_keys_.size() - 1)) {
+      if (table_keys_[i] == k) return {starts_[table_cells_[i]], starts_[table_cells_[i] + 1]};
+      if (table_keys_[i] == kEmpty) return {0, 0};
+    }
+  }
   std::array<std::int64_t, 3> cell_of(const Vec3d& p) const {
     // Clamped to ±2^20 cells from the chosen vertices' corner: beyond that the box spans all.
     auto c = [&](double value, double origin) {
@@ -113,8 +135,10 @@ class VertexGrid {
 
   double cell_;
   Vec3d lo_;
-  std::unordered_map<std::uint64_t, std::pair<std::uint32_t, std::uint32_t>> cells_;
-  std::vector<std::uint32_t> vertices_, all_;
+  std::vector<std::uint32_t> vertices_;    // the chosen vertices, cell after cell
+  std::vector<std::uint32_t> starts_;      // each occupied cell's first entry in vertices_, then the end
+  std::vector<std::uint64_t> table_keys_;  // open addressing: a cell's key, or kEmpty
+  std::vector<std::uint32_t> table_cells_;  // its index in starts_
 };
 
 Vec3f normalised(double x, double y, double z) {
@@ -430,8 +454,7 @@ format::Result<std::vector<format::VertexAttributes>> surface_values(const Trian
                                                                      const format::AttributeKinds& kinds,
                                                                      const std::vector<Vec3f>& positions, double area) {
   const std::size_t n = positions.size();
-  std::vector<format::VertexAttributes> values(n);
-  if (n == 0 || !kinds.any()) return values;
+  if (n == 0 || !kinds.any()) return std::vector<format::VertexAttributes>(n);
   // Each vertex's nearest triangle so far (as transfer_attributes' words) and that triangle's
   // corners, written together under one of the stripes' locks.
   std::vector<std::atomic<std::uint64_t>> best(n);
@@ -487,6 +510,7 @@ format::Result<std::vector<format::VertexAttributes>> surface_values(const Trian
       return format::Status::error(format::Code::kProcessing, "attributes",
                                    "a corner of an input triangle matches no input vertex's position");
   }
+  std::vector<format::VertexAttributes> values(n);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& range) {
     for (std::size_t v = range.begin(); v < range.end(); ++v)
       values[v] = has[v] ? interpolate(corners[v], &corner_values[3 * v], positions[v], kinds)

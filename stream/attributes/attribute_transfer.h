@@ -83,9 +83,10 @@ format::Result<std::vector<format::VertexAttributes>> surface_values(const Trian
                                                                      const format::AttributeKinds& kinds,
                                                                      const std::vector<format::Vec3f>& positions,
                                                                      double area);
-// What surface_values holds per output vertex at its peak: the winning triangle's corners and
-// their values, the corners' lookup by position, and the values found.
-inline constexpr std::uint64_t kSurfaceValuesBytesPerVertex = 36 + 108 + 48 + 48 + 36;
+// What surface_values holds per output vertex at its peak, the pass over the input's vertices:
+// the winning triangle's corners (36 B) and their values (108 B), the corners' lookup by
+// position (entries, ranges and table: up to 112 B), whether it found a triangle (1 B).
+inline constexpr std::uint64_t kSurfaceValuesBytesPerVertex = 36 + 108 + 112 + 1;
 
 double surface_area(const std::vector<format::Vec3f>& positions, std::span<const format::Triangle> triangles);
 // vertex_normals for faces that stream: each face's area-weighted normal added to its corners'
