@@ -155,6 +155,17 @@ Status streamed_attributes(format::MeshParts& parts, const stream::VertexAttribu
   return Status();
 }
 
+// Gives `mesh` the values of the input's surface under each vertex (surface_values): the input's
+// triangles and its vertices streamed, normals by `normals`.
+Status surface_attributes(const stream::TrianglePassFn& triangles, const stream::VertexPassFn& vertices,
+                          const format::AttributeKinds& kinds, stream::NormalsMode normals, Mesh& mesh) {
+  auto values = stream::surface_values(triangles, vertices, kinds, mesh.positions,
+                                       stream::surface_area(mesh.positions, mesh.triangles));
+  if (!values) return values.status();
+  stream::assign_attributes(*values, kinds, normals, mesh);
+  return Status();
+}
+
 // The reader's own warnings (what it skipped), one for the input's per-vertex values it did not
 // understand, and one for the attributes the run drops (the chunked finish's output), each
 // naming what.
@@ -234,6 +245,9 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   const stream::NormalsMode normals = normals_mode(o.normals);
   const stream::VertexAttributeSpill* spill = result->attribute_spill.get();
   const format::AttributeKinds input_kinds = spill ? spill->kinds() : format::AttributeKinds{};
+  const stream::VertexPassFn vertices = [spill](const stream::VertexBatchFn& batch) {
+    return spill ? spill->each(batch) : Status();
+  };
   const char* transfer = input_kinds.any() ? "nearest_vertex" : "none";
   bool transferred = false;
   if (result->parts && (spill || normals == stream::NormalsMode::kCompute)) {
@@ -241,12 +255,12 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
     // once the allocator's free pages are handed back).
     const bool streams = api::whole_output_bytes_per_face(sink) == 0;
     if (streams) stream::release_free_memory();
-    const std::uint64_t vertices = result->parts->vertex_count();
-    const std::uint64_t need = streams ? stream::current_rss() + vertices * kStreamedAttributeBytesPerVertex
+    const std::uint64_t held = result->parts->vertex_count();
+    const std::uint64_t need = streams ? stream::current_rss() + held * kStreamedAttributeBytesPerVertex
                                        : api::whole_output_bytes(sink, result->parts->face_count(), kAttributedBytesPerFace);
     const std::uint64_t limit = options.memory_explicit ? options.memory.bytes() : options.memory_ceiling;
     const bool surface = input_kinds.any() && result->input_triangles &&
-                         (limit == 0 || need + vertices * stream::kSurfaceValuesBytesPerVertex <= limit);
+                         (limit == 0 || need + held * stream::kSurfaceValuesBytesPerVertex <= limit);
     if (surface) transfer = "surface";
     if (options.memory_explicit && need > options.memory.bytes()) {
       dropped = result->input_attributes;
@@ -259,11 +273,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
       if (!whole) return whole.status();
       result->mesh = std::move(*whole);
       if (surface) {
-        auto values = stream::surface_values(
-            result->input_triangles, [spill](const stream::VertexBatchFn& batch) { return spill->each(batch); }, input_kinds,
-            result->mesh.positions, stream::surface_area(result->mesh.positions, result->mesh.triangles));
-        if (!values) return values.status();
-        stream::assign_attributes(*values, input_kinds, normals, result->mesh);
+        GM_RETURN_IF_ERROR(surface_attributes(result->input_triangles, vertices, input_kinds, normals, result->mesh));
         transferred = true;
       }
       result->input_triangles = nullptr;  // it reads the partition's files, which go with the parts
@@ -271,9 +281,6 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
     }
   }
   if (!result->parts && !transferred) {  // else it streams as it is read back, without attributes
-    const stream::VertexPassFn vertices = [spill](const stream::VertexBatchFn& batch) {
-      return spill ? spill->each(batch) : Status();
-    };
     const std::uint64_t limit = options.memory_explicit ? options.memory.bytes() : options.memory_ceiling;
     bool surface = input_kinds.any() && result->input_triangles;
     if (surface && limit > 0) {
@@ -281,10 +288,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
       surface = stream::current_rss() + result->mesh.positions.size() * stream::kSurfaceValuesBytesPerVertex <= limit;
     }
     if (surface) {
-      auto values = stream::surface_values(result->input_triangles, vertices, input_kinds, result->mesh.positions,
-                                           stream::surface_area(result->mesh.positions, result->mesh.triangles));
-      if (!values) return values.status();
-      stream::assign_attributes(*values, input_kinds, normals, result->mesh);
+      GM_RETURN_IF_ERROR(surface_attributes(result->input_triangles, vertices, input_kinds, normals, result->mesh));
       transfer = "surface";
     } else {
       GM_RETURN_IF_ERROR(stream::transfer_nearest_vertex(vertices, input_kinds, result->mesh, normals));
