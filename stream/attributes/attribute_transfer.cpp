@@ -153,17 +153,25 @@ double grid_cell(const std::vector<Vec3f>& positions, double area) {
   return cell > 0 && std::isfinite(cell) ? cell : 1;
 }
 
+// Vertices left open after a round that the next round searches at any distance: each element
+// of the input then tests each of them, which costs less than another pass per doubling.
+constexpr std::size_t kFewOpen = 8;
+
 // Rounds of a search from the output's vertices, each over the whole input with a search radius:
 // round(grid, radius) visits the input against a grid of the vertices still open, and a vertex
 // for which found(v) holds after a round is done. The first radius is a quarter of a grid cell
 // (of about the output's vertex spacing): the input's elements then mostly meet one cell, and
-// the output's distance to the input rarely passes it; each further round doubles it.
+// the output's distance to the input rarely passes it; each further round doubles it, or, when
+// at most kFewOpen vertices are left, is infinite (the last round). A vertex's answer, its
+// nearest element, does not depend on the radius that found it.
 template <class Round, class Found>
 format::Status search_rounds(const std::vector<Vec3f>& positions, double area, Round&& round, Found&& found) {
   const double cell = grid_cell(positions, area);
   std::vector<std::uint32_t> open(positions.size());
   for (std::size_t v = 0; v < open.size(); ++v) open[v] = std::uint32_t(v);
   for (double radius = cell / 4; !open.empty() && std::isfinite(radius); radius *= 2) {
+    const bool last = radius > cell / 4 && open.size() <= kFewOpen;
+    if (last) radius = std::numeric_limits<double>::infinity();
     GM_RETURN_IF_ERROR(round(VertexGrid(positions, open, cell), radius));
     std::erase_if(open, found);
   }

@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <limits>
 
 #include "stream/analysis/mesh_distance.h"
 #include "stream/attributes/attribute_transfer.h"
@@ -264,6 +265,41 @@ TEST(AttributeTransfer, StreamedCornersTakeTheFirstVertexAtTheirPlace) {
   auto missing = surface_values(moved, streamed.vertices(), {false, true, false}, at, 1.0);
   ASSERT_FALSE(missing.is_ok());
   EXPECT_EQ(missing.status().code(), format::Code::kProcessing);
+}
+
+
+// Vertices far from the input (a few, and more than the last round at any distance takes) get
+// their nearest triangle's values as a search over every triangle finds it: the rounds' radius
+// does not change the answer, held or streamed.
+TEST(AttributeTransfer, VerticesFarFromTheInputGetTheirNearestTrianglesValues) {
+  const Mesh input = coloured_torus(3000);
+  const StreamedInput streamed(input);
+  for (std::size_t far : {1, 3, 20}) {
+    SCOPED_TRACE(far);
+    Mesh output;
+    for (std::size_t v = 0; v < 200; ++v) output.positions.push_back(input.positions[5 * v]);
+    for (std::size_t k = 0; k < far; ++k) output.positions.push_back({3.0f + 0.7f * k, -2.0f + 0.3f * k, 1.5f - 0.2f * k});
+    output.triangles = {{{0, 1, 2}}};
+    transfer_attributes(input.view(), output, NormalsMode::kKeep);
+    auto values = surface_values(streamed.triangles(), streamed.vertices(), {true, true, true}, output.positions,
+                                 surface_area(output.positions, output.triangles));
+    ASSERT_TRUE(values.is_ok()) << values.status().message();
+    for (std::size_t v = 0; v < output.positions.size(); ++v) {
+      const Vec3d p = to_d(output.positions[v]);
+      std::size_t nearest = 0;
+      float best = std::numeric_limits<float>::infinity();
+      for (std::size_t f = 0; f < input.triangles.size(); ++f) {
+        const auto& t = input.triangles[f].v;
+        const float d = float(point_triangle_distance_squared(p, to_d(input.positions[t[0]]), to_d(input.positions[t[1]]),
+                                                              to_d(input.positions[t[2]])));
+        if (d < best) best = d, nearest = f;
+      }
+      const format::VertexAttributes want = values_at(input.view(), input.triangles[nearest], output.positions[v], {true, true, true});
+      EXPECT_EQ(output.colors[v], want.color) << v;
+      EXPECT_EQ((*values)[v].color, want.color) << v;
+      EXPECT_EQ((*values)[v].texcoord, want.texcoord) << v;
+    }
+  }
 }
 
 }  // namespace
