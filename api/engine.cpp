@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <optional>
 #include <span>
+#include <string>
 #include <thread>
 
 #include "api/internal.h"
@@ -45,6 +46,25 @@ constexpr std::uint64_t kObjPositionBytes = 28, kObjTexcoordBytes = 8, kObjNorma
 
 // The partition refuses smaller budgets; the API checks before choosing an engine.
 static_assert(kMinMemory == stream::kMinPartitionMemory);
+static_assert(kInCoreMaxFileBytes == kInCoreMaxFaces * kMinBytesPerFace);
+
+// A regular file the job will read from its start, and its size: the source's file, or standard
+// input redirected from one (or a copy the command line made of a pipe), which a count reopens
+// through /proc/self/fd/0 (a description of its own, so the job's read is not moved).
+struct RegularInput {
+  std::string path;
+  std::uint64_t size = 0;
+};
+std::optional<RegularInput> regular_input(const Source& source) {
+  struct stat st {};
+  if (source.kind == Source::Kind::kFile) {
+    if (::stat(source.path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return std::nullopt;
+    return RegularInput{source.path, static_cast<std::uint64_t>(st.st_size)};
+  }
+  if (source.kind != Source::Kind::kStandardInput) return std::nullopt;
+  if (::fstat(STDIN_FILENO, &st) != 0 || !S_ISREG(st.st_mode) || ::lseek(STDIN_FILENO, 0, SEEK_CUR) != 0) return std::nullopt;
+  return RegularInput{"/proc/self/fd/0", static_cast<std::uint64_t>(st.st_size)};
+}
 
 }  // namespace
 
@@ -78,14 +98,9 @@ Result<EngineChoice> choose_engine(const Source& source, const ResourceOptions& 
     }
     return choice;
   }
-  bool known = false;  // a regular file's size; a pipe's is not known
-  if (source.kind == Source::Kind::kFile) {
-    struct stat st {};
-    if (::stat(source.path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) {
-      known = true;
-      choice.estimated_faces = static_cast<std::uint64_t>(st.st_size) / kMinBytesPerFace;
-    }
-  }
+  const std::optional<RegularInput> regular = regular_input(source);  // a pipe's size is not known
+  const bool known = regular.has_value();
+  if (known) choice.estimated_faces = regular->size / kMinBytesPerFace;
   if (resources.engine != Engine::kAuto) {
     choice.engine = resources.engine;
     return choice;
@@ -150,32 +165,32 @@ class TexturedFaceCount final : public format::MeshSink {
 
 void keep_seams_in_core(const Source& source, const ResourceOptions& resources, std::uint64_t extra_bytes_per_face,
                         EngineChoice& choice) {
-  if (resources.engine != Engine::kAuto || choice.engine != Engine::kOutOfCore || source.kind != Source::Kind::kFile ||
-      source.path == "-" ||
+  if (resources.engine != Engine::kAuto || choice.engine != Engine::kOutOfCore ||
       (source.format != MeshFormat::kUnknown && source.format != MeshFormat::kObj && source.format != MeshFormat::kPly)) {
     return;
   }
-  struct stat st {};
-  if (::stat(source.path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return;
+  const std::optional<RegularInput> regular = regular_input(source);
+  if (!regular) return;
+  const std::string& path = regular->path;
   const std::uint64_t limit = resources.memory_bytes != 0 ? resources.memory_bytes : usable_memory() / 4;
   const std::uint64_t per_face = kInCoreBytesPerFace + kCornerValuesBytesPerFace + extra_bytes_per_face;
   if (limit <= kProcessBytes) return;
   const std::uint64_t enough = (limit - kProcessBytes) / per_face;
   // Any error here is the reader's to say when the run reads the file.
-  auto bytes = format::ByteSource::open(source.path);
+  auto bytes = format::ByteSource::open(path);
   if (!bytes) return;
   MeshFormat format = source.format;
   if (format == MeshFormat::kUnknown) {
     auto detected = format::detect_format(**bytes);
     if (!detected) return;
-    format = *detected != MeshFormat::kUnknown ? *detected : format::format_from_extension(source.path);
+    format = *detected != MeshFormat::kUnknown ? *detected : format::format_from_extension(path);
   }
   std::optional<std::uint64_t> triangles;
   std::uint64_t held = 0;  // what the file's lists take beyond its faces
   if (format == MeshFormat::kObj) {
     auto slash = format::any_slash(**bytes);
     if (!slash || !*slash) return;
-    bytes = format::ByteSource::open(source.path);
+    bytes = format::ByteSource::open(path);
     if (!bytes) return;
     auto census = format::census_obj(**bytes, enough);
     if (census && census->complete && census->corner_values) {

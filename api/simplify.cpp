@@ -720,7 +720,7 @@ Result<SimplifyStats> simplify_job(const Source& source, const Sink& sink, const
   // A target's finish adds to the in-core working set (the input path holds ~kInputBytesPerFace
   // more a face): the automatic choice counts it, so that an explicit budget still holds.
   if (engine->engine == Engine::kInCore && options.resources.engine == Engine::kAuto && options.target.any() &&
-      source.kind == Source::Kind::kFile) {
+      (source.kind == Source::Kind::kFile || source.kind == Source::Kind::kStandardInput)) {
     const std::uint64_t limit =
         options.resources.memory_bytes != 0 ? options.resources.memory_bytes : api::usable_memory() / 4;
     const std::uint64_t faces = engine->estimated_faces;

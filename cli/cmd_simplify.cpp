@@ -10,6 +10,7 @@
 #include "cli/memory_guard.h"
 #include "cli/resource_options.h"
 #include "cli/sampling_options.h"
+#include "cli/stdin_spool.h"
 
 namespace gaussmesh::cli {
 namespace {
@@ -113,6 +114,12 @@ int run_simplify(const SimplifyArgs& args, const std::function<bool(const char*)
   MemoryGuard guard(guarded_budget(options.resources));
   options.resources.progress = guard.noting_pass(progress.callback());
   const Sink sink = Sink::file(args.output, *output_format);
+  // A pipe small enough for the size rule to hold in core is read as the file it carries.
+  if (args.input == "-" && options.resources.engine == Engine::kAuto) {
+    if (Status spooled = spool_standard_input(options.resources.tmp_dir, kInCoreMaxFileBytes); !spooled) {
+      return report_error(spooled);
+    }
+  }
   auto stats = simplify(Source::file(args.input, input_format), sink, options);
   if (!stats) return report_error(stats.status());
   if (verbosity() >= 1) {

@@ -130,15 +130,20 @@ std::uint64_t auto_memory_budget();
 // kInCore when the input is small enough that in core is faster (at most kInCoreMaxFaces
 // faces) and its in-core working set (in_core_bytes) fits the budget — the explicit one, else a
 // quarter of usable memory; kOutOfCore otherwise. An explicit budget above a memory cgroup's or
-// an rlimit's limit is kResources. Standard input of unknown size streams. A
-// forced engine is returned as is. The face count is estimated from the file size. simplify
-// also holds a textured OBJ or PLY when its counted faces fit (docs/api.md).
+// an rlimit's limit is kResources. Standard input that is a regular file (`< file`) counts as
+// that file; of unknown size (a pipe) it streams. A forced engine is returned as is. The face
+// count is estimated from the file size. simplify also holds a textured OBJ or PLY when its
+// counted faces fit (docs/api.md).
 struct EngineChoice {
   Engine engine = Engine::kOutOfCore;
   std::uint64_t memory_bytes = 0;     // the budget of an out-of-core run
-  std::uint64_t estimated_faces = 0;  // from the file size (0 for standard input)
+  std::uint64_t estimated_faces = 0;  // from the file size (0 for standard input of unknown size)
 };
 inline constexpr std::uint64_t kInCoreMaxFaces = std::uint64_t{4} << 20;
+// The largest file the size rule may hold in core: kInCoreMaxFaces at the fewest bytes a face
+// takes in any format read (16). A pipe no longer than this is worth copying to a file first,
+// so that it is chosen as that file is (the command line does: docs/cli.md).
+inline constexpr std::uint64_t kInCoreMaxFileBytes = kInCoreMaxFaces * 16;
 std::uint64_t in_core_bytes(std::uint64_t faces);
 Result<EngineChoice> choose_engine(const Source& source, const ResourceOptions& resources);
 

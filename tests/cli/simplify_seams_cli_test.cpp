@@ -295,6 +295,33 @@ TEST(SimplifySeamsCli, AnObjThatFitsWhenCountedRunsInCoreAndKeepsItsSeams) {
   EXPECT_NE(tight.err.find("texture coordinates (vt"), std::string::npos) << tight.err;
 }
 
+// From a pipe the same sphere is copied to a file first (it is shorter than the largest file the
+// size rule holds in core), so it is counted and read as that file: in core, its seams kept, the
+// file's bytes, nothing left in --tmp. Forced to stream, the pipe is not copied, and the run
+// says what it does not keep.
+TEST(SimplifySeamsCli, ATexturedObjFromAPipeIsReadAsTheFile) {
+  ScratchDir dir, tmp;
+  const std::string in = dir.file("sphere.obj");
+  write_file(in, uv_sphere_obj(40, 80));
+  const std::string tmp_flag = " --tmp " + q(tmp.path().string());
+  tenth(dir, in, "file.obj", "--memory 24M");
+  for (const std::string engine : {"", " --engine out-of-core"}) {
+    SCOPED_TRACE(engine);
+    auto run = run_command("cat " + q(in) + " | " + q(gaussmesh_binary()) + " simplify - -o " + q(dir.file("piped.obj")) +
+                           " --ratio 0.1 --memory 24M" + engine + tmp_flag + " --report " + q(dir.file("piped.json")));
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const auto report = nlohmann::json::parse(read_file(dir.file("piped.json")));
+    EXPECT_EQ(report["out_of_core"].get<bool>(), !engine.empty());
+    EXPECT_EQ(report["output_attributes"]["texcoords"].get<bool>(), engine.empty());
+    EXPECT_EQ(run.err.find("texture coordinates (vt") == std::string::npos, engine.empty()) << run.err;
+    if (engine.empty()) {
+      EXPECT_TRUE(read_file(dir.file("piped.obj")) == read_file(dir.file("file.obj")));
+      expect_seam_kept(read_with_corners(dir.file("piped.obj")));
+    }
+    EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
+  }
+}
+
 // A PLY split at its seams (the same sphere) is counted the same way; forced to stream, the run
 // says that its seams are simplified apart.
 TEST(SimplifySeamsCli, APlySplitAtItsSeamsThatFitsWhenCountedRunsInCore) {
