@@ -92,7 +92,7 @@ TEST(SimplifyTargetCli, InCoreOutOfCoreAndPipeGiveTheSameBytes) {
       ASSERT_EQ(ooc.exit_code, 0) << ooc.err;
       const std::string ext = std::string(name).substr(std::string(name).rfind('.') + 1);
       const auto piped = run_command("cat " + in + " | " + binary() + " simplify - --input-format " + ext + " " + target +
-                                     " -o - --memory 64M --threads 1 --tmp " + q(tmp.path().string()) + " > " +
+                                     " -o - --memory 64M --engine out-of-core --threads 1 --tmp " + q(tmp.path().string()) + " > " +
                                      q(dir.file("c.drc")));
       ASSERT_EQ(piped.exit_code, 0) << piped.err;
       const std::string a = read_file(dir.file("a.drc"));
@@ -135,8 +135,9 @@ TEST(SimplifyTargetCli, AnInputAboveTheBudgetIsCollapsedInChunksAndDracoOfItRefu
   EXPECT_EQ(after.boundary_loops, before.boundary_loops);
   EXPECT_EQ(after.genus, before.genus);
   EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
-  // Without --memory the automatic budget holds the input whole, and Draco is written.
-  auto automatic = run_command("cat " + in + " | " + binary() + " simplify - --input-format off --ratio 0.5 --tmp " +
+  // Without --memory the automatic budget holds the input whole, and Draco is written (from a
+  // pipe, streamed as asked).
+  auto automatic = run_command("cat " + in + " | " + binary() + " simplify - --input-format off --ratio 0.5 --engine out-of-core --tmp " +
                                q(tmp.path().string()) + " -o " + q(drc) + " --report " + q(dir.file("a.json")));
   EXPECT_EQ(automatic.exit_code, 0) << automatic.err;
   const auto whole = nlohmann::json::parse(read_file(dir.file("a.json")));
