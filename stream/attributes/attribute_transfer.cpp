@@ -147,6 +147,26 @@ Vec3f normalised(double x, double y, double z) {
   return {float(x / length), float(y / length), float(z / length)};
 }
 
+// Calls fn(v, d) for every vertex v of `grid` within `radius` of the triangle with corners `at`,
+// d its squared distance. The box's distance first: most vertices of a cell are far from a
+// triangle much smaller than the cell.
+template <class Fn>
+void within(const VertexGrid& grid, const std::vector<Vec3f>& positions, const std::array<Vec3d, 3>& at, double radius,
+            VertexGrid::Cursor& cursor, Fn&& fn) {
+  const Vec3d &a = at[0], &b = at[1], &c = at[2];
+  const Vec3d lo{std::min({a.x, b.x, c.x}), std::min({a.y, b.y, c.y}), std::min({a.z, b.z, c.z})};
+  const Vec3d hi{std::max({a.x, b.x, c.x}), std::max({a.y, b.y, c.y}), std::max({a.z, b.z, c.z})};
+  grid.near(lo, hi, radius, cursor, [&](std::uint32_t v) {
+    const Vec3d p = to_d(positions[v]);
+    const double bx = std::max({lo.x - p.x, p.x - hi.x, 0.0});
+    const double by = std::max({lo.y - p.y, p.y - hi.y, 0.0});
+    const double bz = std::max({lo.z - p.z, p.z - hi.z, 0.0});
+    if (bx * bx + by * by + bz * bz > radius * radius) return;
+    const double d = point_triangle_distance_squared(p, a, b, c);
+    if (d <= radius * radius) fn(v, d);
+  });
+}
+
 // Output vertices' cell size: about two output vertices per occupied cell, from the output's area.
 double grid_cell(const std::vector<Vec3f>& positions, double area) {
   const double cell = std::sqrt(2 * area / double(std::max<std::size_t>(positions.size(), 1)));
@@ -251,21 +271,9 @@ std::vector<std::uint64_t> nearest_triangles(format::MeshView input, const Mesh&
                         VertexGrid::Cursor cursor;
                         for (std::size_t f = range.begin(); f < range.end(); ++f) {
                           const Triangle& t = input.triangles[f];
-                          const Vec3d a = to_d(input.positions[t.v[0]]), b = to_d(input.positions[t.v[1]]),
-                                      c = to_d(input.positions[t.v[2]]);
-                          const Vec3d lo{std::min({a.x, b.x, c.x}), std::min({a.y, b.y, c.y}), std::min({a.z, b.z, c.z})};
-                          const Vec3d hi{std::max({a.x, b.x, c.x}), std::max({a.y, b.y, c.y}), std::max({a.z, b.z, c.z})};
-                          grid.near(lo, hi, radius, cursor, [&](std::uint32_t v) {
-                            // The box's distance first: most vertices of a cell are far from a
-                            // triangle much smaller than the cell.
-                            const Vec3d p = to_d(positions[v]);
-                            const double bx = std::max({lo.x - p.x, p.x - hi.x, 0.0});
-                            const double by = std::max({lo.y - p.y, p.y - hi.y, 0.0});
-                            const double bz = std::max({lo.z - p.z, p.z - hi.z, 0.0});
-                            if (bx * bx + by * by + bz * bz > radius * radius) return;
-                            const double d = point_triangle_distance_squared(p, a, b, c);
-                            if (d <= radius * radius) lower(best[v], pack(d, f));
-                          });
+                          within(grid, positions, {to_d(input.positions[t.v[0]]), to_d(input.positions[t.v[1]]),
+                                                   to_d(input.positions[t.v[2]])},
+                                 radius, cursor, [&](std::uint32_t v, double d) { lower(best[v], pack(d, f)); });
                         }
                       });
     return format::Status();
@@ -475,17 +483,8 @@ format::Result<std::vector<format::VertexAttributes>> surface_values(const Trian
       if (!batch.empty()) any_triangle.store(true, std::memory_order_relaxed);
       VertexGrid::Cursor cursor;
       for (const IndexedTriangle& t : batch) {
-        const Vec3d a = to_d(t.corners[0]), b = to_d(t.corners[1]), c = to_d(t.corners[2]);
-        const Vec3d lo{std::min({a.x, b.x, c.x}), std::min({a.y, b.y, c.y}), std::min({a.z, b.z, c.z})};
-        const Vec3d hi{std::max({a.x, b.x, c.x}), std::max({a.y, b.y, c.y}), std::max({a.z, b.z, c.z})};
-        grid.near(lo, hi, radius, cursor, [&](std::uint32_t v) {
-          const Vec3d p = to_d(positions[v]);
-          const double bx = std::max({lo.x - p.x, p.x - hi.x, 0.0});
-          const double by = std::max({lo.y - p.y, p.y - hi.y, 0.0});
-          const double bz = std::max({lo.z - p.z, p.z - hi.z, 0.0});
-          if (bx * bx + by * by + bz * bz > radius * radius) return;
-          const double d = point_triangle_distance_squared(p, a, b, c);
-          if (d > radius * radius) return;
+        const std::array<Vec3d, 3> at{to_d(t.corners[0]), to_d(t.corners[1]), to_d(t.corners[2])};
+        within(grid, positions, at, radius, cursor, [&](std::uint32_t v, double d) {
           const std::uint64_t word = pack(d, t.index);
           if (word >= best[v].load(std::memory_order_relaxed)) return;
           std::lock_guard<std::mutex> lock(stripes[v % stripes.size()]);
