@@ -67,6 +67,21 @@ std::string coloured_copy(const std::string& name, const std::string& path, stre
   return path;
 }
 
+// A torus of about twice `vertices` faces coloured by gradient_of (colours only), written to
+// `path` as PLY; `mesh` gets it.
+std::string coloured_torus(const std::string& path, std::size_t vertices, stream::Mesh& mesh) {
+  ShapeOptions shape;
+  shape.vertices = vertices;
+  mesh = make_torus(1.0, 0.35, shape);
+  const Gradient g = gradient_of(mesh);
+  for (const Vec3f& p : mesh.positions) mesh.colors.push_back(g.at(p));
+  auto file = format::OutputFile::create(path, true);
+  EXPECT_TRUE(file);
+  EXPECT_TRUE(format::write_ply(**file, mesh.view(), {}).is_ok());
+  EXPECT_TRUE((*file)->commit().is_ok());
+  return path;
+}
+
 stream::Mesh read_mesh(const std::string& path) {
   auto m = stream::load_mesh(path);
   EXPECT_TRUE(m) << m.status().to_string();
@@ -265,18 +280,9 @@ TEST(SimplifyAttributesCli, AChunkedFinishStreamsItsAttributes) {
 // output small enough to encode), read back within 1/255 + slope times the distance.
 TEST(SimplifyAttributesCli, AChunkedFinishToDracoTakesTheSurfacesValues) {
   ScratchDir dir, tmp;
-  ShapeOptions shape;
-  shape.vertices = 50000;
-  stream::Mesh torus = make_torus(1.0, 0.35, shape);
+  stream::Mesh torus;
+  const std::string in = coloured_torus(dir.file("in.ply"), 50000, torus), out = dir.file("out.drc");
   const Gradient g = gradient_of(torus);
-  for (const Vec3f& p : torus.positions) torus.colors.push_back(g.at(p));
-  const std::string in = dir.file("in.ply"), out = dir.file("out.drc");
-  {
-    auto file = format::OutputFile::create(in, true);
-    ASSERT_TRUE(file);
-    ASSERT_TRUE(format::write_ply(**file, torus.view(), {}).is_ok());
-    ASSERT_TRUE((*file)->commit().is_ok());
-  }
   auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(out) + " --ratio 0.1 --memory 32M --tmp " +
                          q(tmp.path().string()) + " -q --report " + q(dir.file("r.json")));
   ASSERT_EQ(run.exit_code, 0) << run.err;
@@ -293,18 +299,8 @@ TEST(SimplifyAttributesCli, AChunkedFinishToDracoTakesTheSurfacesValues) {
 // attributes and says so, once: a coloured torus of 250k faces to half of them under 16 MiB.
 TEST(SimplifyAttributesCli, AnOutputTooLargeToHoldGoesWithoutThemAndSaysSo) {
   ScratchDir dir, tmp;
-  ShapeOptions shape;
-  shape.vertices = 125000;
-  stream::Mesh torus = make_torus(1.0, 0.35, shape);
-  const Gradient g = gradient_of(torus);
-  for (const Vec3f& p : torus.positions) torus.colors.push_back(g.at(p));
-  const std::string in = dir.file("in.ply"), out = dir.file("out.ply");
-  {
-    auto file = format::OutputFile::create(in, true);
-    ASSERT_TRUE(file);
-    ASSERT_TRUE(format::write_ply(**file, torus.view(), {}).is_ok());
-    ASSERT_TRUE((*file)->commit().is_ok());
-  }
+  stream::Mesh torus;
+  const std::string in = coloured_torus(dir.file("in.ply"), 125000, torus), out = dir.file("out.ply");
   auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(out) + " --ratio 0.5 --memory 16M --tmp " +
                          q(tmp.path().string()) + " --report " + q(dir.file("r.json")));
   ASSERT_EQ(run.exit_code, 0) << run.err;
