@@ -43,11 +43,13 @@ void lower(std::atomic<std::uint64_t>& slot, std::uint64_t word) {
 
 // The chosen vertices of the output in cells of side `cell`: a triangle visits the cells its
 // box, grown by the search radius, overlaps. The vertices are held cell after cell, and the
-// occupied cells in an open-addressing table (about 18 bytes a vertex in all), since the out-of-core
-// transfers hold the grid within the budget beside the output.
+// occupied cells in an open-addressing table (about 18 bytes a vertex in all, 20 while it is
+// built), since the out-of-core transfers hold the grid within the budget beside the output.
 class VertexGrid {
  public:
-  VertexGrid(const std::vector<Vec3f>& positions, const std::vector<std::uint32_t>& chosen, double cell) : cell_(cell) {
+  // Takes the chosen vertices (in any order) and keeps them, cell after cell: release_vertices()
+  // hands them back.
+  VertexGrid(const std::vector<Vec3f>& positions, std::vector<std::uint32_t> chosen, double cell) : cell_(cell) {
     lo_ = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
            std::numeric_limits<double>::infinity()};
     for (std::uint32_t v : chosen) {
@@ -59,6 +61,7 @@ class VertexGrid {
       std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed;
       keyed.reserve(chosen.size());
       for (std::uint32_t v : chosen) keyed.push_back({key(cell_of(positions[v])), v});
+      std::vector<std::uint32_t>().swap(chosen);  // held once: as keyed, then as vertices_
       std::sort(keyed.begin(), keyed.end());
       vertices_.reserve(keyed.size());
       for (std::size_t i = 0; i < keyed.size(); ++i) {
@@ -78,6 +81,8 @@ class VertexGrid {
       table_cells_[i] = c;
     }
   }
+
+  std::vector<std::uint32_t> release_vertices() { return std::move(vertices_); }
 
   // The last cell looked up, per caller: neighbouring triangles mostly meet the same cell.
   struct Cursor {
@@ -192,7 +197,9 @@ format::Status search_rounds(const std::vector<Vec3f>& positions, double area, R
   for (double radius = cell / 4; !open.empty() && std::isfinite(radius); radius *= 2) {
     const bool last = radius > cell / 4 && open.size() <= kFewOpen;
     if (last) radius = std::numeric_limits<double>::infinity();
-    GM_RETURN_IF_ERROR(round(VertexGrid(positions, open, cell), radius));
+    VertexGrid grid(positions, std::move(open), cell);
+    GM_RETURN_IF_ERROR(round(grid, radius));
+    open = grid.release_vertices();
     std::erase_if(open, found);
   }
   return {};
