@@ -132,8 +132,8 @@ std::uint64_t auto_memory_budget();
 // quarter of usable memory; kOutOfCore otherwise. An explicit budget above a memory cgroup's or
 // an rlimit's limit is kResources. Standard input that is a regular file (`< file`) counts as
 // that file; of unknown size (a pipe) it streams. A forced engine is returned as is. The face
-// count is estimated from the file size. simplify also holds a textured OBJ or PLY when its
-// counted faces fit (docs/api.md).
+// count is estimated from the file size (a Draco file's is read from its header). simplify also
+// holds a textured OBJ or PLY when its counted faces fit (docs/api.md).
 struct EngineChoice {
   Engine engine = Engine::kOutOfCore;
   std::uint64_t memory_bytes = 0;     // the budget of an out-of-core run

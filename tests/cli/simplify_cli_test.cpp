@@ -434,6 +434,33 @@ TEST(SimplifyCli, APipeLongerThanTheLargestInCoreFileStreamsAsTheFileDoes) {
   EXPECT_EQ(files_in(tmp.path().string()), 0u);
 }
 
+// A Draco file is counted by the faces its header declares, not by its size (Draco takes far
+// fewer than 16 bytes a face): a torus of 400k faces to 10 % under --memory 64M would need more
+// than 200 MiB in core with its target, so it streams, the decode within the budget.
+TEST(SimplifyCli, ADracoFileIsChosenByItsFacesNotItsSize) {
+  ScratchDir dir, tmp;
+  ShapeOptions shape;
+  shape.vertices = 200000;
+  const Mesh torus = make_torus(1.0, 0.35, shape);
+  const std::string in = dir.file("torus.drc");
+  {
+    auto file = format::OutputFile::create(in, true);
+    ASSERT_TRUE(file);
+    ASSERT_TRUE(format::write_draco(**file, torus.view(), {}).is_ok());
+    ASSERT_TRUE((*file)->commit().is_ok());
+  }
+  // Small enough that its size alone (16 B a face) would have it held in core under this budget:
+  // 16 MiB + 96 B a face, and 512 B a face more with a target (docs/cli.md, "Memory budget").
+  ASSERT_LT((std::uint64_t{16} << 20) + (96 + 512) * (std::filesystem::file_size(in) / 16), std::uint64_t{64} << 20);
+  auto run = run_command(binary() + " simplify " + q(in) + " -o " + q(dir.file("out.ply")) +
+                         " -q --ratio 0.1 --memory 64M --tmp " + q(tmp.path().string()) + " --report " + q(dir.file("r.json")));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto report = nlohmann::json::parse(read_file(dir.file("r.json")));
+  EXPECT_TRUE(report["out_of_core"].get<bool>());
+  EXPECT_EQ(report["input_faces"].get<std::size_t>(), torus.triangles.size());
+  EXPECT_EQ(files_in(tmp.path().string()), 0u);
+}
+
 TEST(SimplifyCli, OutOfCoreBadInputAndRefusedOptions) {
   ScratchDir dir, tmp;
   const std::string mem = " --memory 16M --tmp " + q(tmp.path().string());
