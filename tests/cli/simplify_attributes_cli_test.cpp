@@ -215,12 +215,14 @@ TEST(SimplifyAttributesCli, TheStreamingEngineKeepsThem) {
   EXPECT_EQ(read_mesh(streamed).colors.size(), read_mesh(streamed).positions.size());
   EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
 
-  // 10 %: the finish collapses the input; 0.5 %: a Gauss approximation's vertices.
+  // 10 %: the finish collapses the input; 0.5 %: a Gauss approximation's vertices. Under the
+  // automatic budget, since the surface search is taken only when it fits beside what the
+  // process holds, and a sanitizer's quarantine holds much.
   for (const std::string ratio : {"0.1", "0.005"}) {
     SCOPED_TRACE(ratio);
     const std::string target = dir.file("target.ply"), target_in_core = dir.file("target-in-core.ply");
     run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(target) + " --ratio " + ratio +
-                      " --engine out-of-core --memory 64M --report " + q(dir.file("r.json")) + budget);
+                      " --engine out-of-core --report " + q(dir.file("r.json")) + budget);
     ASSERT_EQ(run.exit_code, 0) << run.err;
     const std::string report = read_file(dir.file("r.json"));
     EXPECT_NE(report.find("\"attribute_transfer\": \"surface\""), std::string::npos);
