@@ -293,7 +293,9 @@ class Decimator {
   }
 
   // Whether moving the faces around `from` and `to` (not those on their edge) to x keeps them
-  // facing the same way and non-degenerate.
+  // facing the same way and non-degenerate. A face that is degenerate already (an input's
+  // zero-area faces: coincident or collinear corners) may stay so, and has no way to face: were
+  // it refused, a mesh with many such faces could not collapse at all.
   bool geometry_ok(std::uint32_t from, std::uint32_t to, const Vec3dq& x) {
     const double cos_limit = relaxed_ ? cos_relaxed_ : cos_strict_;
     bool ok = true;
@@ -315,8 +317,10 @@ class Decimator {
         const Vec3dq new_n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
         const double old_len = norm(old_n), new_len = norm(new_n);
         const double e2 = norm2(sub(p[1], p[0])) + norm2(sub(p[2], p[1])) + norm2(sub(p[0], p[2]));
-        if (!(new_len > 1e-8 * e2)) ok = false;  // degenerate (aspect ratio over ~10^8)
-        else if (old_len > 0 && dot(old_n, new_n) < cos_limit * old_len * new_len) ok = false;
+        const double old_e2 = norm2(sub(old_p[1], old_p[0])) + norm2(sub(old_p[2], old_p[1])) + norm2(sub(old_p[0], old_p[2]));
+        if (!(old_len > 1e-8 * old_e2)) return;  // degenerate (aspect ratio over ~10^8) already
+        if (!(new_len > 1e-8 * e2)) ok = false;   // would become degenerate
+        else if (dot(old_n, new_n) < cos_limit * old_len * new_len) ok = false;
       });
       if (!ok) return false;
     }

@@ -10,6 +10,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "format/mesh_writer.h"
+#include "format/output_file.h"
 #include "gaussmesh/gaussmesh.h"
 #include "stream/core/mesh.h"
 #include "stream/core/mesh_topology.h"
@@ -144,6 +146,43 @@ TEST(SimplifyTargetCli, AnInputAboveTheBudgetIsCollapsedInChunksAndDracoOfItRefu
   EXPECT_EQ(whole["out_of_core"], true);
   EXPECT_FALSE(whole.contains("chunked_finish"));
   EXPECT_GT(whole["finish_memory_estimate_bytes"].get<double>(), 16.0 * (1 << 20));  // above what 16M would allow
+}
+
+// A mesh quantized more coarsely than its vertex spacing (as a Draco file at few bits) has many
+// zero-area faces: the collapses may keep those degenerate until they go, so the target is
+// reached, in core and out of core, and the output is a closed manifold of the same genus with
+// no zero-area face.
+TEST(SimplifyTargetCli, AMeshWithManyZeroAreaFacesReachesItsTarget) {
+  ScratchDir dir, tmp;
+  auto mesh = stream::load_mesh(fixture("real/homer.off"));
+  ASSERT_TRUE(mesh.is_ok());
+  for (auto& p : mesh->positions) {
+    p = {std::round(p.x * 48) / 48, std::round(p.y * 48) / 48, std::round(p.z * 48) / 48};
+  }
+  const std::string in = dir.file("quantized.ply");
+  {
+    auto file = format::OutputFile::create(in, true);
+    ASSERT_TRUE(file);
+    ASSERT_TRUE(format::write_ply(**file, mesh->view(), {}).is_ok());
+    ASSERT_TRUE((*file)->commit().is_ok());
+  }
+  const stream::MeshTopology before = topology_of(in);
+  ASSERT_GT(before.zero_area_faces, before.faces / 5) << "the quantization makes many";
+  for (const std::string engine : {"in-core", "out-of-core"}) {
+    SCOPED_TRACE(engine);
+    const std::string out = dir.file("out-" + engine + ".ply");
+    auto run = run_command(binary() + " simplify " + q(in) + " -o " + q(out) + " --ratio 0.1 --engine " + engine +
+                           " -q --tmp " + q(tmp.path().string()) + " --report " + q(dir.file("r.json")));
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const auto report = nlohmann::json::parse(read_file(dir.file("r.json")));
+    EXPECT_EQ(report["stopped_by"], "target");
+    const stream::MeshTopology after = topology_of(out);
+    EXPECT_LE(after.faces, report["target_faces"].get<std::size_t>());
+    EXPECT_TRUE(after.is_manifold());
+    EXPECT_TRUE(after.is_closed());
+    EXPECT_EQ(after.genus, before.genus);
+    EXPECT_EQ(after.zero_area_faces, 0u);
+  }
 }
 
 TEST(SimplifyTargetCli, ANonManifoldInputIsSplitAndFinishedFromItself) {
