@@ -249,6 +249,9 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
     return spill ? spill->each(batch) : Status();
   };
   const char* transfer = input_kinds.any() ? "nearest_vertex" : "none";
+  // What the surface search may take with what the process holds (the streaming budget's ceiling
+  // under --memory auto).
+  const std::uint64_t limit = options.memory_explicit ? options.memory.bytes() : options.memory_ceiling;
   bool transferred = false;
   if (result->parts && (spill || normals == stream::NormalsMode::kCompute)) {
     // A streamed output adds its vertices' share to what the process holds now (its resident set
@@ -258,7 +261,6 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
     const std::uint64_t held = result->parts->vertex_count();
     const std::uint64_t need = streams ? stream::current_rss() + held * kStreamedAttributeBytesPerVertex
                                        : api::whole_output_bytes(sink, result->parts->face_count(), kAttributedBytesPerFace);
-    const std::uint64_t limit = options.memory_explicit ? options.memory.bytes() : options.memory_ceiling;
     const bool surface = input_kinds.any() && result->input_triangles &&
                          (limit == 0 || need + held * stream::kSurfaceValuesBytesPerVertex <= limit);
     if (surface) transfer = "surface";
@@ -281,7 +283,6 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
     }
   }
   if (!result->parts && !transferred) {  // else it streams as it is read back, without attributes
-    const std::uint64_t limit = options.memory_explicit ? options.memory.bytes() : options.memory_ceiling;
     bool surface = input_kinds.any() && result->input_triangles;
     if (surface && limit > 0) {
       stream::release_free_memory();

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "stream/analysis/mesh_distance.h"
+#include "stream/core/canonical_order.h"
 
 namespace gaussmesh::stream {
 namespace {
@@ -402,20 +403,12 @@ void transfer_attributes(format::MeshView input, Mesh& output, NormalsMode norma
   assign(values, kinds, normals, output);
 }
 
-
 namespace {
 
-// A position's bits as a lookup key, -0 taken as +0 (a weld takes them as one place).
-using PositionKey = std::array<std::uint32_t, 3>;
-PositionKey position_key(const Vec3f& p) {
-  auto bits = [](float x) { return std::bit_cast<std::uint32_t>(x == 0 ? 0.0f : x); };
-  return {bits(p.x), bits(p.y), bits(p.z)};
-}
-std::uint64_t key_hash(const PositionKey& k) {
-  std::uint64_t h = (std::uint64_t{k[0]} << 32 | k[1]) * 0x9E3779B97F4A7C15ull;
-  h ^= (h >> 29) + std::uint64_t{k[2]} * 0xBF58476D1CE4E5B9ull;
-  return h ^ (h >> 32);
-}
+// A position as a lookup key: canonical_order.h's bits of its coordinates (-0 as +0, as a weld
+// takes them).
+using PlaceKey = std::array<std::uint32_t, 3>;
+PlaceKey place_key(const Vec3f& p) { return {ordered_bits(p.x), ordered_bits(p.y), ordered_bits(p.z)}; }
 
 // The output's triangle corners by position: each distinct position once, with the corner slots
 // (3 v + k) at it, and whether an input vertex has given them values yet.
@@ -424,7 +417,7 @@ class CornerLookup {
   explicit CornerLookup(const std::vector<std::array<Vec3f, 3>>& corners, const std::vector<std::uint8_t>& has) {
     for (std::uint32_t v = 0; v < corners.size(); ++v)
       if (has[v])
-        for (std::uint32_t k = 0; k < 3; ++k) entries_.push_back({position_key(corners[v][k]), 3 * v + k});
+        for (std::uint32_t k = 0; k < 3; ++k) entries_.push_back({place_key(corners[v][k]), 3 * v + k});
     std::sort(entries_.begin(), entries_.end(), [](const Entry& a, const Entry& b) {
       return a.key != b.key ? a.key < b.key : a.slot < b.slot;
     });
@@ -436,7 +429,8 @@ class CornerLookup {
     while (size < 2 * filled_.size()) size *= 2;
     table_.assign(size, kEmpty);
     for (std::uint32_t r = 0; r + 1 < starts_.size(); ++r) {
-      std::size_t i = key_hash(entries_[starts_[r]].key) & (size - 1);
+      const std::uint32_t slot = entries_[starts_[r]].slot;
+      std::size_t i = position_hash(corners[slot / 3][slot % 3]) & (size - 1);
       while (table_[i] != kEmpty) i = (i + 1) & (size - 1);
       table_[i] = r;
     }
@@ -446,8 +440,8 @@ class CornerLookup {
   // input order gives them); marks them given.
   template <class Fn>
   void take(const Vec3f& p, Fn&& fn) {
-    const PositionKey key = position_key(p);
-    for (std::size_t i = key_hash(key) & (table_.size() - 1); table_[i] != kEmpty; i = (i + 1) & (table_.size() - 1)) {
+    const PlaceKey key = place_key(p);
+    for (std::size_t i = position_hash(p) & (table_.size() - 1); table_[i] != kEmpty; i = (i + 1) & (table_.size() - 1)) {
       const std::uint32_t r = table_[i];
       if (entries_[starts_[r]].key != key) continue;
       if (filled_[r]) return;
@@ -460,7 +454,7 @@ class CornerLookup {
 
  private:
   struct Entry {
-    PositionKey key;
+    PlaceKey key;
     std::uint32_t slot;
   };
   static constexpr std::uint32_t kEmpty = std::numeric_limits<std::uint32_t>::max();

@@ -35,6 +35,20 @@ std::string q(const std::string& text) { return "'" + text + "'"; }
 
 std::string binary() { return q(gaussmesh_binary()); }
 
+// A torus of about twice `vertices` faces written to `path`: Draco for a .drc path, else binary
+// PLY; `mesh` gets it.
+std::string torus_file(const std::string& path, std::size_t vertices, Mesh& mesh) {
+  ShapeOptions shape;
+  shape.vertices = vertices;
+  mesh = make_torus(1.0, 0.35, shape);
+  auto file = format::OutputFile::create(path, true);
+  EXPECT_TRUE(file.is_ok());
+  const bool draco = path.ends_with(".drc");
+  EXPECT_TRUE((draco ? format::write_draco(**file, mesh.view(), {}) : format::write_ply(**file, mesh.view(), {})).is_ok());
+  EXPECT_TRUE((*file)->commit().is_ok());
+  return path;
+}
+
 size_t files_in(const std::string& dir) {
   size_t n = 0;
   for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(dir)) ++n;
@@ -218,16 +232,8 @@ TEST(SimplifyCli, SignalsDuringTheChunkPassesLeaveNoTemporaryFiles) {
   // thread goes on creating files there, and a listing made before a file exists misses it.
   // Every run must leave none.
   ScratchDir dir, tmp;
-  ShapeOptions shape;
-  shape.vertices = 250000;
-  const Mesh torus = make_torus(1.0, 0.35, shape);
-  const std::string in = dir.file("torus.ply");
-  {
-    auto out = format::OutputFile::create(in, true);
-    ASSERT_TRUE(out.is_ok());
-    ASSERT_TRUE(format::write_ply(**out, torus.view(), {}).is_ok());
-    ASSERT_TRUE((*out)->commit().is_ok());
-  }
+  Mesh torus;
+  const std::string in = torus_file(dir.file("torus.ply"), 250000, torus);
   const std::string command = binary() + " simplify " + q(in) + " -o " + q(dir.file("out.drc")) +
                               " --memory 16M --threads 2 -q --tmp " + q(tmp.path().string());
   // A whole run, to spread the signals over its length.
@@ -439,16 +445,8 @@ TEST(SimplifyCli, APipeLongerThanTheLargestInCoreFileStreamsAsTheFileDoes) {
 // than 200 MiB in core with its target, so it streams, the decode within the budget.
 TEST(SimplifyCli, ADracoFileIsChosenByItsFacesNotItsSize) {
   ScratchDir dir, tmp;
-  ShapeOptions shape;
-  shape.vertices = 200000;
-  const Mesh torus = make_torus(1.0, 0.35, shape);
-  const std::string in = dir.file("torus.drc");
-  {
-    auto file = format::OutputFile::create(in, true);
-    ASSERT_TRUE(file);
-    ASSERT_TRUE(format::write_draco(**file, torus.view(), {}).is_ok());
-    ASSERT_TRUE((*file)->commit().is_ok());
-  }
+  Mesh torus;
+  const std::string in = torus_file(dir.file("torus.drc"), 200000, torus);
   // Small enough that its size alone (16 B a face) would have it held in core under this budget:
   // 16 MiB + 96 B a face, and 512 B a face more with a target (docs/cli.md, "Memory budget").
   ASSERT_LT((std::uint64_t{16} << 20) + (96 + 512) * (std::filesystem::file_size(in) / 16), std::uint64_t{64} << 20);
