@@ -13,6 +13,8 @@
 #include <thread>
 #include <vector>
 
+#include "format/temp_ownership.h"
+
 namespace gaussmesh::cli {
 namespace {
 
@@ -20,17 +22,6 @@ constexpr std::size_t kBuffer = std::size_t{1} << 20;
 
 Status output_error(const std::string& where, const char* what) {
   return Status::error(Code::kOutput, where, std::string(what) + ": " + std::strerror(errno));
-}
-
-// A file in dir that no path names: O_TMPFILE where the file system has it, else a named one
-// unlinked at once.
-int unnamed_file(const std::string& dir) {
-  const int fd = ::open(dir.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
-  if (fd >= 0) return fd;
-  std::string path = dir + "/gaussmesh-stdin-XXXXXX";
-  const int named = ::mkostemp(path.data(), O_CLOEXEC);
-  if (named >= 0) ::unlink(path.c_str());
-  return named;
 }
 
 bool write_all(int fd, const char* data, std::size_t size) {
@@ -58,12 +49,8 @@ void copy_to_end(int from, int to, std::vector<char>& buffer) {
 Status spool_standard_input(const std::string& tmp_dir, std::uint64_t limit) {
   struct stat st {};
   if (::fstat(STDIN_FILENO, &st) != 0 || !(S_ISFIFO(st.st_mode) || S_ISSOCK(st.st_mode))) return {};
-  std::string dir = tmp_dir;
-  if (dir.empty()) {
-    const char* env = std::getenv("TMPDIR");
-    dir = env != nullptr && *env != '\0' ? env : "/tmp";
-  }
-  const int file = unnamed_file(dir);
+  const std::string dir = format::temp_parent(tmp_dir);
+  const int file = format::create_unnamed_file(dir, "gaussmesh-stdin-");
   if (file < 0) return output_error(dir, "cannot make a file to hold standard input");
   std::vector<char> buffer(kBuffer);
   std::uint64_t copied = 0;

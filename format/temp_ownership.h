@@ -45,6 +45,14 @@ Result<TempOwnership> create_owned_directory(const std::string& parent, const st
 // exists, so that a caller can pick another name.
 Result<TempOwnership> create_owned_file(const std::string& path, bool& exists);
 
+// The directory temporary files go in: dir, else $TMPDIR, else /tmp.
+std::string temp_parent(const std::string& dir);
+
+// A file open for reading and writing in dir that no path names, so that nothing is left behind
+// however the run ends: O_TMPFILE where the file system has it, else a file named prefix + six
+// random characters, unlinked at once. -1 with errno set when neither can be made.
+int create_unnamed_file(const std::string& dir, const std::string& prefix);
+
 // Removes the files and directories in dir whose names start with prefix that no live process
 // holds. Best effort: what cannot be opened, locked or removed (another user's, another cleaner's)
 // is left. Returns how many entries went.

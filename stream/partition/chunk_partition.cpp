@@ -101,11 +101,7 @@ format::Result<Partition> partition_mesh(const std::string& input_path, const fo
                                                " bytes is below the minimum of 16 MiB");
   }
   if (options.threads < 1) return Status::error(Code::kUsage, "", "threads must be at least 1");
-  std::string parent = options.tmp_dir;
-  if (parent.empty()) {
-    const char* env = std::getenv("TMPDIR");
-    parent = env != nullptr && *env != '\0' ? env : "/tmp";
-  }
+  const std::string parent = format::temp_parent(options.tmp_dir);
   // What runs killed before their cleanup (SIGKILL, the OOM killer) left here goes first.
   format::remove_dead_runs_temps(parent, kPartitionDirPrefix);
   format::remove_dead_runs_temps(parent, kAttributeSpillPrefix);
