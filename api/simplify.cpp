@@ -6,6 +6,7 @@
 #include "stream/analysis/mesh_distance.h"
 #include "stream/attributes/attribute_transfer.h"
 #include "stream/attributes/seams.h"
+#include "stream/attributes/vertex_values_file.h"
 #include "stream/core/fan_split.h"
 #include "stream/core/mesh_topology.h"
 #include "stream/core/process_memory.h"
@@ -242,6 +243,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   format::AttributeKinds dropped;
   format::PartsAttributes parts_attributes;
   std::vector<format::VertexAttributes> parts_values;
+  std::unique_ptr<stream::VertexValuesFile> values_file;  // the values of a batched transfer
   const stream::NormalsMode normals = normals_mode(o.normals);
   const stream::VertexAttributeSpill* spill = result->attribute_spill.get();
   const format::AttributeKinds input_kinds = spill ? spill->kinds() : format::AttributeKinds{};
@@ -258,14 +260,32 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
     // once the allocator's free pages are handed back).
     const bool streams = api::whole_output_bytes_per_face(sink) == 0;
     if (streams) stream::release_free_memory();
-    const std::uint64_t held = result->parts->vertex_count();
-    const std::uint64_t need = streams ? stream::current_rss() + held * kStreamedAttributeBytesPerVertex
+    const std::uint64_t held = result->parts->vertex_count(), resident = streams ? stream::current_rss() : 0;
+    const std::uint64_t need = streams ? resident + held * kStreamedAttributeBytesPerVertex
                                        : api::whole_output_bytes(sink, result->parts->face_count(), kAttributedBytesPerFace);
     const bool surface = input_kinds.any() && result->input_triangles &&
                          (limit == 0 || need + held * stream::kSurfaceValuesBytesPerVertex <= limit);
     if (surface) transfer = "surface";
-    if (options.memory_explicit && need > options.memory.bytes()) {
-      dropped = result->input_attributes;
+    // Past an explicit budget a streamed output takes the input's values in runs of vertices
+    // that fit beside what the process holds (nearest_vertex_values_in_runs), without computed
+    // normals (they take every vertex's faces at once); when the runs would be too short, or the
+    // output is gathered whole, it goes without them. The warning names what is not kept.
+    const std::uint64_t budget = options.memory_explicit ? options.memory.bytes() : 0;
+    const std::uint64_t run = budget > resident ? (budget - resident) / kStreamedAttributeBytesPerVertex : 0;
+    const bool over_budget = options.memory_explicit && need > budget;
+    if (over_budget) dropped.normals = normals == stream::NormalsMode::kCompute;
+    if (over_budget && streams && spill && run >= stream::kMinAttributeRun) {
+      auto file = stream::VertexValuesFile::create(format::temp_parent(o.resources.tmp_dir));
+      if (!file) return file.status();
+      values_file = std::move(*file);
+      GM_RETURN_IF_ERROR(stream::nearest_vertex_values_in_runs(vertices, *result->parts, run, *values_file));
+      parts_attributes.kinds = {normals == stream::NormalsMode::kKeep && input_kinds.normals, input_kinds.colors, input_kinds.texcoords};
+      parts_attributes.reader = values_file.get();
+      transfer = "nearest_vertex";
+    } else if (over_budget) {
+      dropped.colors = result->input_attributes.colors;
+      dropped.texcoords = result->input_attributes.texcoords;
+      dropped.normals = dropped.normals || (normals == stream::NormalsMode::kKeep && result->input_attributes.normals);
       transfer = "none";
     } else if (streams) {
       GM_RETURN_IF_ERROR(streamed_attributes(*result->parts, spill, surface ? &result->input_triangles : nullptr, normals,

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "format/mesh_writer.h"
 
@@ -61,10 +62,54 @@ Status index_past(const OutputFile& out, std::uint64_t face, VertexIndex v, std:
                            std::to_string(vertices));
 }
 
+// The attributes' values in vertex order, held or read (PartsAttributes), one at a time.
+class Values {
+ public:
+  explicit Values(const PartsAttributes& a) : held_(a.values), reader_(a.reader) {}
+  std::uint64_t count() const { return reader_ ? reader_->count() : held_.size(); }
+  // From the first value again.
+  Status restart() {
+    at_ = 0, end_ = 0, read_ = 0;
+    return reader_ ? reader_->rewind() : Status();
+  }
+  // The next value, valid until the next call.
+  Result<const VertexAttributes*> next() {
+    if (!reader_) return &held_[at_++];
+    if (at_ == end_) {
+      const std::uint64_t n = std::min<std::uint64_t>(kBatch, reader_->count() - read_);
+      if (n == 0) return Status::error(Code::kProcessing, "vertex values", "read past the last vertex's");
+      batch_.resize(kBatch);
+      GM_RETURN_IF_ERROR(reader_->read(std::span<VertexAttributes>(batch_.data(), n)));
+      read_ += n, at_ = 0, end_ = n;
+    }
+    return &batch_[at_++];
+  }
+
+ private:
+  static constexpr std::size_t kBatch = 4096;
+  std::span<const VertexAttributes> held_;
+  VertexValuesReader* reader_;
+  std::vector<VertexAttributes> batch_;
+  std::size_t at_ = 0, end_ = 0;
+  std::uint64_t read_ = 0;
+};
+
 // Attributes, when there are any, hold one value per vertex.
 Status check_counts(const OutputFile& out, const PartsAttributes& a, std::uint64_t nv) {
-  if (a.kinds.any() && a.values.size() != nv) return miscount(out, "vertex attributes", a.values.size(), nv);
+  const std::uint64_t values = Values(a).count();
+  if (a.kinds.any() && values != nv) return miscount(out, "vertex attributes", values, nv);
   return Status();
+}
+
+// Whether a colour of `values` is not opaque (one pass over them).
+Result<bool> any_alpha(Values& values) {
+  GM_RETURN_IF_ERROR(values.restart());
+  for (std::uint64_t v = 0, n = values.count(); v < n; ++v) {
+    auto a = values.next();
+    if (!a) return a.status();
+    if ((*a)->color.a != 1) return true;
+  }
+  return false;
 }
 
 // Checks one more face against the declared counts, and counts it.
@@ -83,9 +128,15 @@ Status write_ply_parts(OutputFile& out, MeshParts& mesh, bool binary, const std:
   if (nv > kMaxVertices) return Status::error(Code::kProcessing, out.name(), "more than 2^32 - 1 vertices cannot be indexed");
   GM_RETURN_IF_ERROR(check_counts(out, attributes, nv));
   const bool normals = attributes.kinds.normals, texcoords = attributes.kinds.texcoords;
-  const bool alpha = attributes.kinds.colors && std::any_of(attributes.values.begin(), attributes.values.end(),
-                                                            [](const VertexAttributes& a) { return a.color.a != 1; });
+  Values values(attributes);
+  bool alpha = false;
+  if (attributes.kinds.colors) {
+    auto any = any_alpha(values);
+    if (!any) return any.status();
+    alpha = *any;
+  }
   const int channels = !attributes.kinds.colors ? 0 : alpha ? 4 : 3;
+  GM_RETURN_IF_ERROR(values.restart());
   std::string header = "ply\n";
   header += binary ? "format binary_little_endian 1.0\n" : "format ascii 1.0\n";
   for (const std::string& comment : comments) {
@@ -109,22 +160,28 @@ Status write_ply_parts(OutputFile& out, MeshParts& mesh, bool binary, const std:
     if (vertices > nv) return miscount(out, "vertices", vertices, nv);
     for (std::size_t i = 0; i < batch.size(); ++i) {
       const Vec3f& p = batch[i];
-      const std::uint64_t v = vertices - batch.size() + i;
       GM_RETURN_IF_ERROR(buffer.room());
-      float values[3 + 3 + 2];
+      float fields[3 + 3 + 2];
       std::size_t n = 0;
-      values[n++] = p.x, values[n++] = p.y, values[n++] = p.z;
-      const VertexAttributes& a = channels > 0 || normals || texcoords ? attributes.values[v] : VertexAttributes{};
-      if (normals) values[n++] = a.normal.x, values[n++] = a.normal.y, values[n++] = a.normal.z;
+      fields[n++] = p.x, fields[n++] = p.y, fields[n++] = p.z;
+      static const VertexAttributes kNone{};
+      const VertexAttributes* value = &kNone;
+      if (channels > 0 || normals || texcoords) {
+        auto next = values.next();
+        if (!next) return next.status();
+        value = *next;
+      }
+      const VertexAttributes& a = *value;
+      if (normals) fields[n++] = a.normal.x, fields[n++] = a.normal.y, fields[n++] = a.normal.z;
       std::uint8_t bytes[4];
       for (int k = 0; k < channels; ++k) bytes[k] = color_byte((&a.color.r)[k]);
       if (binary) {
-        for (std::size_t k = 0; k < n; ++k) buffer.put(values[k]);
+        for (std::size_t k = 0; k < n; ++k) buffer.put(fields[k]);
         for (int k = 0; k < channels; ++k) buffer.put(bytes[k]);
         if (texcoords) buffer.put(a.texcoord.u), buffer.put(a.texcoord.v);
       } else {
         const bool more = channels > 0 || texcoords;
-        for (std::size_t k = 0; k < n; ++k) buffer.text(values[k], k + 1 < n || more ? ' ' : '\n');
+        for (std::size_t k = 0; k < n; ++k) buffer.text(fields[k], k + 1 < n || more ? ' ' : '\n');
         for (int k = 0; k < channels; ++k) buffer.text(unsigned{bytes[k]}, k + 1 < channels || texcoords ? ' ' : '\n');
         if (texcoords) buffer.text(a.texcoord.u, ' '), buffer.text(a.texcoord.v, '\n');
       }
@@ -153,6 +210,8 @@ Status write_obj_parts(OutputFile& out, MeshParts& mesh, const PartsAttributes& 
   const std::uint64_t nv = mesh.vertex_count(), nf = mesh.face_count();
   GM_RETURN_IF_ERROR(check_counts(out, attributes, nv));
   const bool colors = attributes.kinds.colors, normals = attributes.kinds.normals, texcoords = attributes.kinds.texcoords;
+  Values values(attributes);
+  GM_RETURN_IF_ERROR(values.restart());
   // One line of a keyword and floats, as write_obj writes it.
   auto line = [](Buffer& buffer, const char* keyword, std::initializer_list<float> values) {
     char* c = buffer.at();
@@ -172,7 +231,9 @@ Status write_obj_parts(OutputFile& out, MeshParts& mesh, const PartsAttributes& 
       if (++vertices > nv) return miscount(out, "vertices", vertices, nv);
       GM_RETURN_IF_ERROR(buffer.room());
       if (colors) {
-        const Color& k = attributes.values[vertices - 1].color;
+        auto value = values.next();
+        if (!value) return value.status();
+        const Color& k = (*value)->color;
         line(buffer, "v", {p.x, p.y, p.z, std::clamp(k.r, 0.0f, 1.0f), std::clamp(k.g, 0.0f, 1.0f), std::clamp(k.b, 0.0f, 1.0f)});
       } else {
         line(buffer, "v", {p.x, p.y, p.z});
@@ -181,14 +242,25 @@ Status write_obj_parts(OutputFile& out, MeshParts& mesh, const PartsAttributes& 
     return Status();
   }));
   if (vertices != nv) return miscount(out, "vertices", vertices, nv);
-  for (std::size_t v = 0; texcoords && v < attributes.values.size(); ++v) {
-    GM_RETURN_IF_ERROR(buffer.room());
-    line(buffer, "vt", {attributes.values[v].texcoord.u, attributes.values[v].texcoord.v});
+  // Texture coordinates, then normals: a pass over the values each.
+  if (texcoords) {
+    GM_RETURN_IF_ERROR(values.restart());
+    for (std::uint64_t v = 0; v < nv; ++v) {
+      auto value = values.next();
+      if (!value) return value.status();
+      GM_RETURN_IF_ERROR(buffer.room());
+      line(buffer, "vt", {(*value)->texcoord.u, (*value)->texcoord.v});
+    }
   }
-  for (std::size_t v = 0; normals && v < attributes.values.size(); ++v) {
-    GM_RETURN_IF_ERROR(buffer.room());
-    const Vec3f& n = attributes.values[v].normal;
-    line(buffer, "vn", {n.x, n.y, n.z});
+  if (normals) {
+    GM_RETURN_IF_ERROR(values.restart());
+    for (std::uint64_t v = 0; v < nv; ++v) {
+      auto value = values.next();
+      if (!value) return value.status();
+      GM_RETURN_IF_ERROR(buffer.room());
+      const Vec3f& n = (*value)->normal;
+      line(buffer, "vn", {n.x, n.y, n.z});
+    }
   }
   GM_RETURN_IF_ERROR(mesh.faces([&](std::span<const Triangle> batch) -> Status {
     for (const Triangle& t : batch) {

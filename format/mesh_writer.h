@@ -81,11 +81,24 @@ class MeshParts {
   virtual Status faces(const std::function<Status(std::span<const Triangle>)>& batch) = 0;
 };
 
-// Per-vertex attributes of a mesh written from parts, held whole, in vertex order (an output's
-// vertices are few beside the input's): the fields `kinds` names, of one value per vertex.
+// Per-vertex values that stream instead of being held: read in vertex order, and from the first
+// again after rewind() (a writer may read them more than once).
+class VertexValuesReader {
+ public:
+  virtual ~VertexValuesReader() = default;
+  virtual std::uint64_t count() const = 0;
+  virtual Status rewind() = 0;
+  // The next out.size() values; fewer left is an error.
+  virtual Status read(std::span<VertexAttributes> out) = 0;
+};
+
+// Per-vertex attributes of a mesh written from parts, in vertex order: the fields `kinds` names,
+// of one value per vertex, held whole in `values`, or, when `reader` is set, read from it as the
+// vertices stream (an output too large to hold them).
 struct PartsAttributes {
   AttributeKinds kinds;
   std::span<const VertexAttributes> values;
+  VertexValuesReader* reader = nullptr;
 };
 
 // PLY (binary little-endian or ascii) and OBJ from parts, in memory that does not grow with the

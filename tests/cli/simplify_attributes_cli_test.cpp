@@ -297,6 +297,52 @@ TEST(SimplifyAttributesCli, AChunkedFinishToDracoTakesTheSurfacesValues) {
   EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
 }
 
+// An output whose vertices' search does not fit an explicit budget beside what the process
+// holds takes the input's values in runs of vertices, each run with passes of its own over the
+// input's vertices: a coloured torus of 1M faces to half of them under 32 MiB (250k output
+// vertices, about 22 MB of search) keeps its colours, every vertex that of its nearest input
+// vertex as one search over them all finds it, without a warning and within the budget's peak.
+// Computed normals need every vertex's faces at once: those alone are left out, and said so.
+TEST(SimplifyAttributesCli, AnOutputTooLargeToHoldTakesItsValuesInRuns) {
+  ScratchDir dir, tmp;
+  stream::Mesh torus;
+  const std::string in = coloured_torus(dir.file("in.ply"), 500000, torus), out = dir.file("out.ply");
+  std::vector<format::VertexAttributes> values(torus.positions.size());
+  for (std::size_t v = 0; v < values.size(); ++v) values[v].color = torus.colors[v];
+  const stream::VertexPassFn input = [&](const stream::VertexBatchFn& batch) {
+    return batch(torus.positions, values);
+  };
+  for (const std::string normals : {"keep", "compute"}) {
+    SCOPED_TRACE(normals);
+    auto run = run_command(q(gaussmesh_binary()) + " simplify " + q(in) + " -o " + q(out) + " --ratio 0.5 --memory 32M --normals " +
+                           normals + " --tmp " + q(tmp.path().string()) + " --report " + q(dir.file("r.json")));
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const std::string report = read_file(dir.file("r.json"));
+    EXPECT_NE(report.find("\"chunked_finish\""), std::string::npos);
+    EXPECT_NE(report.find("\"attribute_transfer\": \"nearest_vertex\""), std::string::npos) << report;
+    const stream::Mesh m = read_mesh(out);
+    ASSERT_EQ(m.colors.size(), m.positions.size());
+    ASSERT_GT(m.positions.size(), 200000u);
+    auto want = stream::nearest_vertex_values(input, m.positions, stream::surface_area(m.positions, m.triangles));
+    ASSERT_TRUE(want) << want.status().to_string();
+    std::size_t wrong = 0;
+    for (std::size_t v = 0; v < m.positions.size(); ++v) {
+      for (int k = 0; k < 3; ++k)
+        wrong += format::color_byte((&m.colors[v].r)[k]) != format::color_byte((&(*want)[v].color.r)[k]);
+    }
+    EXPECT_EQ(wrong, 0u);
+    if (normals == "keep") {
+      EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << "the summary only: " << run.err;
+    } else {
+      EXPECT_TRUE(m.normals.empty());
+      EXPECT_NE(run.err.find("warning: normals not kept: the output is too large to hold within --memory with them"),
+                std::string::npos)
+          << run.err;
+    }
+    EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
+  }
+}
+
 // When even the vertices do not fit an explicit budget, the run writes the output without its
 // attributes and says so, once: a coloured torus of 250k faces to half of them under 16 MiB.
 TEST(SimplifyAttributesCli, AnOutputTooLargeToHoldGoesWithoutThemAndSaysSo) {

@@ -1,6 +1,6 @@
 // Tests for the parts writers (mesh_parts_writer.cpp): a mesh delivered in small batches, with
-// and without per-vertex attributes, gives the bytes the whole-mesh writers give; attributes of
-// the wrong count and lying parts are refused.
+// and without per-vertex attributes (held, or read as they stream), gives the bytes the whole-mesh
+// writers give; attributes of the wrong count and lying parts are refused.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -36,6 +36,27 @@ class TestParts final : public MeshParts {
  private:
   MeshView mesh_;
   std::uint64_t extra_;
+};
+
+// Values read as they stream (VertexValuesReader), from a vector.
+class TestValues final : public VertexValuesReader {
+ public:
+  explicit TestValues(std::vector<VertexAttributes> values) : values_(std::move(values)) {}
+  std::uint64_t count() const override { return values_.size(); }
+  Status rewind() override {
+    at_ = 0;
+    return Status();
+  }
+  Status read(std::span<VertexAttributes> out) override {
+    if (out.size() > values_.size() - at_) return Status::error(Code::kProcessing, "values", "read past the end");
+    std::copy_n(values_.begin() + static_cast<std::ptrdiff_t>(at_), out.size(), out.begin());
+    at_ += out.size();
+    return Status();
+  }
+
+ private:
+  std::vector<VertexAttributes> values_;
+  std::size_t at_ = 0;
 };
 
 struct TestMesh {
@@ -77,19 +98,28 @@ TEST(MeshPartsWriter, GivesTheWholeMeshWritersBytesWithAndWithoutAttributes) {
         if (attributes.kinds.texcoords) values[v].texcoord = m.texcoords[v];
       }
       attributes.values = values;
+      TestValues reader(values);
+      PartsAttributes read_attributes;
+      read_attributes.kinds = attributes.kinds;
+      read_attributes.reader = &reader;
       for (bool binary : {true, false}) {
         PlyWriteOptions options;
         options.binary = binary;
         options.comments = {"c"};
         const std::string whole = written(dir, [&](OutputFile& out) { return write_ply(out, view, options); });
-        TestParts parts(view);
-        const std::string streamed =
-            written(dir, [&](OutputFile& out) { return write_ply_parts(out, parts, binary, {"c"}, attributes); });
-        EXPECT_EQ(streamed, whole) << (binary ? "binary" : "ascii");
+        for (const PartsAttributes* given : {&attributes, &read_attributes}) {
+          TestParts parts(view);
+          const std::string streamed =
+              written(dir, [&](OutputFile& out) { return write_ply_parts(out, parts, binary, {"c"}, *given); });
+          EXPECT_EQ(streamed, whole) << (binary ? "binary" : "ascii") << (given->reader ? ", values read" : "");
+        }
       }
       const std::string whole = written(dir, [&](OutputFile& out) { return write_obj(out, view); });
-      TestParts parts(view);
-      EXPECT_EQ(written(dir, [&](OutputFile& out) { return write_obj_parts(out, parts, attributes); }), whole);
+      for (const PartsAttributes* given : {&attributes, &read_attributes}) {
+        TestParts parts(view);
+        EXPECT_EQ(written(dir, [&](OutputFile& out) { return write_obj_parts(out, parts, *given); }), whole)
+            << (given->reader ? "values read" : "");
+      }
     }
   }
 }
@@ -99,14 +129,18 @@ TEST(MeshPartsWriter, AttributesOfAnotherCountAndLyingPartsAreRefused) {
   TestMesh m;
   const MeshView view{m.positions, m.triangles};
   const std::vector<VertexAttributes> short_values(m.positions.size() - 1);
-  const PartsAttributes wrong{{false, true, false}, short_values};
-  for (int format = 0; format < 2; ++format) {
-    auto out = OutputFile::create(dir.file("o"), true);
-    ASSERT_TRUE(out.is_ok());
-    TestParts parts(view);
-    const Status s = format == 0 ? write_ply_parts(**out, parts, true, {}, wrong) : write_obj_parts(**out, parts, wrong);
-    EXPECT_EQ(s.code(), Code::kProcessing);
-    EXPECT_NE(s.message().find("vertex attributes"), std::string::npos) << s.to_string();
+  TestValues short_reader(short_values);
+  PartsAttributes wrong_read{{false, true, false}, {}};
+  wrong_read.reader = &short_reader;
+  for (const PartsAttributes& wrong : {PartsAttributes{{false, true, false}, short_values}, wrong_read}) {
+    for (int format = 0; format < 2; ++format) {
+      auto out = OutputFile::create(dir.file("o"), true);
+      ASSERT_TRUE(out.is_ok());
+      TestParts parts(view);
+      const Status s = format == 0 ? write_ply_parts(**out, parts, true, {}, wrong) : write_obj_parts(**out, parts, wrong);
+      EXPECT_EQ(s.code(), Code::kProcessing);
+      EXPECT_NE(s.message().find("vertex attributes"), std::string::npos) << s.to_string();
+    }
   }
   auto out = OutputFile::create(dir.file("o"), true);
   ASSERT_TRUE(out.is_ok());
