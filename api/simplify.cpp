@@ -118,8 +118,9 @@ Json output_attributes_json(const format::AttributeKinds& kinds) {
 // vertex given the values of the input's surface under it (surface_values) when `triangles` is
 // given, else of the nearest input vertex (nearest_vertex_values).
 Status streamed_attributes(format::MeshParts& parts, const stream::VertexAttributeSpill* spill,
-                           const stream::TrianglePassFn* triangles, stream::NormalsMode normals,
-                           format::PartsAttributes& out, std::vector<format::VertexAttributes>& values) {
+                           const stream::VertexPassFn& vertices, const stream::TrianglePassFn* triangles,
+                           stream::NormalsMode normals, format::PartsAttributes& out,
+                           std::vector<format::VertexAttributes>& values) {
   std::vector<format::Vec3f> positions;
   positions.reserve(parts.vertex_count());
   GM_RETURN_IF_ERROR(parts.vertices([&](std::span<const format::Vec3f> b) {
@@ -133,7 +134,6 @@ Status streamed_attributes(format::MeshParts& parts, const stream::VertexAttribu
   }));
   const format::AttributeKinds input = spill ? spill->kinds() : format::AttributeKinds{};
   if (input.any()) {
-    const stream::VertexPassFn vertices = [spill](const stream::VertexBatchFn& batch) { return spill->each(batch); };
     auto found = triangles ? stream::surface_values(*triangles, vertices, input, positions, area)
                            : stream::nearest_vertex_values(vertices, positions, area);
     if (!found) return found.status();
@@ -247,8 +247,10 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   const stream::NormalsMode normals = normals_mode(o.normals);
   const stream::VertexAttributeSpill* spill = result->attribute_spill.get();
   const format::AttributeKinds input_kinds = spill ? spill->kinds() : format::AttributeKinds{};
-  const stream::VertexPassFn vertices = [spill](const stream::VertexBatchFn& batch) {
-    return spill ? spill->each(batch) : Status();
+  // The spill is decompressed on a thread of its own beside the search, when there are two.
+  const bool ahead = options.threads > 1;
+  const stream::VertexPassFn vertices = [spill, ahead](const stream::VertexBatchFn& batch) {
+    return spill ? spill->each(batch, ahead) : Status();
   };
   const char* transfer = input_kinds.any() ? "nearest_vertex" : "none";
   // What the surface search may take with what the process holds (the streaming budget's ceiling
@@ -288,8 +290,8 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
       dropped.normals = dropped.normals || (normals == stream::NormalsMode::kKeep && result->input_attributes.normals);
       transfer = "none";
     } else if (streams) {
-      GM_RETURN_IF_ERROR(streamed_attributes(*result->parts, spill, surface ? &result->input_triangles : nullptr, normals,
-                                             parts_attributes, parts_values));
+      GM_RETURN_IF_ERROR(streamed_attributes(*result->parts, spill, vertices, surface ? &result->input_triangles : nullptr,
+                                             normals, parts_attributes, parts_values));
     } else {
       auto whole = api::gather(*result->parts);
       if (!whole) return whole.status();

@@ -5,10 +5,14 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <condition_variable>
 #include <cstring>
+#include <mutex>
+#include <thread>
 #include <vector>
 
 #include "format/temp_registry.h"
+#include "stream/core/thread_status.h"
 
 namespace gaussmesh::stream {
 
@@ -70,26 +74,86 @@ format::Status VertexAttributeSpill::finish() {
   return {};
 }
 
-format::Status VertexAttributeSpill::each(const VertexBatchFn& batch) const {
+format::Status VertexAttributeSpill::each(const VertexBatchFn& batch, bool ahead) const {
   auto reader = format::RecordReader::open(path_, kVertexAttributeRecordKind, sizeof(Record));
   if (!reader) return reader.status();
-  std::vector<format::Vec3f> positions;
-  std::vector<format::VertexAttributes> attributes;
-  for (;;) {
+  // One frame's vertices as the batch takes them; an empty one ends the pass.
+  struct Frame {
+    std::vector<format::Vec3f> positions;
+    std::vector<format::VertexAttributes> attributes;
+    format::Status status;
+  };
+  const auto read = [&](Frame& into) {
+    into.positions.clear();
+    into.attributes.clear();
     auto frame = (*reader)->next();
-    if (!frame) return frame.status();
-    if (frame->empty()) return {};
+    if (!frame) {
+      into.status = frame.status();
+      return;
+    }
     const std::size_t n = frame->size() / sizeof(Record);
-    positions.resize(n);
-    attributes.resize(n);
+    into.positions.resize(n);
+    into.attributes.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
       Record r;
       std::memcpy(&r, frame->data() + i * sizeof(Record), sizeof(Record));
-      positions[i] = r.position;
-      attributes[i] = r.attributes;
+      into.positions[i] = r.position;
+      into.attributes[i] = r.attributes;
     }
-    GM_RETURN_IF_ERROR(batch(positions, attributes));
+  };
+  Frame current;
+  if (!ahead) {
+    for (;;) {
+      read(current);
+      GM_RETURN_IF_ERROR(current.status);
+      if (current.positions.empty()) return {};
+      GM_RETURN_IF_ERROR(batch(current.positions, current.attributes));
+    }
   }
+  // A single slot between the reading thread and this one.
+  std::mutex mutex;
+  std::condition_variable changed;
+  Frame slot;
+  bool full = false, stopping = false;
+  std::thread reading([&] {
+    Frame next;
+    for (bool more = true; more;) {
+      next.status = status_of_work("attribute spill", [&] {
+        read(next);
+        return next.status;
+      });
+      more = next.status.is_ok() && !next.positions.empty();
+      std::unique_lock lock(mutex);
+      changed.wait(lock, [&] { return !full || stopping; });
+      if (stopping) return;
+      std::swap(slot, next);
+      full = true;
+      changed.notify_all();
+    }
+  });
+  format::Status status;
+  for (;;) {
+    {
+      std::unique_lock lock(mutex);
+      changed.wait(lock, [&] { return full; });
+      std::swap(slot, current);
+      full = false;
+      changed.notify_all();
+    }
+    if (!current.status.is_ok() || current.positions.empty()) {
+      status = current.status;
+      break;
+    }
+    status = batch(current.positions, current.attributes);
+    if (!status.is_ok()) break;
+  }
+  {
+    std::lock_guard lock(mutex);
+    stopping = true;
+  }
+  changed.notify_all();
+  reading.join();
+  return status;
 }
 
 }  // namespace gaussmesh::stream

@@ -34,8 +34,9 @@ class VertexAttributeSpill {
 
   const format::AttributeKinds& kinds() const { return kinds_; }
   std::uint64_t bytes() const { return bytes_; }  // compressed, on disk (after finish)
-  // Streams the vertices back in input order (a VertexPassFn).
-  format::Status each(const VertexBatchFn& batch) const;
+  // Streams the vertices back in input order (a VertexPassFn). With `ahead`, the frames are
+  // read and decompressed a frame ahead of `batch` on a thread of their own.
+  format::Status each(const VertexBatchFn& batch, bool ahead = false) const;
 
  private:
   VertexAttributeSpill() = default;
