@@ -101,10 +101,6 @@ void finish_report(Json& report, const stream::FinishOptions& o, const std::opti
 // (18 bytes a face) and its vertices, about half as many as faces, with their attributes and
 // the search's state.
 constexpr std::uint64_t kAttributedBytesPerFace = 18 + 60;
-// What a streamed output (PLY, OBJ) holds a vertex to take its attributes: its position, its
-// values (format::VertexAttributes, 36 B) and the search's state (the best distance, the list of
-// open vertices, the grid at its peak: about 30 B); its faces stream.
-constexpr std::uint64_t kStreamedAttributeBytesPerVertex = 12 + 36 + 8 + 4 + 30;
 
 Json output_attributes_json(const Mesh& mesh) {
   return {{"normals", !mesh.normals.empty()}, {"colors", !mesh.colors.empty()}, {"texcoords", !mesh.texcoords.empty()}};
@@ -263,7 +259,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
     const bool streams = api::whole_output_bytes_per_face(sink) == 0;
     if (streams) stream::release_free_memory();
     const std::uint64_t held = result->parts->vertex_count(), resident = streams ? stream::current_rss() : 0;
-    const std::uint64_t need = streams ? resident + held * kStreamedAttributeBytesPerVertex
+    const std::uint64_t need = streams ? resident + held * stream::kNearestValuesBytesPerVertex
                                        : api::whole_output_bytes(sink, result->parts->face_count(), kAttributedBytesPerFace);
     const bool surface = input_kinds.any() && result->input_triangles &&
                          (limit == 0 || need + held * stream::kSurfaceValuesBytesPerVertex <= limit);
@@ -273,14 +269,19 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
     // normals (they take every vertex's faces at once); when the runs would be too short, or the
     // output is gathered whole, it goes without them. The warning names what is not kept.
     const std::uint64_t budget = options.memory_explicit ? options.memory.bytes() : 0;
-    const std::uint64_t run = budget > resident ? (budget - resident) / kStreamedAttributeBytesPerVertex : 0;
     const bool over_budget = options.memory_explicit && need > budget;
     if (over_budget) dropped.normals = normals == stream::NormalsMode::kCompute;
-    if (over_budget && streams && spill && run >= stream::kMinAttributeRun) {
-      auto file = stream::VertexValuesFile::create(format::temp_parent(o.resources.tmp_dir));
+    bool in_runs = false;
+    if (over_budget && streams && spill) {
+      const std::string dir = format::temp_parent(o.resources.tmp_dir);
+      auto file = stream::VertexValuesFile::create(dir);
       if (!file) return file.status();
-      values_file = std::move(*file);
-      GM_RETURN_IF_ERROR(stream::nearest_vertex_values_in_runs(vertices, *result->parts, run, *values_file));
+      auto fitted = stream::nearest_vertex_values_in_runs(vertices, *result->parts, budget, dir, **file);
+      if (!fitted) return fitted.status();
+      in_runs = *fitted;
+      if (in_runs) values_file = std::move(*file);
+    }
+    if (in_runs) {
       parts_attributes.kinds = {normals == stream::NormalsMode::kKeep && input_kinds.normals, input_kinds.colors, input_kinds.texcoords};
       parts_attributes.reader = values_file.get();
       transfer = "nearest_vertex";

@@ -58,6 +58,10 @@ format::Status transfer_nearest_vertex(const VertexPassFn& pass, const format::A
 format::Result<std::vector<format::VertexAttributes>> nearest_vertex_values(const VertexPassFn& pass,
                                                                             const std::vector<format::Vec3f>& positions,
                                                                             double area);
+// What that search holds per output vertex at its peak, with the vertex's position: the position
+// (12 B), its values (36 B), the best distance (8 B), the list of open vertices (4 B) and the
+// grid (about 30 B).
+inline constexpr std::uint64_t kNearestValuesBytesPerVertex = 12 + 36 + 8 + 4 + 30;
 // An input triangle as an out-of-core pass gives it: its corners' positions and its index in the
 // input (the lowest index wins among equally near triangles).
 struct IndexedTriangle {

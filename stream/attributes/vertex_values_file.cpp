@@ -1,4 +1,4 @@
-// An output's vertex values in an unnamed temporary file (vertex_values_file.h).
+// An output's vertex values found in runs, in an unnamed temporary file (vertex_values_file.h).
 #include "stream/attributes/vertex_values_file.h"
 
 #include <unistd.h>
@@ -10,30 +10,50 @@
 
 #include "format/file_io.h"
 #include "format/temp_ownership.h"
+#include "stream/core/process_memory.h"
 
 namespace gaussmesh::stream {
 
-format::Result<std::unique_ptr<VertexValuesFile>> VertexValuesFile::create(const std::string& dir) {
-  std::unique_ptr<VertexValuesFile> file(new VertexValuesFile);
-  file->dir_ = dir;
-  file->fd_ = format::create_unnamed_file(dir, "gaussmesh-run-values-");
-  if (file->fd_ < 0) {
-    return format::Status::error(format::Code::kOutput, dir, std::string("cannot make a temporary file: ") + std::strerror(errno));
-  }
-  return file;
-}
-
-VertexValuesFile::~VertexValuesFile() {
+template <class Record>
+UnnamedRecordFile<Record>::~UnnamedRecordFile() {
   if (fd_ >= 0) ::close(fd_);
 }
 
-format::Status VertexValuesFile::append(std::span<const format::VertexAttributes> values) {
-  const std::uint64_t bytes = values.size_bytes();
-  if (!format::write_all(fd_, values.data(), bytes, count_ * sizeof(format::VertexAttributes))) {
+template <class Record>
+format::Status UnnamedRecordFile<Record>::create(const std::string& dir) {
+  dir_ = dir;
+  fd_ = format::create_unnamed_file(dir, "gaussmesh-run-values-");
+  if (fd_ < 0) return format::Status::error(format::Code::kOutput, dir, std::string("cannot make a temporary file: ") + std::strerror(errno));
+  return {};
+}
+
+template <class Record>
+format::Status UnnamedRecordFile<Record>::append(std::span<const Record> records) {
+  if (!format::write_all(fd_, records.data(), records.size_bytes(), count_ * sizeof(Record))) {
     return format::Status::error(format::Code::kOutput, dir_, std::string("cannot write a temporary file: ") + std::strerror(errno));
   }
-  count_ += values.size();
+  count_ += records.size();
   return {};
+}
+
+template <class Record>
+format::Status UnnamedRecordFile<Record>::read(std::uint64_t first, std::span<Record> out) const {
+  if (first > count_ || out.size() > count_ - first) {
+    return format::Status::error(format::Code::kProcessing, dir_, "read past a temporary file's last record");
+  }
+  if (!format::pread_all(fd_, out.data(), out.size_bytes(), first * sizeof(Record))) {
+    return format::Status::error(format::Code::kBadInput, dir_, "temporary file is shorter than written");
+  }
+  return {};
+}
+
+template class UnnamedRecordFile<format::VertexAttributes>;
+template class UnnamedRecordFile<format::Vec3f>;
+
+format::Result<std::unique_ptr<VertexValuesFile>> VertexValuesFile::create(const std::string& dir) {
+  std::unique_ptr<VertexValuesFile> file(new VertexValuesFile);
+  GM_RETURN_IF_ERROR(file->file_.create(dir));
+  return file;
 }
 
 format::Status VertexValuesFile::rewind() {
@@ -42,53 +62,56 @@ format::Status VertexValuesFile::rewind() {
 }
 
 format::Status VertexValuesFile::read(std::span<format::VertexAttributes> out) {
-  if (out.size() > count_ - at_) {
-    return format::Status::error(format::Code::kProcessing, dir_, "read past the last vertex's values");
-  }
-  if (!format::pread_all(fd_, out.data(), out.size_bytes(), at_ * sizeof(format::VertexAttributes))) {
-    return format::Status::error(format::Code::kBadInput, dir_, "temporary file is shorter than written");
-  }
+  GM_RETURN_IF_ERROR(file_.read(at_, out));
   at_ += out.size();
   return {};
 }
 
-format::Status nearest_vertex_values_in_runs(const VertexPassFn& input, format::MeshParts& output, std::uint64_t run,
-                                             VertexValuesFile& into) {
+format::Result<bool> nearest_vertex_values_in_runs(const VertexPassFn& input, format::MeshParts& output,
+                                                   std::uint64_t budget, const std::string& dir, VertexValuesFile& into,
+                                                   std::uint64_t run) {
   const std::uint64_t total = output.vertex_count();
-  run = std::max<std::uint64_t>(run, 1);
-  std::vector<format::Vec3f> positions;
-  std::vector<format::Triangle> inside;
-  for (std::uint64_t first = 0; first < total; first += run) {
-    const std::uint64_t end = std::min(total, first + run);
-    positions.clear();
-    std::uint64_t at = 0;
-    GM_RETURN_IF_ERROR(output.vertices([&](std::span<const format::Vec3f> batch) {
-      const std::uint64_t from = std::max(at, first), to = std::min(at + batch.size(), end);
-      if (from < to) positions.insert(positions.end(), batch.begin() + (from - at), batch.begin() + (to - at));
-      at += batch.size();
-      return format::Status();
-    }));
-    if (positions.size() != end - first) {
-      return format::Status::error(format::Code::kProcessing, "output", "the mesh delivered fewer vertices than declared");
-    }
-    const auto in_run = [&](format::VertexIndex v) { return v >= first && v < end; };
+  UnnamedRecordFile<Vec3f> positions_file;
+  GM_RETURN_IF_ERROR(positions_file.create(dir));
+  GM_RETURN_IF_ERROR(output.vertices([&](std::span<const Vec3f> batch) { return positions_file.append(batch); }));
+  if (positions_file.count() != total) {
+    return format::Status::error(format::Code::kProcessing, "output", "the mesh delivered other vertices than declared");
+  }
+  release_free_memory();
+  const std::uint64_t held = current_rss() + kSpillReadingBytes;
+  const std::uint64_t fits = budget > held ? (budget - held) / kNearestValuesBytesPerVertex : 0;
+  if (fits < std::min(kMinAttributeRun, total)) return false;
+  run = run > 0 ? std::min(run, fits) : fits;
+
+  std::vector<Vec3f> positions;
+  const auto load = [&](std::uint64_t first, std::uint64_t end) {
+    positions.resize(end - first);
+    return positions_file.read(first, positions);
+  };
+  // The density: the area of the faces whose corners all lie in the first run, per its vertex.
+  double area_per_vertex = 0;
+  {
+    const std::uint64_t end = std::min(total, run);
+    GM_RETURN_IF_ERROR(load(0, end));
+    std::vector<Triangle> inside;
     double area = 0;
-    GM_RETURN_IF_ERROR(output.faces([&](std::span<const format::Triangle> batch) {
+    GM_RETURN_IF_ERROR(output.faces([&](std::span<const Triangle> batch) {
       inside.clear();
-      for (const format::Triangle& t : batch) {
-        if (in_run(t.v[0]) && in_run(t.v[1]) && in_run(t.v[2])) {
-          inside.push_back({{format::VertexIndex(t.v[0] - first), format::VertexIndex(t.v[1] - first),
-                             format::VertexIndex(t.v[2] - first)}});
-        }
-      }
+      for (const Triangle& t : batch)
+        if (t.v[0] < end && t.v[1] < end && t.v[2] < end) inside.push_back(t);
       area += surface_area(positions, inside);
       return format::Status();
     }));
-    auto found = nearest_vertex_values(input, positions, area);
+    area_per_vertex = end > 0 ? area / double(end) : 0;
+  }
+  for (std::uint64_t first = 0; first < total; first += run) {
+    const std::uint64_t end = std::min(total, first + run);
+    GM_RETURN_IF_ERROR(load(first, end));
+    auto found = nearest_vertex_values(input, positions, area_per_vertex * double(end - first));
     if (!found) return found.status();
     GM_RETURN_IF_ERROR(into.append(*found));
   }
-  return {};
+  return true;
 }
 
 }  // namespace gaussmesh::stream

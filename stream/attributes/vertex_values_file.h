@@ -16,39 +16,65 @@
 
 namespace gaussmesh::stream {
 
+// Records of one type in a file that no path names (gone when closed, however the run ends),
+// appended, then read back by index.
+template <class Record>
+class UnnamedRecordFile {
+ public:
+  UnnamedRecordFile() = default;
+  UnnamedRecordFile(const UnnamedRecordFile&) = delete;
+  UnnamedRecordFile& operator=(const UnnamedRecordFile&) = delete;
+  ~UnnamedRecordFile();
+  // An empty file in directory `dir`.
+  format::Status create(const std::string& dir);
+  format::Status append(std::span<const Record> records);
+  // Records [first, first + out.size()): past the end is kProcessing.
+  format::Status read(std::uint64_t first, std::span<Record> out) const;
+  std::uint64_t count() const { return count_; }
+
+ private:
+  std::string dir_;
+  int fd_ = -1;
+  std::uint64_t count_ = 0;
+};
+
 class VertexValuesFile final : public format::VertexValuesReader {
  public:
-  // An empty file in directory `dir` (made there, gone when closed, however the run ends).
+  // An empty file in directory `dir`.
   static format::Result<std::unique_ptr<VertexValuesFile>> create(const std::string& dir);
-  ~VertexValuesFile() override;
-  VertexValuesFile(const VertexValuesFile&) = delete;
-  VertexValuesFile& operator=(const VertexValuesFile&) = delete;
 
   // The next vertices' values.
-  format::Status append(std::span<const format::VertexAttributes> values);
+  format::Status append(std::span<const format::VertexAttributes> values) { return file_.append(values); }
 
-  std::uint64_t count() const override { return count_; }
+  std::uint64_t count() const override { return file_.count(); }
   format::Status rewind() override;
   format::Status read(std::span<format::VertexAttributes> out) override;
 
  private:
   VertexValuesFile() = default;
-  std::string dir_;
-  int fd_ = -1;
-  std::uint64_t count_ = 0, at_ = 0;
+  UnnamedRecordFile<format::VertexAttributes> file_;
+  std::uint64_t at_ = 0;
 };
 
 // The fewest output vertices worth a run of their own: shorter runs cost more passes over the
 // input than the output's attributes are worth (the output then goes without them).
 inline constexpr std::uint64_t kMinAttributeRun = std::uint64_t{1} << 14;
+// What the spill's reading holds beside a run's search: a frame read ahead and one searched, each
+// compressed and decompressed with its vertices copied out (1 MiB frames).
+inline constexpr std::uint64_t kSpillReadingBytes = std::uint64_t{8} << 20;
 
-// nearest_vertex_values for an output that streams (its vertices in parts), `run` vertices at a
-// time in output order (a run is a few neighbouring pieces), each run with passes of its own over
-// the input's vertices, appended to `into`. A vertex's nearest input vertex does not depend on
-// the others searched with it, so the values are those of one search over them all. A run's
-// search grid is sized by the area of the faces whose corners all lie in it. Memory: a run's
-// positions and search (about 90 B a vertex), whatever the output's size.
-format::Status nearest_vertex_values_in_runs(const VertexPassFn& input, format::MeshParts& output, std::uint64_t run,
-                                             VertexValuesFile& into);
+// nearest_vertex_values for an output that streams (its vertices in parts) within `budget` bytes
+// of resident memory: the output's positions go to a file of their own in `dir` (one pass over
+// its vertices), the vertices are then searched in runs of as many as fit beside what the
+// process holds at that point (kNearestValuesBytesPerVertex each, and kSpillReadingBytes), in
+// output order (a run is a few neighbouring pieces), each run with passes of its own over the
+// input's vertices, and their values appended to `into`. A vertex's nearest input vertex does not
+// depend on the others searched with it, so the values are those of one search over them all.
+// The search grids are sized by the density of the first run's faces (one pass over the faces).
+// False, and nothing appended, when the runs would be shorter than kMinAttributeRun; `run`, when
+// not 0, caps their length (tests).
+format::Result<bool> nearest_vertex_values_in_runs(const VertexPassFn& input, format::MeshParts& output,
+                                                   std::uint64_t budget, const std::string& dir, VertexValuesFile& into,
+                                                   std::uint64_t run = 0);
 
 }  // namespace gaussmesh::stream

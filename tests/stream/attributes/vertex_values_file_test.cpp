@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "stream/attributes/vertex_values_file.h"
+#include "stream/core/process_memory.h"
 #include "tests/support/shapes.h"
 #include "tests/support/test_util.h"
 
@@ -80,11 +81,34 @@ TEST(VertexValuesFile, RunsOfAnyLengthGiveTheValuesOfOneSearch) {
     auto file = VertexValuesFile::create(dir.path().string());
     ASSERT_TRUE(file.is_ok()) << file.status().to_string();
     TestParts parts(output, 64);
-    const format::Status found = nearest_vertex_values_in_runs(pass, parts, run, **file);
-    ASSERT_TRUE(found.is_ok()) << found.to_string();
+    auto found = nearest_vertex_values_in_runs(pass, parts, std::uint64_t{1} << 40, dir.path().string(), **file, run);
+    ASSERT_TRUE(found.is_ok()) << found.status().to_string();
+    EXPECT_TRUE(*found);
     EXPECT_EQ((*file)->count(), output.positions.size());
     EXPECT_TRUE(same(read_all(**file), *whole));
   }
+}
+
+// A budget the process already fills leaves no room for runs: nothing is searched or written.
+TEST(VertexValuesFile, NoRunsWhenTheBudgetLeavesNoRoom) {
+  testing::ShapeOptions shape;
+  shape.vertices = 40000;
+  const Mesh output = testing::make_torus(1.0, 0.4, shape);
+  std::size_t passes = 0;
+  const VertexPassFn pass = [&](const VertexBatchFn&) {
+    ++passes;
+    return format::Status();
+  };
+  testing::ScratchDir dir;
+  auto file = VertexValuesFile::create(dir.path().string());
+  ASSERT_TRUE(file.is_ok());
+  TestParts parts(output, 1000);
+  auto found = nearest_vertex_values_in_runs(pass, parts, current_rss() / 2, dir.path().string(), **file);
+  ASSERT_TRUE(found.is_ok()) << found.status().to_string();
+  EXPECT_FALSE(*found);
+  EXPECT_EQ(passes, 0u);
+  EXPECT_EQ((*file)->count(), 0u);
+  EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
 }
 
 TEST(VertexValuesFile, GivesBackWhatWasAppendedAndNoMore) {
