@@ -189,9 +189,11 @@ constexpr std::size_t kFewOpen = 8;
 // (of about the output's vertex spacing): the input's elements then mostly meet one cell, and
 // the output's distance to the input rarely passes it; each further round doubles it, or, when
 // at most kFewOpen vertices are left, is infinite (the last round). A vertex's answer, its
-// nearest element, does not depend on the radius that found it.
+// nearest element, does not depend on the radius that found it. With `left`, only the first
+// round runs, and the vertices it left open go there.
 template <class Round, class Found>
-format::Status search_rounds(const std::vector<Vec3f>& positions, double area, Round&& round, Found&& found) {
+format::Status search_rounds(const std::vector<Vec3f>& positions, double area, Round&& round, Found&& found,
+                             std::vector<std::uint32_t>* left = nullptr) {
   const double cell = grid_cell(positions, area);
   std::vector<std::uint32_t> open(positions.size());
   for (std::size_t v = 0; v < open.size(); ++v) open[v] = std::uint32_t(v);
@@ -202,7 +204,9 @@ format::Status search_rounds(const std::vector<Vec3f>& positions, double area, R
     GM_RETURN_IF_ERROR(round(grid, radius));
     open = grid.release_vertices();
     std::erase_if(open, found);
+    if (left) break;
   }
+  if (left) *left = std::move(open);
   return {};
 }
 
@@ -337,7 +341,8 @@ void normalise_normals(std::vector<format::VertexAttributes>& values) {
 }
 
 format::Result<std::vector<format::VertexAttributes>> nearest_vertex_values(const VertexPassFn& pass,
-                                                                            const std::vector<Vec3f>& positions, double area) {
+                                                                            const std::vector<Vec3f>& positions, double area,
+                                                                            std::vector<std::uint32_t>* left) {
   std::vector<format::VertexAttributes> values(positions.size());
   std::vector<double> best(positions.size(), std::numeric_limits<double>::infinity());
   auto round = [&](const VertexGrid& grid, double radius) {
@@ -355,7 +360,7 @@ format::Result<std::vector<format::VertexAttributes>> nearest_vertex_values(cons
       return format::Status();
     });
   };
-  GM_RETURN_IF_ERROR(search_rounds(positions, area, round, [&](std::uint32_t v) { return std::isfinite(best[v]); }));
+  GM_RETURN_IF_ERROR(search_rounds(positions, area, round, [&](std::uint32_t v) { return std::isfinite(best[v]); }, left));
   for (format::VertexAttributes& a : values) a.normal = normalised(a.normal.x, a.normal.y, a.normal.z);
   return values;
 }

@@ -54,10 +54,13 @@ format::Status transfer_nearest_vertex(const VertexPassFn& pass, const format::A
 
 // The search of transfer_nearest_vertex for an output held as positions only (its faces stream,
 // out of core): each vertex's values from the nearest input vertex, normals unit length. `area`,
-// the output's surface area (surface_area), sizes the search grid.
+// the output's surface area (surface_area), sizes the search grid. With `left`, only the first
+// round: the vertices it found get their values, the others are listed in `left` (one pass over
+// the input, which finds all but a few of an output's vertices).
 format::Result<std::vector<format::VertexAttributes>> nearest_vertex_values(const VertexPassFn& pass,
                                                                             const std::vector<format::Vec3f>& positions,
-                                                                            double area);
+                                                                            double area,
+                                                                            std::vector<std::uint32_t>* left = nullptr);
 // What that search holds per output vertex at its peak, with the vertex's position: the position
 // (12 B), its values (36 B), the best distance (8 B), the list of open vertices (4 B) and the
 // grid (about 30 B).

@@ -37,6 +37,15 @@ format::Status UnnamedRecordFile<Record>::append(std::span<const Record> records
 }
 
 template <class Record>
+format::Status UnnamedRecordFile<Record>::replace(std::uint64_t index, const Record& record) {
+  if (index >= count_) return format::Status::error(format::Code::kProcessing, dir_, "replaced past a temporary file's last record");
+  if (!format::write_all(fd_, &record, sizeof(Record), index * sizeof(Record))) {
+    return format::Status::error(format::Code::kOutput, dir_, std::string("cannot write a temporary file: ") + std::strerror(errno));
+  }
+  return {};
+}
+
+template <class Record>
 format::Status UnnamedRecordFile<Record>::read(std::uint64_t first, std::span<Record> out) const {
   if (first > count_ || out.size() > count_ - first) {
     return format::Status::error(format::Code::kProcessing, dir_, "read past a temporary file's last record");
@@ -104,13 +113,34 @@ format::Result<bool> nearest_vertex_values_in_runs(const VertexPassFn& input, fo
     }));
     area_per_vertex = end > 0 ? area / double(end) : 0;
   }
+  // The vertices runs left open: their positions and output indices. Searched when they are half
+  // a run, so that the run's positions, the gathered ones and their search stay within a run's
+  // share.
+  std::vector<Vec3f> open_positions;
+  std::vector<std::uint64_t> open_index;
+  const auto search_open = [&]() -> format::Status {
+    if (open_positions.empty()) return {};
+    auto found = nearest_vertex_values(input, open_positions, area_per_vertex * double(open_positions.size()));
+    if (!found) return found.status();
+    for (std::size_t i = 0; i < open_index.size(); ++i) GM_RETURN_IF_ERROR(into.replace(open_index[i], (*found)[i]));
+    open_positions.clear();
+    open_index.clear();
+    return {};
+  };
+  std::vector<std::uint32_t> left;
   for (std::uint64_t first = 0; first < total; first += run) {
     const std::uint64_t end = std::min(total, first + run);
     GM_RETURN_IF_ERROR(load(first, end));
-    auto found = nearest_vertex_values(input, positions, area_per_vertex * double(end - first));
+    auto found = nearest_vertex_values(input, positions, area_per_vertex * double(end - first), &left);
     if (!found) return found.status();
     GM_RETURN_IF_ERROR(into.append(*found));
+    for (const std::uint32_t v : left) {
+      open_positions.push_back(positions[v]);
+      open_index.push_back(first + v);
+      if (2 * open_positions.size() >= run) GM_RETURN_IF_ERROR(search_open());
+    }
   }
+  GM_RETURN_IF_ERROR(search_open());
   return true;
 }
 

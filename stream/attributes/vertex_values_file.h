@@ -28,6 +28,8 @@ class UnnamedRecordFile {
   // An empty file in directory `dir`.
   format::Status create(const std::string& dir);
   format::Status append(std::span<const Record> records);
+  // Replaces record `index` (appended before).
+  format::Status replace(std::uint64_t index, const Record& record);
   // Records [first, first + out.size()): past the end is kProcessing.
   format::Status read(std::uint64_t first, std::span<Record> out) const;
   std::uint64_t count() const { return count_; }
@@ -45,6 +47,8 @@ class VertexValuesFile final : public format::VertexValuesReader {
 
   // The next vertices' values.
   format::Status append(std::span<const format::VertexAttributes> values) { return file_.append(values); }
+  // Vertex `index`'s values, appended before.
+  format::Status replace(std::uint64_t index, const format::VertexAttributes& value) { return file_.replace(index, value); }
 
   std::uint64_t count() const override { return file_.count(); }
   format::Status rewind() override;
@@ -67,8 +71,10 @@ inline constexpr std::uint64_t kSpillReadingBytes = std::uint64_t{8} << 20;
 // of resident memory: the output's positions go to a file of their own in `dir` (one pass over
 // its vertices), the vertices are then searched in runs of as many as fit beside what the
 // process holds at that point (kNearestValuesBytesPerVertex each, and kSpillReadingBytes), in
-// output order (a run is a few neighbouring pieces), each run with passes of its own over the
-// input's vertices, and their values appended to `into`. A vertex's nearest input vertex does not
+// output order (a run is a few neighbouring pieces), each run with a pass of its own over the
+// input's vertices (the search's first round), and their values appended to `into`; the few
+// vertices a run leaves open are gathered and searched together (all rounds) once they are half
+// a run, or at the end, their values put in place. A vertex's nearest input vertex does not
 // depend on the others searched with it, so the values are those of one search over them all.
 // The search grids are sized by the density of the first run's faces (one pass over the faces).
 // False, and nothing appended, when the runs would be shorter than kMinAttributeRun; `run`, when

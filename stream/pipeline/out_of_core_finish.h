@@ -67,8 +67,9 @@ inline constexpr int kMaxRounds = 6;
 // The output of the chunked finish, read back from the last round's files (each vertex from the
 // piece that owns it, in piece order; then each piece's faces) without holding the mesh: a
 // writer streams it (format::write_ply_parts), or gathers it into memory. vertices() comes
-// before faces(), once each. The files live in the partition's directory: own() keeps it until
-// the output is destroyed.
+// before faces(); either may be read again (the attribute transfer reads them before the writer
+// does), each vertices() writing the units' owned ids anew for the faces() after it. The files
+// live in the partition's directory: own() keeps it until the output is destroyed.
 class ChunkedOutput : public format::MeshParts {
  public:
   struct Rounds;

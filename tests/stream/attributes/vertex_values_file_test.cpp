@@ -1,5 +1,6 @@
 // The attributes of an output too large to hold: its values found in runs of vertices are those of
-// one search over them all, whatever the run's length; the file gives back what was appended,
+// one search over them all, whatever the run's length (vertices far from the input too, which a
+// run leaves to a search of its own); the file gives back what was appended,
 // from the first again after a rewind, and refuses to read past its end.
 #include <gtest/gtest.h>
 
@@ -72,6 +73,10 @@ TEST(VertexValuesFile, RunsOfAnyLengthGiveTheValuesOfOneSearch) {
   shape.vertices = 1500;
   Mesh output = testing::make_torus(1.0, 0.41, shape);  // off the input's vertices
   for (std::size_t v = 0; v < 40; ++v) output.positions[3 * v] = input.positions[11 * v];  // and on some
+  for (std::size_t v = 0; v < 30; ++v) {  // and far from it: the first round of a run leaves these open
+    Vec3f& p = output.positions[37 * v + 1];
+    p = {1.5f * p.x, 1.5f * p.y, p.z + 0.5f};
+  }
   auto whole = nearest_vertex_values(pass, output.positions, surface_area(output.positions, output.triangles));
   ASSERT_TRUE(whole.is_ok()) << whole.status().to_string();
   testing::ScratchDir dir;
