@@ -62,9 +62,10 @@ format::Result<std::vector<format::VertexAttributes>> nearest_vertex_values(cons
                                                                             double area,
                                                                             std::vector<std::uint32_t>* left = nullptr);
 // What that search holds per output vertex at its peak, with the vertex's position: the position
-// (12 B), its values (36 B), the best distance (8 B), the list of open vertices (4 B) and the
-// grid (about 30 B).
-inline constexpr std::uint64_t kNearestValuesBytesPerVertex = 12 + 36 + 8 + 4 + 30;
+// (12 B), its values (36 B), the best distance (8 B) and the grid as it is built (up to 64 B:
+// the vertices keyed by cell, then the cells' table at up to four slots a cell, when every vertex
+// has a cell of its own).
+inline constexpr std::uint64_t kNearestValuesBytesPerVertex = 12 + 36 + 8 + 64;
 // An input triangle as an out-of-core pass gives it: its corners' positions and its index in the
 // input (the lowest index wins among equally near triangles).
 struct IndexedTriangle {
