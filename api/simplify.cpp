@@ -239,7 +239,8 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   format::AttributeKinds dropped;
   format::PartsAttributes parts_attributes;
   std::vector<format::VertexAttributes> parts_values;
-  std::unique_ptr<stream::VertexValuesFile> values_file;  // the values of a batched transfer
+  std::unique_ptr<stream::VertexValuesFile> values_file;  // the values of a transfer in runs
+  std::uint64_t attribute_runs = 0;                       // its runs (0: none)
   const stream::NormalsMode normals = normals_mode(o.normals);
   const stream::VertexAttributeSpill* spill = result->attribute_spill.get();
   const format::AttributeKinds input_kinds = spill ? spill->kinds() : format::AttributeKinds{};
@@ -271,17 +272,16 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
     const std::uint64_t budget = options.memory_explicit ? options.memory.bytes() : 0;
     const bool over_budget = options.memory_explicit && need > budget;
     if (over_budget) dropped.normals = normals == stream::NormalsMode::kCompute;
-    bool in_runs = false;
     if (over_budget && streams && spill) {
       const std::string dir = format::temp_parent(o.resources.tmp_dir);
       auto file = stream::VertexValuesFile::create(dir);
       if (!file) return file.status();
       auto fitted = stream::nearest_vertex_values_in_runs(vertices, *result->parts, budget, dir, **file);
       if (!fitted) return fitted.status();
-      in_runs = *fitted;
-      if (in_runs) values_file = std::move(*file);
+      attribute_runs = *fitted;
+      if (attribute_runs > 0) values_file = std::move(*file);
     }
-    if (in_runs) {
+    if (attribute_runs > 0) {
       parts_attributes.kinds = {normals == stream::NormalsMode::kKeep && input_kinds.normals, input_kinds.colors, input_kinds.texcoords};
       parts_attributes.reader = values_file.get();
       transfer = "nearest_vertex";
@@ -363,6 +363,7 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
   finish_report(report, result->finish_options, result->finish, stats);
   if (result->finish) report["approximation"] = result->collapsed_input ? "input" : "gauss";
   report["attribute_transfer"] = transfer;
+  report["attribute_runs"] = attribute_runs;
   report["output_attributes"] = parts_attributes.kinds.any() ? output_attributes_json(parts_attributes.kinds)
                                                              : output_attributes_json(result->mesh);
   report["warnings"] = stats.warnings;
@@ -667,6 +668,7 @@ Result<SimplifyStats> simplify_in_core(const Source& source, const Sink& sink, c
   if (finished) report["approximation"] = collapsed_input ? "input" : "gauss";
   // In core: the surface under each vertex, or the seams' own rule (stream/attributes/seams.h).
   report["attribute_transfer"] = !has_attributes ? "none" : seams_kept ? "seams" : "surface";
+  report["attribute_runs"] = 0;
   report["output_attributes"] = output_attributes_json(result->mesh);
   report["warnings"] = stats.warnings;
   if (measured) {

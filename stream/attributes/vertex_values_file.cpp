@@ -76,7 +76,7 @@ format::Status VertexValuesFile::read(std::span<format::VertexAttributes> out) {
   return {};
 }
 
-format::Result<bool> nearest_vertex_values_in_runs(const VertexPassFn& input, format::MeshParts& output,
+format::Result<std::uint64_t> nearest_vertex_values_in_runs(const VertexPassFn& input, format::MeshParts& output,
                                                    std::uint64_t budget, const std::string& dir, VertexValuesFile& into,
                                                    std::uint64_t run) {
   const std::uint64_t total = output.vertex_count();
@@ -89,7 +89,7 @@ format::Result<bool> nearest_vertex_values_in_runs(const VertexPassFn& input, fo
   release_free_memory();
   const std::uint64_t held = current_rss() + kSpillReadingBytes;
   const std::uint64_t fits = budget > held ? (budget - held) / kNearestValuesBytesPerVertex : 0;
-  if (fits < std::min(kMinAttributeRun, total)) return false;
+  if (fits < std::min(kMinAttributeRun, total)) return std::uint64_t{0};
   run = run > 0 ? std::min(run, fits) : fits;
 
   std::vector<Vec3f> positions;
@@ -141,7 +141,7 @@ format::Result<bool> nearest_vertex_values_in_runs(const VertexPassFn& input, fo
     }
   }
   GM_RETURN_IF_ERROR(search_open());
-  return true;
+  return (total + run - 1) / run;
 }
 
 }  // namespace gaussmesh::stream

@@ -320,6 +320,8 @@ TEST(SimplifyAttributesCli, AnOutputTooLargeToHoldTakesItsValuesInRuns) {
     const std::string report = read_file(dir.file("r.json"));
     EXPECT_NE(report.find("\"chunked_finish\""), std::string::npos);
     EXPECT_NE(report.find("\"attribute_transfer\": \"nearest_vertex\""), std::string::npos) << report;
+    EXPECT_EQ(report.find("\"attribute_runs\": 0"), std::string::npos) << report;
+    EXPECT_EQ(report.find("\"attribute_runs\": 1,"), std::string::npos) << report;
     const stream::Mesh m = read_mesh(out);
     ASSERT_EQ(m.colors.size(), m.positions.size());
     ASSERT_GT(m.positions.size(), 200000u);
