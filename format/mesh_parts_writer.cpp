@@ -242,26 +242,19 @@ Status write_obj_parts(OutputFile& out, MeshParts& mesh, const PartsAttributes& 
     return Status();
   }));
   if (vertices != nv) return miscount(out, "vertices", vertices, nv);
-  // Texture coordinates, then normals: a pass over the values each.
-  if (texcoords) {
+  // Texture coordinates, then normals: a pass over the values each, a line a vertex.
+  const auto lines = [&](auto&& write) -> Status {
     GM_RETURN_IF_ERROR(values.restart());
     for (std::uint64_t v = 0; v < nv; ++v) {
       auto value = values.next();
       if (!value) return value.status();
       GM_RETURN_IF_ERROR(buffer.room());
-      line(buffer, "vt", {(*value)->texcoord.u, (*value)->texcoord.v});
+      write(**value);
     }
-  }
-  if (normals) {
-    GM_RETURN_IF_ERROR(values.restart());
-    for (std::uint64_t v = 0; v < nv; ++v) {
-      auto value = values.next();
-      if (!value) return value.status();
-      GM_RETURN_IF_ERROR(buffer.room());
-      const Vec3f& n = (*value)->normal;
-      line(buffer, "vn", {n.x, n.y, n.z});
-    }
-  }
+    return Status();
+  };
+  if (texcoords) GM_RETURN_IF_ERROR(lines([&](const VertexAttributes& a) { line(buffer, "vt", {a.texcoord.u, a.texcoord.v}); }));
+  if (normals) GM_RETURN_IF_ERROR(lines([&](const VertexAttributes& a) { line(buffer, "vn", {a.normal.x, a.normal.y, a.normal.z}); }));
   GM_RETURN_IF_ERROR(mesh.faces([&](std::span<const Triangle> batch) -> Status {
     for (const Triangle& t : batch) {
       GM_RETURN_IF_ERROR(count_face(out, t, faces, nv, nf));
