@@ -276,7 +276,10 @@ Result<SimplifyStats> simplify_out_of_core(const Source& source, const Sink& sin
       const std::string dir = format::temp_parent(o.resources.tmp_dir);
       auto file = stream::VertexValuesFile::create(dir);
       if (!file) return file.status();
-      auto fitted = stream::nearest_vertex_values_in_runs(vertices, *result->parts, budget, dir, **file);
+      const stream::NearVertexPassFn near = [spill, ahead](const stream::PositionBox& box, const stream::VertexBatchFn& batch) {
+        return spill->each(batch, ahead, &box);
+      };
+      auto fitted = stream::nearest_vertex_values_in_runs(vertices, near, *result->parts, budget, dir, **file);
       if (!fitted) return fitted.status();
       attribute_runs = *fitted;
       if (attribute_runs > 0) values_file = std::move(*file);

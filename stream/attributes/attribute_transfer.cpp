@@ -174,10 +174,7 @@ void within(const VertexGrid& grid, const std::vector<Vec3f>& positions, const s
 }
 
 // Output vertices' cell size: about two output vertices per occupied cell, from the output's area.
-double grid_cell(const std::vector<Vec3f>& positions, double area) {
-  const double cell = std::sqrt(2 * area / double(std::max<std::size_t>(positions.size(), 1)));
-  return cell > 0 && std::isfinite(cell) ? cell : 1;
-}
+double grid_cell(const std::vector<Vec3f>& positions, double area) { return search_cell(positions.size(), area); }
 
 // Vertices left open after a round that the next round searches at any distance: each element
 // of the input then tests each of them, which costs less than another pass per doubling.
@@ -530,6 +527,11 @@ format::Result<std::vector<format::VertexAttributes>> surface_values(const Trian
                          : format::VertexAttributes{{0, 0, 1}, {}, {}};
   });
   return values;
+}
+
+double search_cell(std::uint64_t count, double area) {
+  const double cell = std::sqrt(2 * area / double(std::max<std::uint64_t>(count, 1)));
+  return cell > 0 && std::isfinite(cell) ? cell : 1;
 }
 
 }  // namespace gaussmesh::stream

@@ -4,7 +4,9 @@
 
 #include <array>
 #include <cstdint>
+#include <algorithm>
 #include <functional>
+#include <limits>
 #include <span>
 
 #include "format/mesh_sink.h"
@@ -42,6 +44,25 @@ void assign_attributes(const std::vector<format::VertexAttributes>& values, cons
 using VertexBatchFn = std::function<format::Status(std::span<const format::Vec3f>, std::span<const format::VertexAttributes>)>;
 using VertexPassFn = std::function<format::Status(const VertexBatchFn& batch)>;
 
+// An axis-aligned box of positions; empty (lo above hi) until a position is added.
+struct PositionBox {
+  format::Vec3f lo{std::numeric_limits<float>::infinity(), std::numeric_limits<float>::infinity(),
+                   std::numeric_limits<float>::infinity()};
+  format::Vec3f hi{-std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
+                   -std::numeric_limits<float>::infinity()};
+  void add(const format::Vec3f& p) {
+    lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+    hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+  }
+  // Whether the two boxes share a point (never when either is empty).
+  bool meets(const PositionBox& o) const {
+    return lo.x <= o.hi.x && o.lo.x <= hi.x && lo.y <= o.hi.y && o.lo.y <= hi.y && lo.z <= o.hi.z && o.lo.z <= hi.z;
+  }
+};
+// A pass over at least the input vertices inside a box (whole frames of the spill that lie
+// outside it may be left out), as VertexPassFn otherwise.
+using NearVertexPassFn = std::function<format::Status(const PositionBox& near, const VertexBatchFn& batch)>;
+
 // The same for an input that is streamed, not held (out of core): each output vertex takes the
 // attributes of the nearest input vertex (the first in input order among equally near ones),
 // so an output vertex that is an input vertex keeps that vertex's values, and a moved one gets
@@ -61,6 +82,9 @@ format::Result<std::vector<format::VertexAttributes>> nearest_vertex_values(cons
                                                                             const std::vector<format::Vec3f>& positions,
                                                                             double area,
                                                                             std::vector<std::uint32_t>* left = nullptr);
+// The side of the search grid's cells for `count` output vertices over `area` (about their
+// spacing); the first round's radius is a quarter of it.
+double search_cell(std::uint64_t count, double area);
 // What that search holds per output vertex at its peak, with the vertex's position: the position
 // (12 B), its values (36 B), the best distance (8 B) and the grid as it is built (up to 64 B:
 // the vertices keyed by cell, then the cells' table at up to four slots a cell, when every vertex

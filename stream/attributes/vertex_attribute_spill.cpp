@@ -43,6 +43,7 @@ format::Result<std::unique_ptr<VertexAttributeSpill>> VertexAttributeSpill::crea
   auto writer = format::RecordWriter::create(spill->path_, kVertexAttributeRecordKind, sizeof(Record));
   if (!writer) return writer.status();
   spill->writer_ = std::move(*writer);
+  spill->frame_records_ = spill->writer_->frame_limit() / sizeof(Record);
   return spill;
 }
 
@@ -60,7 +61,12 @@ format::Status VertexAttributeSpill::add(std::span<const format::Vec3f> position
   Record records[256];
   for (std::size_t i = 0; i < positions.size();) {
     const std::size_t n = std::min<std::size_t>(256, positions.size() - i);
-    for (std::size_t k = 0; k < n; ++k) records[k] = {positions[i + k], attributes[i + k]};
+    for (std::size_t k = 0; k < n; ++k) {
+      records[k] = {positions[i + k], attributes[i + k]};
+      if (in_frame_++ == 0) frame_boxes_.emplace_back();
+      frame_boxes_.back().add(positions[i + k]);
+      if (in_frame_ == frame_records_) in_frame_ = 0;
+    }
     GM_RETURN_IF_ERROR(writer_->append(std::as_bytes(std::span<const Record>(records, n))));
     i += n;
   }
@@ -74,9 +80,13 @@ format::Status VertexAttributeSpill::finish() {
   return {};
 }
 
-format::Status VertexAttributeSpill::each(const VertexBatchFn& batch, bool ahead) const {
+format::Status VertexAttributeSpill::each(const VertexBatchFn& batch, bool ahead, const PositionBox* near) const {
   auto reader = format::RecordReader::open(path_, kVertexAttributeRecordKind, sizeof(Record));
   if (!reader) return reader.status();
+  if (near && (*reader)->frame_count() != frame_boxes_.size()) {
+    return format::Status::error(format::Code::kProcessing, path_, "the spill's frames are not the ones written");
+  }
+  std::size_t frame_index = 0;
   // One frame's vertices as the batch takes them; an empty one ends the pass.
   struct Frame {
     std::vector<format::Vec3f> positions;
@@ -86,6 +96,14 @@ format::Status VertexAttributeSpill::each(const VertexBatchFn& batch, bool ahead
   const auto read = [&](Frame& into) {
     into.positions.clear();
     into.attributes.clear();
+    for (; near && frame_index < frame_boxes_.size() && !frame_boxes_[frame_index].meets(*near); ++frame_index) {
+      auto skipped = (*reader)->skip();
+      if (!skipped) {
+        into.status = skipped.status();
+        return;
+      }
+    }
+    ++frame_index;
     auto frame = (*reader)->next();
     if (!frame) {
       into.status = frame.status();

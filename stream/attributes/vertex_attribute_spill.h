@@ -7,6 +7,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "format/mesh_sink.h"
 #include "format/record_file.h"
@@ -35,8 +36,9 @@ class VertexAttributeSpill {
   const format::AttributeKinds& kinds() const { return kinds_; }
   std::uint64_t bytes() const { return bytes_; }  // compressed, on disk (after finish)
   // Streams the vertices back in input order (a VertexPassFn). With `ahead`, the frames are
-  // read and decompressed a frame ahead of `batch` on a thread of their own.
-  format::Status each(const VertexBatchFn& batch, bool ahead = false) const;
+  // read and decompressed a frame ahead of `batch` on a thread of their own. With `near`, frames
+  // whose vertices all lie outside it are passed over undecompressed (a NearVertexPassFn).
+  format::Status each(const VertexBatchFn& batch, bool ahead = false, const PositionBox* near = nullptr) const;
 
  private:
   VertexAttributeSpill() = default;
@@ -47,6 +49,9 @@ class VertexAttributeSpill {
   format::AttributeKinds kinds_;
   std::unique_ptr<format::RecordWriter> writer_;
   std::uint64_t bytes_ = 0;
+  // The box of each frame's vertices (the writer cuts a frame every frame_records_ records).
+  std::vector<PositionBox> frame_boxes_;
+  std::uint64_t frame_records_ = 0, in_frame_ = 0;
 };
 
 }  // namespace gaussmesh::stream

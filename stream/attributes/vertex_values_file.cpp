@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
+#include <limits>
 #include <cstring>
 #include <vector>
 
@@ -76,9 +78,10 @@ format::Status VertexValuesFile::read(std::span<format::VertexAttributes> out) {
   return {};
 }
 
-format::Result<std::uint64_t> nearest_vertex_values_in_runs(const VertexPassFn& input, format::MeshParts& output,
-                                                   std::uint64_t budget, const std::string& dir, VertexValuesFile& into,
-                                                   std::uint64_t run) {
+format::Result<std::uint64_t> nearest_vertex_values_in_runs(const VertexPassFn& input, const NearVertexPassFn& near,
+                                                            format::MeshParts& output, std::uint64_t budget,
+                                                            const std::string& dir, VertexValuesFile& into,
+                                                            std::uint64_t run) {
   const std::uint64_t total = output.vertex_count();
   UnnamedRecordFile<Vec3f> positions_file;
   GM_RETURN_IF_ERROR(positions_file.create(dir));
@@ -131,7 +134,21 @@ format::Result<std::uint64_t> nearest_vertex_values_in_runs(const VertexPassFn& 
   for (std::uint64_t first = 0; first < total; first += run) {
     const std::uint64_t end = std::min(total, first + run);
     GM_RETURN_IF_ERROR(load(first, end));
-    auto found = nearest_vertex_values(input, positions, area_per_vertex * double(end - first), &left);
+    // The first round finds input vertices within a quarter of a cell: those in frames that
+    // meet the run's box grown by that much (rounded outwards to floats).
+    VertexPassFn first_round = input;
+    if (near) {
+      const double area = area_per_vertex * double(end - first), r = 1.01 * search_cell(end - first, area) / 4;
+      PositionBox box;
+      for (const Vec3f& p : positions) box.add(p);
+      const auto out = [r](float x, float sign) {
+        return std::nextafter(float(double(x) + sign * r), sign * std::numeric_limits<float>::infinity());
+      };
+      box.lo = {out(box.lo.x, -1), out(box.lo.y, -1), out(box.lo.z, -1)};
+      box.hi = {out(box.hi.x, 1), out(box.hi.y, 1), out(box.hi.z, 1)};
+      first_round = [&near, box](const VertexBatchFn& batch) { return near(box, batch); };
+    }
+    auto found = nearest_vertex_values(first_round, positions, area_per_vertex * double(end - first), &left);
     if (!found) return found.status();
     GM_RETURN_IF_ERROR(into.append(*found));
     for (const std::uint32_t v : left) {

@@ -77,10 +77,13 @@ inline constexpr std::uint64_t kSpillReadingBytes = std::uint64_t{8} << 20;
 // a run, or at the end, their values put in place. A vertex's nearest input vertex does not
 // depend on the others searched with it, so the values are those of one search over them all.
 // The search grids are sized by the density of the first run's faces (one pass over the faces).
+// A run's pass reads, through `near` when given, only the spill's frames that come within the
+// first round's radius of the run's box (of an input in spatially coherent order, a few).
 // The number of runs; 0, and nothing appended, when they would be shorter than kMinAttributeRun.
 // `run`, when not 0, caps their length (tests).
-format::Result<std::uint64_t> nearest_vertex_values_in_runs(const VertexPassFn& input, format::MeshParts& output,
-                                                   std::uint64_t budget, const std::string& dir, VertexValuesFile& into,
-                                                   std::uint64_t run = 0);
+format::Result<std::uint64_t> nearest_vertex_values_in_runs(const VertexPassFn& input, const NearVertexPassFn& near,
+                                                            format::MeshParts& output, std::uint64_t budget,
+                                                            const std::string& dir, VertexValuesFile& into,
+                                                            std::uint64_t run = 0);
 
 }  // namespace gaussmesh::stream

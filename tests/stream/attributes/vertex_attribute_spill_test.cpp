@@ -1,6 +1,7 @@
 // The input's vertex spill: what the ingest adds comes back in order, frame after frame, whether
-// read on the caller's thread or a frame ahead on one of its own; a batch's error ends the pass
-// and is returned; the file goes with the spill.
+// read on the caller's thread or a frame ahead on one of its own, and near a box every vertex
+// inside it without every frame; a batch's error ends the pass and is returned; the file goes
+// with the spill.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -58,6 +59,31 @@ TEST(VertexAttributeSpill, GivesBackItsVerticesInOrderReadAheadOrNot) {
           ahead);
       EXPECT_EQ(stopped.code(), format::Code::kProcessing);
       EXPECT_EQ(calls, 2u);
+    }
+    // Near a box: every vertex inside it, in order, and not every frame.
+    PositionBox box;
+    box.add({30000.5f, -40000.5f, 0});
+    box.add({40000.5f, -30000.5f, 1});
+    for (const bool ahead : {false, true}) {
+      std::size_t inside = 0, seen = 0;
+      float last = -1;
+      bool ordered = true;
+      ASSERT_TRUE((*spill)
+                      ->each(
+                          [&](std::span<const format::Vec3f> p, std::span<const format::VertexAttributes>) {
+                            for (const format::Vec3f& q : p) {
+                              inside += q.x >= 30000.5f && q.x <= 40000.5f;
+                              ordered = ordered && q.x > last;
+                              last = q.x;
+                            }
+                            seen += p.size();
+                            return format::Status();
+                          },
+                          ahead, &box)
+                      .is_ok());
+      EXPECT_EQ(inside, 10000u);
+      EXPECT_TRUE(ordered);
+      EXPECT_LT(seen, kVertices / 2);
     }
     EXPECT_FALSE(std::filesystem::is_empty(dir.path()));
   }

@@ -1,6 +1,7 @@
 // The attributes of an output too large to hold: its values found in runs of vertices are those of
 // one search over them all, whatever the run's length (vertices far from the input too, which a
-// run leaves to a search of its own); the file gives back what was appended,
+// run leaves to a search of its own) and whether a run reads every frame of the input or those
+// near it; the file gives back what was appended,
 // from the first again after a rewind, and refuses to read past its end.
 #include <gtest/gtest.h>
 
@@ -63,13 +64,24 @@ TEST(VertexValuesFile, RunsOfAnyLengthGiveTheValuesOfOneSearch) {
     values[v].texcoord = {p.x, p.z};
     values[v].normal = {p.x, p.y, p.z};
   }
-  const VertexPassFn pass = [&](const VertexBatchFn& fn) {
+  // The input in frames of 101 vertices, as the spill gives it: all of them, or those whose box
+  // meets a given one.
+  std::size_t skipped = 0;
+  const auto frames = [&](const PositionBox* near, const VertexBatchFn& fn) {
     for (std::size_t i = 0; i < input.positions.size(); i += 101) {
       const std::size_t n = std::min<std::size_t>(101, input.positions.size() - i);
+      PositionBox box;
+      for (std::size_t k = i; k < i + n; ++k) box.add(input.positions[k]);
+      if (near && !box.meets(*near)) {
+        ++skipped;
+        continue;
+      }
       GM_RETURN_IF_ERROR(fn(std::span(input.positions).subspan(i, n), std::span<const format::VertexAttributes>(values).subspan(i, n)));
     }
     return format::Status();
   };
+  const VertexPassFn pass = [&](const VertexBatchFn& fn) { return frames(nullptr, fn); };
+  const NearVertexPassFn near = [&](const PositionBox& box, const VertexBatchFn& fn) { return frames(&box, fn); };
   shape.vertices = 1500;
   Mesh output = testing::make_torus(1.0, 0.41, shape);  // off the input's vertices
   for (std::size_t v = 0; v < 40; ++v) output.positions[3 * v] = input.positions[11 * v];  // and on some
@@ -82,16 +94,20 @@ TEST(VertexValuesFile, RunsOfAnyLengthGiveTheValuesOfOneSearch) {
   testing::ScratchDir dir;
   for (const std::size_t run : {std::size_t{1}, std::size_t{7}, std::size_t{500}, output.positions.size() - 1,
                                 output.positions.size(), output.positions.size() + 5}) {
-    SCOPED_TRACE("run " + std::to_string(run));
-    auto file = VertexValuesFile::create(dir.path().string());
-    ASSERT_TRUE(file.is_ok()) << file.status().to_string();
-    TestParts parts(output, 64);
-    auto found = nearest_vertex_values_in_runs(pass, parts, std::uint64_t{1} << 40, dir.path().string(), **file, run);
-    ASSERT_TRUE(found.is_ok()) << found.status().to_string();
-    EXPECT_EQ(*found, (output.positions.size() + run - 1) / run);
-    EXPECT_EQ((*file)->count(), output.positions.size());
-    EXPECT_TRUE(same(read_all(**file), *whole));
+    for (const bool by_box : {false, true}) {
+      SCOPED_TRACE("run " + std::to_string(run) + (by_box ? ", frames near the run" : ", every frame"));
+      auto file = VertexValuesFile::create(dir.path().string());
+      ASSERT_TRUE(file.is_ok()) << file.status().to_string();
+      TestParts parts(output, 64);
+      auto found = nearest_vertex_values_in_runs(pass, by_box ? near : NearVertexPassFn{}, parts, std::uint64_t{1} << 40,
+                                                 dir.path().string(), **file, run);
+      ASSERT_TRUE(found.is_ok()) << found.status().to_string();
+      EXPECT_EQ(*found, (output.positions.size() + run - 1) / run);
+      EXPECT_EQ((*file)->count(), output.positions.size());
+      EXPECT_TRUE(same(read_all(**file), *whole));
+    }
   }
+  EXPECT_GT(skipped, 0u);  // the short runs' passes left frames out
 }
 
 // A budget the process already fills leaves no room for runs: nothing is searched or written.
@@ -108,7 +124,7 @@ TEST(VertexValuesFile, NoRunsWhenTheBudgetLeavesNoRoom) {
   auto file = VertexValuesFile::create(dir.path().string());
   ASSERT_TRUE(file.is_ok());
   TestParts parts(output, 1000);
-  auto found = nearest_vertex_values_in_runs(pass, parts, current_rss() / 2, dir.path().string(), **file);
+  auto found = nearest_vertex_values_in_runs(pass, {}, parts, current_rss() / 2, dir.path().string(), **file);
   ASSERT_TRUE(found.is_ok()) << found.status().to_string();
   EXPECT_EQ(*found, 0u);
   EXPECT_EQ(passes, 0u);
