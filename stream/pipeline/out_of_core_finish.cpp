@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <mutex>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -417,10 +418,16 @@ format::Status ChunkedOutput::vertices(const std::function<format::Status(std::s
   std::vector<PieceVertexRecord> vs;
   std::vector<format::Vec3f> positions;
   std::vector<std::uint32_t> ids;
-  format::RecordSegmentPool::Lease lease(*ids_);
-  GM_RETURN_IF_ERROR(lease.status());
-  id_segments_.assign(last.units.size(), {});
-  offsets_.assign(last.units.size() + 1, 0);
+  // The first reading writes each unit's owned ids for faces(); a later one only streams.
+  const bool write_ids = offsets_.size() != last.units.size() + 1;
+  std::optional<format::RecordSegmentPool::Lease> lease;
+  if (write_ids) {
+    lease.emplace(*ids_);
+    GM_RETURN_IF_ERROR(lease->status());
+    id_segments_.assign(last.units.size(), {});
+    offsets_.assign(last.units.size() + 1, 0);
+  }
+  std::uint64_t owned = 0;
   for (std::size_t k = 0; k < last.units.size(); ++k) {
     const Unit& unit = last.units[k];
     GM_RETURN_IF_ERROR(read_segment(last.pool->path(unit.file), kPieceVertexRecordKind, unit.vertices, vs));
@@ -434,14 +441,16 @@ format::Status ChunkedOutput::vertices(const std::function<format::Status(std::s
         positions.clear();
       }
     }
-    auto segment = write_segment<std::uint32_t>(lease.file(), kOwnedIdRecordKind, ids);
+    owned += ids.size();
+    if (!write_ids) continue;
+    auto segment = write_segment<std::uint32_t>(lease->file(), kOwnedIdRecordKind, ids);
     if (!segment) return segment.status();
     id_segments_[k] = *segment;
-    ids_file_ = lease.index();
+    ids_file_ = lease->index();
     offsets_[k + 1] = offsets_[k] + ids.size();
   }
   if (!positions.empty()) GM_RETURN_IF_ERROR(batch(positions));
-  if (offsets_.back() != vertices_)
+  if (owned != vertices_ || offsets_.back() != vertices_)
     return format::Status::error(format::Code::kProcessing, "finish", "the units own other vertices than counted");
   return format::Status();
 }

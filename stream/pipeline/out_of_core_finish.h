@@ -68,8 +68,8 @@ inline constexpr int kMaxRounds = 6;
 // piece that owns it, in piece order; then each piece's faces) without holding the mesh: a
 // writer streams it (format::write_ply_parts), or gathers it into memory. vertices() comes
 // before faces(); either may be read again (the attribute transfer reads them before the writer
-// does), each vertices() writing the units' owned ids anew for the faces() after it. The files
-// live in the partition's directory: own() keeps it until the output is destroyed.
+// does): the first vertices() writes the units' owned ids that faces() looks corners up in. The
+// files live in the partition's directory: own() keeps it until the output is destroyed.
 class ChunkedOutput : public format::MeshParts {
  public:
   struct Rounds;
